@@ -1,0 +1,129 @@
+//! The size of a check: how many controllers, which faults, how many rounds the timers span.
+//!
+//! Every fault is bounded by a budget so the state space is finite; the defaults are the
+//! configuration `check` runs (three founders, one late joiner, one crash and restart, two lost
+//! heartbeats).
+
+use crate::types::{Id, Mutation, Rules, Variant, MAX_CONTROLLERS};
+use serde::{Deserialize, Serialize};
+
+#[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct Config {
+    /// Controllers that may start at system initialization (ids `1..=founders`). The first
+    /// k of them, for every k, is an initial state; the others may join later.
+    pub founders: u8,
+    /// Further controllers (the next ids) that only ever join a running system.
+    pub late_joiners: u8,
+    /// Crashes in total over a run.
+    pub max_crashes: u8,
+    /// Restarts (of a crashed or FAILED controller) in total over a run.
+    pub max_restarts: u8,
+    /// Lost heartbeats in total over a run (0 = reliable heartbeats).
+    pub max_lost_heartbeats: u8,
+    /// A peer is declared lost after this many rounds without its heartbeat (deadline 2x period).
+    pub dead_after_rounds: u8,
+    /// The initialization window closes after this many rounds without a new peer (paper: 10 s;
+    /// abstracted, see docs/model.md) unless three distinct controllers are heard first.
+    pub window_rounds: u8,
+    /// Bounded response: after this many fault-free rounds every live controller has settled.
+    pub settle_within_rounds: u8,
+    pub variant: Variant,
+    /// A deliberately broken rule (mutation tests only).
+    pub mutation: Option<Mutation>,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Config {
+            founders: 3,
+            late_joiners: 1,
+            max_crashes: 1,
+            max_restarts: 1,
+            max_lost_heartbeats: 2,
+            dead_after_rounds: 2,
+            window_rounds: 2,
+            settle_within_rounds: 6,
+            variant: Variant::Default,
+            mutation: None,
+        }
+    }
+}
+
+impl Config {
+    /// The larger configuration of `check --full`: four founders, two crashes and restarts.
+    pub fn full() -> Config {
+        Config {
+            founders: 4,
+            late_joiners: 0,
+            max_crashes: 2,
+            max_restarts: 2,
+            ..Config::default()
+        }
+    }
+
+    pub fn controller_count(&self) -> usize {
+        usize::from(self.founders) + usize::from(self.late_joiners)
+    }
+
+    pub fn ids(&self) -> impl Iterator<Item = Id> + Clone {
+        1..=self.controller_count() as Id
+    }
+
+    pub fn rules(&self) -> Rules {
+        Rules::of(self.variant)
+    }
+
+    pub fn mutated(&self, mutation: Mutation) -> bool {
+        self.mutation == Some(mutation)
+    }
+
+    /// Rounds a dissent must persist before its voter is marked FAILED.
+    pub fn minority_grace_rounds(&self) -> u8 {
+        if self.rules().minority_grace {
+            // Detection skew between voters (dead_after) plus one round of vote delay.
+            self.dead_after_rounds + 1
+        } else {
+            0
+        }
+    }
+
+    /// Checks the bounds; the error names the field.
+    pub fn validate(&self) -> Result<(), String> {
+        let count = self.controller_count();
+        if self.founders == 0 {
+            return Err("controllers: at least one controller must start the system".into());
+        }
+        if count > MAX_CONTROLLERS {
+            return Err(format!(
+                "controllers + late joiners: {count} exceeds the model's maximum of {MAX_CONTROLLERS}"
+            ));
+        }
+        if self.dead_after_rounds == 0 {
+            return Err("dead-after-rounds: must be at least 1".into());
+        }
+        if self.window_rounds == 0 {
+            return Err("window-rounds: must be at least 1".into());
+        }
+        Ok(())
+    }
+
+    /// One line naming the configuration, for reports and trace headers.
+    pub fn summary(&self) -> String {
+        let mut line = format!(
+            "{} controllers + {} late joiner(s), crashes {}, restarts {}, lost heartbeats {}, \
+             dead after {} rounds, window {} rounds, variant {:?}",
+            self.founders,
+            self.late_joiners,
+            self.max_crashes,
+            self.max_restarts,
+            self.max_lost_heartbeats,
+            self.dead_after_rounds,
+            self.window_rounds,
+            self.variant
+        );
+        if let Some(mutation) = self.mutation {
+            line.push_str(&format!(", MUTATION {mutation:?}"));
+        }
+        line
+    }
+}

@@ -1,0 +1,255 @@
+//! The properties the checker verifies, each explained in docs/protocol.md.
+//!
+//! `always` properties are safety invariants; `sometimes` properties are witnesses that each
+//! rule is exercised (non-vacuity). Liveness is stated as bounded response (`always`), because
+//! stateright's `eventually` is unsound on the cyclic state graph of a heartbeat protocol.
+
+use crate::state::State;
+use crate::types::{Assignment, Phase, Role};
+use crate::RlModel;
+use stateright::{Expectation, Property};
+
+/// Name, expectation, one-line meaning: the catalogue `check` prints and the docs explain.
+pub struct PropertyInfo {
+    pub name: &'static str,
+    pub expectation: Expectation,
+    pub meaning: &'static str,
+    pub condition: fn(&RlModel, &State) -> bool,
+}
+
+pub fn catalogue() -> Vec<PropertyInfo> {
+    use Expectation::{Always, Sometimes};
+    let p = |name, expectation, meaning, condition| PropertyInfo {
+        name,
+        expectation,
+        meaning,
+        condition,
+    };
+    vec![
+        p("roles unique among agreeing controllers", Always,
+          "two steady controllers that agree on the result never hold the same role",
+          roles_unique_among_agreeing),
+        p("actuator has a single owner", Always,
+          "never two live controllers command at Primary strength (DDS would pick one by GUID, not by vote)",
+          single_owner),
+        p("no command output without a role", Always,
+          "a controller publishes commands only with a role, at its role's strength, once a Primary exists",
+          output_needs_role),
+        p("a heard Primary is never demoted", Always,
+          "a Primary none of whose heartbeat links lost a heartbeat keeps its role",
+          heard_primary_never_demoted),
+        p("a heard role holder is never demoted", Always,
+          "no role holder whose heartbeats keep flowing moves to a lower role (no oscillation)",
+          heard_holder_never_demoted),
+        p("at most three role holders", Always,
+          "a controller beyond three never holds a role",
+          at_most_three_holders),
+        p("settled roles form a prefix", Always,
+          "when the controllers have settled, no Tertiary without a Secondary, no Secondary without a Primary",
+          settled_roles_prefix),
+        p("FAILED only after heartbeat loss", Always,
+          "with reliable heartbeats no controller is ever marked FAILED or fails itself",
+          failed_only_after_loss),
+        p("restarted controller enters below live holders", Always,
+          "a restarted controller never takes Primary while another live controller holds a role",
+          restart_enters_below),
+        p("actuator follows the settled Primary", Always,
+          "once settled, the actuator's owner is the agreed Primary",
+          actuator_follows_primary),
+        p("settles after faults stop", Always,
+          "bounded response: after settle_within_rounds fault-free rounds every live controller has settled",
+          settles_after_faults),
+        p("formation with 3 controllers", Sometimes,
+          "three controllers started together settle as Primary, Secondary, Tertiary by id",
+          formed_with_3),
+        p("formation with 2 controllers", Sometimes,
+          "two controllers started together settle as Primary and Secondary by id",
+          formed_with_2),
+        p("formation with 1 controller", Sometimes,
+          "a controller alone settles as Primary",
+          formed_with_1),
+        p("Primary crash promotes the Secondary", Sometimes,
+          "after a crash the Secondary is the settled Primary",
+          primary_crash_promotes_secondary),
+        p("late joiner becomes Tertiary", Sometimes,
+          "a controller that joined a running system settles as Tertiary",
+          late_joiner_tertiary),
+        p("minority voter FAILED", Sometimes,
+          "a controller in a voting minority is marked FAILED or fails itself",
+          minority_voter_failed),
+        p("fourth controller ignored", Sometimes,
+          "four live controllers settle with one of them holding no role",
+          fourth_ignored),
+        p("re-vote after heartbeat loss", Sometimes,
+          "lost heartbeats of a live peer cause a re-vote, and the system settles again",
+          revote_after_loss),
+        p("restarted controller takes the lowest role", Sometimes,
+          "a restarted controller settles in the lowest held role, below two others",
+          restart_lowest_role),
+    ]
+}
+
+pub fn properties() -> Vec<Property<RlModel>> {
+    catalogue()
+        .into_iter()
+        .map(|info| match info.expectation {
+            Expectation::Always => Property::always(info.name, info.condition),
+            Expectation::Sometimes => Property::sometimes(info.name, info.condition),
+            Expectation::Eventually => Property::eventually(info.name, info.condition),
+        })
+        .collect()
+}
+
+/// The agreed result when every active controller is steady on the same result, that result
+/// has a Primary, and its members are exactly the active controllers it has room for.
+pub fn settled(state: &State) -> Option<Assignment> {
+    let mut active = state.up().filter(|c| c.phase != Phase::Failed).peekable();
+    active.peek()?;
+    let mut result: Option<Assignment> = None;
+    let mut count = 0;
+    for c in active {
+        count += 1;
+        if c.phase != Phase::Steady || c.agreed.is_none() || c.agreed != result.or(c.agreed) {
+            return None;
+        }
+        result = c.agreed;
+    }
+    let agreed = result?;
+    agreed.holder(Role::Primary)?;
+    let members_active = agreed.members().all(|id| state.controller(id).is_active());
+    let room = agreed.len() == count || agreed.len() == crate::types::ROLE_COUNT;
+    (members_active && room).then_some(agreed)
+}
+
+fn roles_unique_among_agreeing(_: &RlModel, s: &State) -> bool {
+    let steady: Vec<_> = s
+        .up()
+        .filter(|c| c.phase == Phase::Steady && c.role.is_some())
+        .collect();
+    steady.iter().enumerate().all(|(i, a)| {
+        steady[i + 1..]
+            .iter()
+            .all(|b| a.agreed != b.agreed || a.role != b.role)
+    })
+}
+
+fn single_owner(_: &RlModel, s: &State) -> bool {
+    s.up()
+        .filter(|c| c.output == Some(Role::Primary.strength()))
+        .count()
+        <= 1
+}
+
+fn output_needs_role(_: &RlModel, s: &State) -> bool {
+    s.up().all(|c| match c.output {
+        None => true,
+        Some(strength) => {
+            matches!(c.phase, Phase::Voting | Phase::Steady)
+                && c.role.is_some_and(|r| r.strength() == strength)
+                && c.agreed.is_some_and(|a| a.holder(Role::Primary).is_some())
+        }
+    })
+}
+
+fn heard_primary_never_demoted(_: &RlModel, s: &State) -> bool {
+    s.history.demoted_while_heard != Some(Role::Primary)
+}
+
+fn heard_holder_never_demoted(_: &RlModel, s: &State) -> bool {
+    s.history.demoted_while_heard.is_none()
+}
+
+fn at_most_three_holders(_: &RlModel, s: &State) -> bool {
+    s.up().filter(|c| c.role.is_some()).count() <= crate::types::ROLE_COUNT
+}
+
+fn settled_roles_prefix(_: &RlModel, s: &State) -> bool {
+    match settled(s) {
+        Some(agreed) => {
+            agreed.is_prefix()
+                && Role::ALL.iter().all(|role| {
+                    let holders = s.up().filter(|c| c.role == Some(*role)).count();
+                    holders == usize::from(agreed.holder(*role).is_some())
+                })
+        }
+        None => true,
+    }
+}
+
+fn failed_only_after_loss(_: &RlModel, s: &State) -> bool {
+    s.history.losses > 0
+        || s.up().all(|c| {
+            c.phase != Phase::Failed && c.peers.iter().all(|p| !p.failed)
+        })
+}
+
+fn restart_enters_below(_: &RlModel, s: &State) -> bool {
+    !s.history.restart_jumped_queue
+}
+
+fn actuator_follows_primary(_: &RlModel, s: &State) -> bool {
+    match settled(s) {
+        Some(agreed) => s.actuator_owner() == agreed.holder(Role::Primary),
+        None => true,
+    }
+}
+
+fn settles_after_faults(model: &RlModel, s: &State) -> bool {
+    s.history.quiet_rounds < model.config.settle_within_rounds
+        || s.up().all(|c| c.phase == Phase::Failed)
+        || settled(s).is_some()
+}
+
+fn formed(s: &State, size: usize) -> bool {
+    settled(s).is_some_and(|agreed| {
+        agreed.len() == size
+            && s.history.crashes == 0
+            && s.history.restarts == 0
+            && s.up().count() == size
+            && s.up().all(|c| !c.late_joiner && c.incarnation == 0)
+    })
+}
+
+fn formed_with_3(_: &RlModel, s: &State) -> bool {
+    formed(s, 3)
+}
+
+fn formed_with_2(_: &RlModel, s: &State) -> bool {
+    formed(s, 2)
+}
+
+fn formed_with_1(_: &RlModel, s: &State) -> bool {
+    formed(s, 1)
+}
+
+fn primary_crash_promotes_secondary(_: &RlModel, s: &State) -> bool {
+    s.history.secondary_promoted && s.history.crashes > 0 && settled(s).is_some()
+}
+
+fn late_joiner_tertiary(_: &RlModel, s: &State) -> bool {
+    settled(s).is_some() && s.up().any(|c| c.late_joiner && c.role == Some(Role::Tertiary))
+}
+
+fn minority_voter_failed(_: &RlModel, s: &State) -> bool {
+    s.up()
+        .any(|c| c.phase == Phase::Failed || c.peers.iter().any(|p| p.failed))
+}
+
+fn fourth_ignored(_: &RlModel, s: &State) -> bool {
+    settled(s).is_some()
+        && s.up().filter(|c| c.is_active()).count() == 4
+        && s.up().any(|c| c.phase == Phase::Steady && c.role.is_none())
+}
+
+fn revote_after_loss(_: &RlModel, s: &State) -> bool {
+    s.history.revoted_after_loss && settled(s).is_some()
+}
+
+fn restart_lowest_role(_: &RlModel, s: &State) -> bool {
+    settled(s).is_some_and(|agreed| {
+        agreed.len() >= 2
+            && s.up().any(|c| {
+                c.incarnation > 0 && c.role.is_some_and(|r| r.rank() + 1 == agreed.len())
+            })
+    })
+}

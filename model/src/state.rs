@@ -1,0 +1,303 @@
+//! The model's state and actions: what each controller knows, what the network holds, and the
+//! ghost history the properties read.
+//!
+//! Time is counted in rounds of one heartbeat period; see docs/model.md for the abstraction.
+//! Network state is kept as small as the timing assumption allows: a bit per link for "this
+//! round's heartbeat is lost" and a bit per link for "a vote has been in flight for a round".
+
+use crate::types::{Assignment, Id, Life, Phase, Role, MAX_CONTROLLERS};
+use serde::{Deserialize, Serialize};
+use std::fmt;
+
+/// One environment or timer event. This enum is also the trace vocabulary.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Action {
+    /// The heartbeat `from` sends to `to` in the current round is lost (one-way).
+    LoseHeartbeat { from: Id, to: Id },
+    /// The round ends: every heartbeat of the round not lost is delivered, then every live
+    /// controller runs its dead-man check and its timers.
+    Tick,
+    /// A controller's initialization window times out (no new peer for the window).
+    ExpireWindow { controller: Id },
+    /// The latest durable votes not yet received by `to` reach it, as one batch.
+    DeliverVotes { to: Id },
+    /// A controller's process dies; its durable vote disappears with it.
+    Crash { controller: Id },
+    /// A crashed or FAILED controller starts again as a new incarnation.
+    Restart { controller: Id },
+    /// A controller that never ran starts.
+    Join { controller: Id },
+}
+
+/// The action kinds, for transition coverage.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ActionKind {
+    LoseHeartbeat,
+    Tick,
+    ExpireWindow,
+    DeliverVotes,
+    Crash,
+    Restart,
+    Join,
+}
+
+impl ActionKind {
+    pub const ALL: [ActionKind; 7] = [
+        ActionKind::LoseHeartbeat,
+        ActionKind::Tick,
+        ActionKind::ExpireWindow,
+        ActionKind::DeliverVotes,
+        ActionKind::Crash,
+        ActionKind::Restart,
+        ActionKind::Join,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            ActionKind::LoseHeartbeat => "lose_heartbeat",
+            ActionKind::Tick => "tick",
+            ActionKind::ExpireWindow => "expire_window",
+            ActionKind::DeliverVotes => "deliver_votes",
+            ActionKind::Crash => "crash",
+            ActionKind::Restart => "restart",
+            ActionKind::Join => "join",
+        }
+    }
+}
+
+impl Action {
+    pub fn kind(&self) -> ActionKind {
+        match self {
+            Action::LoseHeartbeat { .. } => ActionKind::LoseHeartbeat,
+            Action::Tick => ActionKind::Tick,
+            Action::ExpireWindow { .. } => ActionKind::ExpireWindow,
+            Action::DeliverVotes { .. } => ActionKind::DeliverVotes,
+            Action::Crash { .. } => ActionKind::Crash,
+            Action::Restart { .. } => ActionKind::Restart,
+            Action::Join { .. } => ActionKind::Join,
+        }
+    }
+
+    /// The controller whose state the action changes first (the receiver for messages);
+    /// `None` for the tick, which acts on every controller.
+    pub fn actor(&self) -> Option<Id> {
+        match *self {
+            Action::LoseHeartbeat { from, .. } => Some(from),
+            Action::Tick => None,
+            Action::ExpireWindow { controller }
+            | Action::Crash { controller }
+            | Action::Restart { controller }
+            | Action::Join { controller } => Some(controller),
+            Action::DeliverVotes { to } => Some(to),
+        }
+    }
+}
+
+impl fmt::Display for Action {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            Action::LoseHeartbeat { from, to } => {
+                write!(f, "heartbeat C{from} -> C{to} lost")
+            }
+            Action::Tick => write!(f, "round ends (heartbeats delivered, dead-man check)"),
+            Action::ExpireWindow { controller } => {
+                write!(f, "C{controller}: initialization window expires")
+            }
+            Action::DeliverVotes { to } => write!(f, "pending votes delivered to C{to}"),
+            Action::Crash { controller } => write!(f, "C{controller} crashes"),
+            Action::Restart { controller } => write!(f, "C{controller} restarts"),
+            Action::Join { controller } => write!(f, "C{controller} joins"),
+        }
+    }
+}
+
+/// What a controller knows of one peer (the paper's RedundancyInfo entry).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct Peer {
+    /// `Some(incarnation)` while the peer is believed alive.
+    pub alive: Option<u8>,
+    /// Rounds since its last heartbeat (the dead-man count, inverted).
+    pub silent_rounds: u8,
+    /// Its latest vote received, with the incarnation that sent it.
+    pub vote: Option<(u8, Assignment)>,
+    /// Marked FAILED: it cast a minority vote.
+    pub failed: bool,
+    /// Consecutive rounds its vote has disagreed with a majority.
+    pub dissent_rounds: u8,
+    /// A controller-failed alarm is raised for it (lost or FAILED) and not yet cleared.
+    pub alarm: bool,
+    /// The agreed result its last heartbeat carried (`Some` = it belongs to the running
+    /// system: an incumbent).
+    pub heard_agreed: Option<Assignment>,
+    /// The vote its last heartbeat carried.
+    pub heard_vote: Option<Assignment>,
+}
+
+impl Peer {
+    pub fn incumbent(&self) -> bool {
+        self.alive.is_some() && !self.failed && self.heard_agreed.is_some()
+    }
+}
+
+/// One controller as the protocol sees it.
+#[derive(Clone, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct Controller {
+    pub id: Id,
+    pub life: Life,
+    /// Starts at 0, +1 on every restart; heartbeats and votes carry it.
+    pub incarnation: u8,
+    pub phase: Phase,
+    pub role: Option<Role>,
+    /// The ownership strength it publishes commands with; `None` = silent.
+    pub output: Option<u8>,
+    /// It found a running system before voting (a durable vote, or a role in a heartbeat).
+    pub late_joiner: bool,
+    /// Rounds since the last new peer was heard, while initializing.
+    pub window_quiet_rounds: u8,
+    /// The last result that reached agreement.
+    pub agreed: Option<Assignment>,
+    /// Its own published vote.
+    pub vote: Option<Assignment>,
+    /// Consecutive rounds in which two peers agreed on a result different from its vote.
+    pub self_dissent_rounds: u8,
+    /// Indexed by id - 1; its own entry is unused.
+    pub peers: [Peer; MAX_CONTROLLERS],
+    /// Ghost: some heartbeat to or from this incarnation was lost.
+    pub link_lost: bool,
+}
+
+impl Controller {
+    pub fn new(id: Id, life: Life) -> Controller {
+        Controller {
+            id,
+            life,
+            incarnation: 0,
+            phase: Phase::Initializing,
+            role: None,
+            output: None,
+            late_joiner: false,
+            window_quiet_rounds: 0,
+            agreed: None,
+            vote: None,
+            self_dissent_rounds: 0,
+            peers: [Peer::default(); MAX_CONTROLLERS],
+            link_lost: false,
+        }
+    }
+
+    pub fn is_up(&self) -> bool {
+        self.life == Life::Up
+    }
+
+    /// Up and not FAILED: a controller that takes part in voting.
+    pub fn is_active(&self) -> bool {
+        self.is_up() && self.phase != Phase::Failed
+    }
+
+    pub fn peer(&self, id: Id) -> &Peer {
+        &self.peers[usize::from(id - 1)]
+    }
+
+    pub fn peer_mut(&mut self, id: Id) -> &mut Peer {
+        &mut self.peers[usize::from(id - 1)]
+    }
+
+    /// Peers believed alive and not marked FAILED, with itself: its membership view.
+    pub fn members(&self) -> impl Iterator<Item = Id> + '_ {
+        let own = self.id;
+        self.peers
+            .iter()
+            .enumerate()
+            .filter(move |(index, peer)| {
+                *index + 1 == usize::from(own) || (peer.alive.is_some() && !peer.failed)
+            })
+            .map(|(index, _)| (index + 1) as Id)
+    }
+}
+
+/// History the properties need but no controller knows (ghost variables).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct History {
+    pub losses: u8,
+    pub crashes: u8,
+    pub restarts: u8,
+    /// Fault-free rounds since the last crash, restart, join or loss (saturates).
+    pub quiet_rounds: u8,
+    /// A role holder none of whose heartbeat links lost a heartbeat moved to a lower role.
+    pub demoted_while_heard: Option<Role>,
+    /// A restarted controller took Primary while another live controller held a role.
+    pub restart_jumped_queue: bool,
+    /// A Secondary became Primary (witness).
+    pub secondary_promoted: bool,
+    /// A controller re-voted because of lost heartbeats of a peer that was still up (witness).
+    pub revoted_after_loss: bool,
+}
+
+#[derive(Clone, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct State {
+    pub controllers: Vec<Controller>,
+    /// Bit `link_bit(from, to)`: this round's heartbeat on that link is lost.
+    pub lost_links: u16,
+    /// Bit `link_bit(from, to)`: `from`'s vote has been undelivered to `to` for a whole round;
+    /// it must arrive before the round ends (the timing assumption).
+    pub overdue_votes: u16,
+    pub history: History,
+}
+
+pub fn link_bit(from: Id, to: Id) -> u16 {
+    1 << (usize::from(from - 1) * MAX_CONTROLLERS + usize::from(to - 1))
+}
+
+impl State {
+    pub fn controller(&self, id: Id) -> &Controller {
+        &self.controllers[usize::from(id - 1)]
+    }
+
+    pub fn controller_mut(&mut self, id: Id) -> &mut Controller {
+        &mut self.controllers[usize::from(id - 1)]
+    }
+
+    pub fn up(&self) -> impl Iterator<Item = &Controller> {
+        self.controllers.iter().filter(|c| c.is_up())
+    }
+
+    /// A vote from `from` that `to` has not received yet.
+    pub fn vote_pending(&self, from: Id, to: Id) -> bool {
+        let sender = self.controller(from);
+        let receiver = self.controller(to);
+        if from == to || !sender.is_up() || !receiver.is_up() {
+            return false;
+        }
+        match sender.vote {
+            Some(vote) => receiver.peer(from).vote != Some((sender.incarnation, vote)),
+            None => false,
+        }
+    }
+
+    /// The controller the actuator accepts commands from: DDS exclusive ownership picks the
+    /// highest strength among live writers; equal strengths are broken by GUID (lowest id).
+    pub fn actuator_owner(&self) -> Option<Id> {
+        self.up()
+            .filter_map(|c| c.output.map(|strength| (std::cmp::Reverse(strength), c.id)))
+            .min()
+            .map(|(_, id)| id)
+    }
+}
+
+impl fmt::Debug for State {
+    /// The explorer shows states with `{:#?}`: a table a reviewer can read.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for c in &self.controllers {
+            writeln!(f, "{}", crate::render::controller_line(c))?;
+        }
+        writeln!(f, "{}", crate::render::network_line(self))
+    }
+}
+
+impl fmt::Debug for Controller {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", crate::render::controller_line(self))
+    }
+}

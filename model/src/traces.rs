@@ -1,0 +1,1 @@
+//! The committed trace set (placeholder, filled below).
