@@ -33,7 +33,7 @@ pub fn catalogue() -> Vec<PropertyInfo> {
           "never two live controllers command at Primary strength (DDS would pick one by GUID, not by vote)",
           single_owner),
         p("no command output without a role", Always,
-          "a controller publishes commands only with a role, at its role's strength, once a Primary exists",
+          "a controller publishes commands only with a role, at its role's strength (a new Primary: 20 until the old one yields), once a Primary exists",
           output_needs_role),
         p("a heard Primary is never demoted", Always,
           "a Primary none of whose heartbeat links lost a heartbeat keeps its role",
@@ -145,7 +145,8 @@ fn output_needs_role(_: &RlModel, s: &State) -> bool {
         None => true,
         Some(strength) => {
             matches!(c.phase, Phase::Voting | Phase::Steady)
-                && c.role.is_some_and(|r| r.strength() == strength)
+                && c.role.is_some_and(|r| r.strength() == strength
+                    || (r == Role::Primary && strength == Role::Secondary.strength()))
                 && c.agreed.is_some_and(|a| a.holder(Role::Primary).is_some())
         }
     })

@@ -262,6 +262,11 @@ fn tick(config: &Config, before: &State, next: &mut State) {
         if rules.decide_on_heartbeats {
             try_agree(config, next, id, Source::Heartbeats);
             judge_minority(config, next, id, Source::Heartbeats);
+            let c = next.controller_mut(id);
+            if c.role == Some(Role::Primary) && c.is_active() {
+                c.output = Some(Role::Primary.strength());
+                hold_primary_strength(config, c);
+            }
         } else if rules.minority_grace {
             judge_minority(config, next, id, Source::DurableVotes);
         }
@@ -349,6 +354,7 @@ fn receive_heartbeat(
     if rules.decide_on_heartbeats {
         peer.heard_agreed = sender.agreed;
         peer.heard_vote = sender.vote;
+        peer.claims_primary = sender.output == Some(Role::Primary.strength());
     }
     if sender.phase == Phase::Failed && !peer.failed {
         // It announced its own failure: every voter excludes it.
@@ -421,6 +427,18 @@ pub fn compute_vote(config: &Config, c: &Controller) -> Assignment {
     // The vote is a function of what the controller knows, never of its own earlier votes,
     // so controllers that know the same vote the same.
     let previous = match c.agreed {
+        // An incumbent still voting ranks from its pending vote: others may already have
+        // agreed it.
+        // The agreed Primary sequences newcomers; the others follow its vote as heard.
+        Some(agreed) if c.phase == Phase::Voting && rules.decide_on_heartbeats => {
+            let primary_vote = agreed
+                .holder(Role::Primary)
+                .filter(|p| *p != c.id)
+                .map(|p| c.peer(p))
+                .filter(|peer| peer.alive.is_some() && !peer.failed && peer.silent_rounds == 0)
+                .and_then(|peer| peer.heard_vote);
+            primary_vote.or(c.vote).or(c.agreed)
+        }
         Some(agreed) => Some(agreed),
         None if rules.decide_on_heartbeats => running_result(c),
         None if c.late_joiner => durable_result(config, c),
@@ -626,6 +644,7 @@ fn adopt(config: &Config, next: &mut State, id: Id, agreed: Assignment) {
         (Some(role), Some(_)) => Some(role.strength()),
         _ => None,
     };
+    hold_primary_strength(config, c);
     let heard = !c.link_lost;
     let restarted = c.incarnation > 0;
     note_role_change(&mut next.history, old_role, new_role, heard);
@@ -636,6 +655,25 @@ fn adopt(config: &Config, next: &mut State, id: Id, agreed: Assignment) {
         && others_hold_roles
     {
         next.history.restart_jumped_queue = true;
+    }
+}
+
+/// A new Primary keeps its previous strength while another live controller still claims
+/// Primary in its heartbeats (a Primary the majority voted out has not yet noticed): two
+/// writers at Primary strength would let DDS, not the vote, pick the commander.
+fn hold_primary_strength(config: &Config, c: &mut Controller) {
+    if !config.rules().decide_on_heartbeats || c.role != Some(Role::Primary) {
+        return;
+    }
+    let contested = c
+        .peers
+        .iter()
+        .any(|p| p.alive.is_some() && p.claims_primary);
+    if contested {
+        c.output = c
+            .output
+            .filter(|strength| *strength < Role::Primary.strength())
+            .or(Some(Role::Secondary.strength()));
     }
 }
 

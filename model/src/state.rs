@@ -133,6 +133,8 @@ pub struct Peer {
     pub heard_agreed: Option<Assignment>,
     /// The vote its last heartbeat carried.
     pub heard_vote: Option<Assignment>,
+    /// Its last heartbeat said it commands at Primary strength.
+    pub claims_primary: bool,
 }
 
 impl Peer {
