@@ -1,17 +1,340 @@
-use model::{search, Config, RlModel};
-use std::time::Instant;
-fn env(name: &str, d: u8) -> u8 { std::env::var(name).ok().and_then(|v| v.parse().ok()).unwrap_or(d) }
-fn main() {
-    let config = Config { founders: env("F",3), late_joiners: env("L",1), max_crashes: env("C",1), max_restarts: env("R",1), max_lost_heartbeats: env("H",2), settle_within_rounds: env("K",6), window_rounds: env("W",2), ..Config::default() };
-    let model = RlModel::new(config);
-    let start = Instant::now();
-    let explored = search::explore(&model, std::env::var("CAP").ok().and_then(|v| v.parse().ok()).unwrap_or(20_000_000), |_, _| {});
-    println!("unique {} edges {} depth {} trunc {} {:?}", explored.unique_states, explored.edges, explored.max_depth, explored.truncated, start.elapsed());
-    if std::env::var("P").is_ok() {
-    for info in model::properties::catalogue() {
-        if let Ok(w) = std::env::var("SHOW") { if info.name.contains(w.as_str()) { if let Some(p) = explored.discovery(info.name) { println!("{}", p.render()); } } }
-        println!("{:?} {} -> {}", info.expectation, info.name, explored.discovery(info.name).map(|p| p.steps.len().to_string()).unwrap_or("-".into()));
-    }}
+//! `model`: check, explore, export and walk RL's voting protocol specification.
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use model::properties::catalogue;
+use model::{search, simulate, traces, Config, Mutation, RlModel, Variant};
+use stateright::{Checker, Expectation, HasDiscoveries, Model};
+use std::collections::BTreeSet;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+/// RL's voting protocol, as a checkable specification.
+///
+/// Time is counted in rounds of one heartbeat period; see docs/model.md. Exit codes: 0 all
+/// properties hold, 1 a property failed or a trace differs, 2 bad arguments.
+#[derive(Parser)]
+#[command(name = "model", version)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
 }
-#[allow(dead_code)]
-fn _x() {}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Exhaustively check every property over the configuration.
+    ///
+    /// Prints a progress line while running, then each property with its result, the unique
+    /// and total state counts, states/s and wall time. A violated `always` property (or a
+    /// `sometimes` property never witnessed) prints the shortest path as numbered steps and
+    /// exits 1.
+    Check(CheckArgs),
+    /// Serve stateright's explorer UI: walk the protocol step by step in a browser.
+    Explore {
+        #[command(flatten)]
+        scope: Scope,
+        /// Address to listen on.
+        #[arg(long, default_value = "127.0.0.1:3000")]
+        addr: String,
+    },
+    /// Write (or verify) the trace set the conformance suite replays.
+    Traces {
+        #[command(flatten)]
+        scope: Scope,
+        /// Directory of the trace set.
+        #[arg(long, default_value = "traces")]
+        out: PathBuf,
+        /// Compare the committed traces with what the model generates now; exit 1 on a
+        /// difference instead of writing.
+        #[arg(long)]
+        check: bool,
+    },
+    /// A reproducible random walk: the same seed gives the same walk.
+    Simulate {
+        #[command(flatten)]
+        scope: Scope,
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        #[arg(long, default_value_t = 40)]
+        steps: usize,
+    },
+}
+
+/// The configuration to check (defaults: docs/model.md).
+#[derive(Args, Clone)]
+struct Scope {
+    /// Controllers that start the system together (the first k of them, for every k).
+    #[arg(long, default_value_t = 3)]
+    controllers: u8,
+    /// Further controllers that only join a running system.
+    #[arg(long, default_value_t = 1)]
+    late_joiners: u8,
+    /// Crashes in total over a run.
+    #[arg(long, default_value_t = 1)]
+    crashes: u8,
+    /// Restarts in total over a run.
+    #[arg(long, default_value_t = 1)]
+    restarts: u8,
+    /// Heartbeats that may be lost in total over a run (0 = reliable heartbeats).
+    #[arg(long, default_value_t = 0)]
+    lost_heartbeats: u8,
+    /// Which rules: the corrected default, or the paper's text read literally.
+    #[arg(long, value_enum, default_value_t = Variant::Default)]
+    variant: Variant,
+    /// The larger configuration: 4 controllers started together, 2 crashes, 2 restarts.
+    #[arg(long)]
+    full: bool,
+    /// A deliberately broken rule, to see the checker catch it.
+    #[arg(long, value_enum, hide = true)]
+    mutation: Option<Mutation>,
+}
+
+impl Scope {
+    fn config(&self) -> Result<Config, String> {
+        let base = if self.full {
+            Config::full()
+        } else {
+            Config {
+                founders: self.controllers,
+                late_joiners: self.late_joiners,
+                max_crashes: self.crashes,
+                max_restarts: self.restarts,
+                ..Config::default()
+            }
+        };
+        let config = Config {
+            max_lost_heartbeats: self.lost_heartbeats,
+            variant: self.variant,
+            mutation: self.mutation,
+            ..base
+        };
+        config.validate()?;
+        Ok(config)
+    }
+}
+
+#[derive(Args)]
+struct CheckArgs {
+    #[command(flatten)]
+    scope: Scope,
+    /// Search order.
+    #[arg(long, value_enum, default_value_t = Order::Bfs)]
+    order: Order,
+    /// Checker threads.
+    #[arg(long, default_value_t = 2)]
+    threads: usize,
+    /// Stop at this depth (number of actions); unbounded by default.
+    #[arg(long)]
+    depth: Option<usize>,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum Order {
+    Bfs,
+    Dfs,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Check(args) => check(args),
+        Command::Explore { scope, addr } => explore(&scope, &addr),
+        Command::Traces { scope, out, check } => write_traces(&scope, &out, check),
+        Command::Simulate { scope, seed, steps } => walk(&scope, seed, steps),
+    };
+    match result {
+        Ok(code) => code,
+        Err(message) => {
+            eprintln!("error: {message}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn check(args: CheckArgs) -> Result<ExitCode, String> {
+    let config = args.scope.config()?;
+    if args.threads == 0 {
+        return Err("threads: must be at least 1".into());
+    }
+    println!("checking: {}", config.summary());
+    let model = RlModel::new(config.clone());
+    let start = Instant::now();
+    let mut builder = model
+        .clone()
+        .checker()
+        .threads(args.threads)
+        // Run exhaustively: stateright stops early once every property has a discovery.
+        .finish_when(HasDiscoveries::AnyOf(BTreeSet::new()));
+    if let Some(depth) = args.depth {
+        // stateright checks states within depth - 2 actions (docs/model.md); compensate.
+        builder = builder.target_max_depth(depth + 2);
+    }
+    let checker = match args.order {
+        Order::Bfs => Box::new(builder.spawn_bfs()) as Box<dyn Checker<RlModel> + Send + Sync>,
+        Order::Dfs => Box::new(builder.spawn_dfs()),
+    };
+    let mut last = Instant::now();
+    while !checker.is_done() {
+        std::thread::sleep(Duration::from_millis(100));
+        if checker.is_done() {
+            break;
+        }
+        if last.elapsed() >= Duration::from_secs(2) {
+            last = Instant::now();
+            let secs = start.elapsed().as_secs_f64();
+            eprintln!(
+                "  ... {} unique states, {} total, depth {}, {:.0} states/s, {:.1} s",
+                checker.unique_state_count(),
+                checker.state_count(),
+                checker.max_depth(),
+                checker.state_count() as f64 / secs,
+                secs
+            );
+        }
+    }
+    let checker = join(checker);
+    let elapsed = start.elapsed();
+    let discoveries = checker.discoveries();
+    let mut failures = Vec::new();
+    println!();
+    if config.max_lost_heartbeats < config.dead_after_rounds {
+        println!(
+            "  (loss witnesses need --lost-heartbeats >= {}: a false detection takes that many)",
+            config.dead_after_rounds
+        );
+    }
+    for info in catalogue() {
+        let found = discoveries.contains_key(info.name);
+        let (verdict, ok) = match (&info.expectation, found) {
+            (Expectation::Sometimes, false) if !info.applies(&config) => ("not applicable", true),
+            (Expectation::Always, false) => ("holds", true),
+            (Expectation::Always, true) => ("VIOLATED", false),
+            (Expectation::Sometimes, true) => ("witnessed", true),
+            (Expectation::Sometimes, false) => ("NEVER WITNESSED", false),
+            (Expectation::Eventually, _) => ("not checked", true),
+        };
+        let kind = match &info.expectation {
+            Expectation::Always => "always",
+            Expectation::Sometimes => "sometimes",
+            Expectation::Eventually => "eventually",
+        };
+        println!("  {verdict:>15}  {kind:<9} {}", info.name);
+        if !ok {
+            failures.push(info);
+        }
+    }
+    let secs = elapsed.as_secs_f64();
+    println!();
+    println!(
+        "{} unique states, {} total, max depth {}, {:.0} states/s, {:.2} s wall ({} threads, {})",
+        checker.unique_state_count(),
+        checker.state_count(),
+        checker.max_depth(),
+        checker.state_count() as f64 / secs,
+        secs,
+        args.threads,
+        match args.order {
+            Order::Bfs => "BFS",
+            Order::Dfs => "DFS",
+        }
+    );
+    if failures.is_empty() {
+        println!("result: all {} properties as expected", catalogue().len());
+        return Ok(ExitCode::SUCCESS);
+    }
+    // stateright's discovery paths are not the shortest; search again for the shortest.
+    let explored = search::explore(&model, usize::MAX, |_, _| {});
+    for info in &failures {
+        println!();
+        match explored.discovery(info.name) {
+            Some(path) if info.expectation == Expectation::Always => {
+                println!(
+                    "counterexample to \"{}\" ({} steps): {}",
+                    info.name,
+                    path.steps.len(),
+                    info.meaning
+                );
+                print!("{}", path.render());
+            }
+            _ => println!(
+                "\"{}\" was never witnessed: {} (a rule is unreachable or vacuous)",
+                info.name, info.meaning
+            ),
+        }
+    }
+    println!("result: {} properties failed", failures.len());
+    Ok(ExitCode::from(1))
+}
+
+fn join(checker: Box<dyn Checker<RlModel> + Send + Sync>) -> Box<dyn Checker<RlModel> + Send + Sync> {
+    let mut checker = checker;
+    for handle in checker.handles() {
+        let _ = handle.join();
+    }
+    checker
+}
+
+fn explore(scope: &Scope, addr: &str) -> Result<ExitCode, String> {
+    let config = scope.config()?;
+    println!("explorer for {} at http://{addr}/", config.summary());
+    RlModel::new(config)
+        .checker()
+        .serve(addr.to_string());
+    Ok(ExitCode::SUCCESS)
+}
+
+fn write_traces(scope: &Scope, out: &std::path::Path, check: bool) -> Result<ExitCode, String> {
+    let config = scope.config()?;
+    let model = RlModel::new(config);
+    eprintln!("exploring {} ...", model.config.summary());
+    let set = traces::generate(&model, |states, edges| {
+        eprintln!("  ... {states} states, {edges} edges");
+    });
+    println!("{}", set.coverage_report());
+    if check {
+        let differences = traces::compare(&set, out)?;
+        if differences.is_empty() {
+            println!("traces in {} match the model ({} files)", out.display(), set.files.len());
+            Ok(ExitCode::SUCCESS)
+        } else {
+            for difference in &differences {
+                println!("differs: {difference}");
+            }
+            println!(
+                "{} trace files differ: run `cargo run -p model -- traces --out {}` and review",
+                differences.len(),
+                out.display()
+            );
+            Ok(ExitCode::from(1))
+        }
+    } else {
+        traces::write(&set, out)?;
+        println!("wrote {} files to {}", set.files.len(), out.display());
+        Ok(ExitCode::SUCCESS)
+    }
+}
+
+fn walk(scope: &Scope, seed: u64, steps: usize) -> Result<ExitCode, String> {
+    let config = scope.config()?;
+    let model = RlModel::new(config);
+    let path = simulate::walk(&model, seed, steps);
+    println!("seed {seed}, {} steps, {}", path.steps.len(), model.config.summary());
+    print!("{}", path.render());
+    let violated: Vec<&str> = catalogue()
+        .iter()
+        .filter(|info| info.expectation == Expectation::Always)
+        .filter(|info| {
+            std::iter::once(&path.init)
+                .chain(path.steps.iter().map(|(_, s)| s))
+                .any(|state| !(info.condition)(&model, state))
+        })
+        .map(|info| info.name)
+        .collect();
+    if violated.is_empty() {
+        println!("every `always` property held along the walk");
+        Ok(ExitCode::SUCCESS)
+    } else {
+        println!("violated along the walk: {}", violated.join(", "));
+        Ok(ExitCode::from(1))
+    }
+}

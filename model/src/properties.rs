@@ -15,6 +15,16 @@ pub struct PropertyInfo {
     pub expectation: Expectation,
     pub meaning: &'static str,
     pub condition: fn(&RlModel, &State) -> bool,
+    /// A witness that needs a false failure detection: only reachable when at least
+    /// `dead_after_rounds` heartbeats may be lost.
+    pub needs_loss: bool,
+}
+
+impl PropertyInfo {
+    /// Whether the configuration can reach this property's witness at all.
+    pub fn applies(&self, config: &crate::Config) -> bool {
+        !self.needs_loss || config.max_lost_heartbeats >= config.dead_after_rounds
+    }
 }
 
 pub fn catalogue() -> Vec<PropertyInfo> {
@@ -24,6 +34,7 @@ pub fn catalogue() -> Vec<PropertyInfo> {
         expectation,
         meaning,
         condition,
+        needs_loss: matches!(name, "minority voter FAILED" | "re-vote after heartbeat loss"),
     };
     vec![
         p("roles unique among agreeing controllers", Always,

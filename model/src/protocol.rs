@@ -394,12 +394,6 @@ fn revote(config: &Config, next: &mut State, id: Id) {
     }
 }
 
-/// Not (yet) part of the running system while one is known to exist: such a controller copies
-/// the running system's result (plus itself, in the lowest free role) instead of proposing.
-fn is_newcomer(config: &Config, c: &Controller) -> bool {
-    config.rules().decide_on_heartbeats && c.agreed.is_none() && c.peers.iter().any(|p| p.incumbent())
-}
-
 /// The voting algorithm: who should hold which role, as this controller sees it.
 pub fn compute_vote(config: &Config, c: &Controller) -> Assignment {
     let rules = config.rules();
