@@ -1,8 +1,8 @@
 //! The size of a check: how many controllers, which faults, how many rounds the timers span.
 //!
 //! Every fault is bounded by a budget so the state space is finite; the defaults are the
-//! configuration `check` runs (three founders, one late joiner, one crash and restart, two lost
-//! heartbeats).
+//! configuration `check` runs (three founders, one late joiner, one crash and one restart,
+//! reliable heartbeats; `--lost-heartbeats N` adds loss).
 
 use crate::types::{Id, Mutation, Rules, Variant, MAX_CONTROLLERS};
 use serde::{Deserialize, Serialize};
@@ -39,7 +39,7 @@ impl Default for Config {
             late_joiners: 1,
             max_crashes: 1,
             max_restarts: 1,
-            max_lost_heartbeats: 2,
+            max_lost_heartbeats: 0,
             dead_after_rounds: 2,
             window_rounds: 2,
             settle_within_rounds: 6,

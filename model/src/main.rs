@@ -266,7 +266,9 @@ fn check(args: CheckArgs) -> Result<ExitCode, String> {
     Ok(ExitCode::from(1))
 }
 
-fn join(checker: Box<dyn Checker<RlModel> + Send + Sync>) -> Box<dyn Checker<RlModel> + Send + Sync> {
+fn join(
+    checker: Box<dyn Checker<RlModel> + Send + Sync>,
+) -> Box<dyn Checker<RlModel> + Send + Sync> {
     let mut checker = checker;
     for handle in checker.handles() {
         let _ = handle.join();
@@ -277,9 +279,7 @@ fn join(checker: Box<dyn Checker<RlModel> + Send + Sync>) -> Box<dyn Checker<RlM
 fn explore(scope: &Scope, addr: &str) -> Result<ExitCode, String> {
     let config = scope.config()?;
     println!("explorer for {} at http://{addr}/", config.summary());
-    RlModel::new(config)
-        .checker()
-        .serve(addr.to_string());
+    RlModel::new(config).checker().serve(addr.to_string());
     Ok(ExitCode::SUCCESS)
 }
 
@@ -294,7 +294,11 @@ fn write_traces(scope: &Scope, out: &std::path::Path, check: bool) -> Result<Exi
     if check {
         let differences = traces::compare(&set, out)?;
         if differences.is_empty() {
-            println!("traces in {} match the model ({} files)", out.display(), set.files.len());
+            println!(
+                "traces in {} match the model ({} files)",
+                out.display(),
+                set.files.len()
+            );
             Ok(ExitCode::SUCCESS)
         } else {
             for difference in &differences {
@@ -318,7 +322,11 @@ fn walk(scope: &Scope, seed: u64, steps: usize) -> Result<ExitCode, String> {
     let config = scope.config()?;
     let model = RlModel::new(config);
     let path = simulate::walk(&model, seed, steps);
-    println!("seed {seed}, {} steps, {}", path.steps.len(), model.config.summary());
+    println!(
+        "seed {seed}, {} steps, {}",
+        path.steps.len(),
+        model.config.summary()
+    );
     print!("{}", path.render());
     let violated: Vec<&str> = catalogue()
         .iter()

@@ -34,7 +34,10 @@ pub fn catalogue() -> Vec<PropertyInfo> {
         expectation,
         meaning,
         condition,
-        needs_loss: matches!(name, "minority voter FAILED" | "re-vote after heartbeat loss"),
+        needs_loss: matches!(
+            name,
+            "minority voter FAILED" | "re-vote after heartbeat loss"
+        ),
     };
     vec![
         p("roles unique among agreeing controllers", Always,
@@ -156,8 +159,10 @@ fn output_needs_role(_: &RlModel, s: &State) -> bool {
         None => true,
         Some(strength) => {
             matches!(c.phase, Phase::Voting | Phase::Steady)
-                && c.role.is_some_and(|r| r.strength() == strength
-                    || (r == Role::Primary && strength == Role::Secondary.strength()))
+                && c.role.is_some_and(|r| {
+                    r.strength() == strength
+                        || (r == Role::Primary && strength == Role::Secondary.strength())
+                })
                 && c.agreed.is_some_and(|a| a.holder(Role::Primary).is_some())
         }
     })
@@ -190,9 +195,8 @@ fn settled_roles_prefix(_: &RlModel, s: &State) -> bool {
 
 fn failed_only_after_loss(_: &RlModel, s: &State) -> bool {
     s.history.losses > 0
-        || s.up().all(|c| {
-            c.phase != Phase::Failed && c.peers.iter().all(|p| !p.failed)
-        })
+        || s.up()
+            .all(|c| c.phase != Phase::Failed && c.peers.iter().all(|p| !p.failed))
 }
 
 fn restart_enters_below(_: &RlModel, s: &State) -> bool {
@@ -239,7 +243,9 @@ fn primary_crash_promotes_secondary(_: &RlModel, s: &State) -> bool {
 }
 
 fn late_joiner_tertiary(_: &RlModel, s: &State) -> bool {
-    settled(s).is_some() && s.up().any(|c| c.late_joiner && c.role == Some(Role::Tertiary))
+    settled(s).is_some()
+        && s.up()
+            .any(|c| c.late_joiner && c.role == Some(Role::Tertiary))
 }
 
 fn minority_voter_failed(_: &RlModel, s: &State) -> bool {
@@ -260,8 +266,7 @@ fn revote_after_loss(_: &RlModel, s: &State) -> bool {
 fn restart_lowest_role(_: &RlModel, s: &State) -> bool {
     settled(s).is_some_and(|agreed| {
         agreed.len() >= 2
-            && s.up().any(|c| {
-                c.incarnation > 0 && c.role.is_some_and(|r| r.rank() + 1 == agreed.len())
-            })
+            && s.up()
+                .any(|c| c.incarnation > 0 && c.role.is_some_and(|r| r.rank() + 1 == agreed.len()))
     })
 }

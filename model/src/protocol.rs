@@ -56,9 +56,9 @@ pub fn actions(config: &Config, state: &State, out: &mut Vec<Action>) {
         .iter()
         .any(|a| matches!(a, Action::ExpireWindow { .. }));
     let vote_overdue = out[urgent_before..].iter().any(|a| match *a {
-        Action::DeliverVotes { to } => config
-            .ids()
-            .any(|from| state.overdue_votes & link_bit(from, to) != 0 && state.vote_pending(from, to)),
+        Action::DeliverVotes { to } => config.ids().any(|from| {
+            state.overdue_votes & link_bit(from, to) != 0 && state.vote_pending(from, to)
+        }),
         _ => false,
     });
     if !timer_due && !vote_overdue && state.up().next().is_some() {
@@ -175,8 +175,7 @@ fn window_can_expire(config: &Config, c: &Controller) -> bool {
 /// (default rules) or a durable vote (the paper's).
 fn ready_to_vote(c: &Controller) -> bool {
     !c.late_joiner
-        || c
-            .peers
+        || c.peers
             .iter()
             .any(|p| p.incumbent() || (p.alive.is_some() && p.vote.is_some()))
 }
@@ -235,8 +234,12 @@ fn tick(config: &Config, before: &State, next: &mut State) {
             Phase::Initializing => {
                 // What it knows now: an incumbent heard this round, or a durable vote of a live
                 // peer. A running system that vanished (crashed) no longer counts.
-                let heard_running = rules.late_join_by_heartbeat && c.peers.iter().any(|p| p.incumbent());
-                let holds_vote = c.peers.iter().any(|p| p.alive.is_some() && p.vote.is_some());
+                let heard_running =
+                    rules.late_join_by_heartbeat && c.peers.iter().any(|p| p.incumbent());
+                let holds_vote = c
+                    .peers
+                    .iter()
+                    .any(|p| p.alive.is_some() && p.vote.is_some());
                 c.late_joiner = if rules.decide_on_heartbeats {
                     heard_running
                 } else {
@@ -466,8 +469,7 @@ pub fn compute_vote(config: &Config, c: &Controller) -> Assignment {
         }
     }
     let mut vote = Assignment::from_ranked(ranked);
-    if config.mutated(Mutation::AdmitFourth) && !vote.contains(c.id) && vote.len() == ROLE_COUNT
-    {
+    if config.mutated(Mutation::AdmitFourth) && !vote.contains(c.id) && vote.len() == ROLE_COUNT {
         vote.0[ROLE_COUNT - 1] = Some(Holder {
             id: c.id,
             incarnation: c.incarnation,
@@ -479,7 +481,11 @@ pub fn compute_vote(config: &Config, c: &Controller) -> Assignment {
 /// The running system's result as this round's heartbeats tell it: the Primary's own agreed
 /// result when heard, else the most common one among incumbents.
 fn running_result(c: &Controller) -> Option<Assignment> {
-    let results = c.peers.iter().filter(|p| p.incumbent()).filter_map(|p| p.heard_agreed);
+    let results = c
+        .peers
+        .iter()
+        .filter(|p| p.incumbent())
+        .filter_map(|p| p.heard_agreed);
     let common = most_common(results)?;
     let primary = common.holder(Role::Primary).filter(|p| *p != c.id);
     let primary_result = primary.and_then(|p| {
@@ -493,14 +499,17 @@ fn running_result(c: &Controller) -> Option<Assignment> {
 /// them voted for (paper: a late joiner "assesses the existing system priority" from votes).
 fn durable_result(config: &Config, c: &Controller) -> Option<Assignment> {
     let rules = config.rules();
-    let votes = c.peers.iter().filter_map(|peer| match (peer.alive, peer.vote) {
-        (Some(alive), Some((incarnation, vote)))
-            if !peer.failed && (!rules.incarnation_aware || alive == incarnation) =>
-        {
-            Some(vote)
-        }
-        _ => None,
-    });
+    let votes = c
+        .peers
+        .iter()
+        .filter_map(|peer| match (peer.alive, peer.vote) {
+            (Some(alive), Some((incarnation, vote)))
+                if !peer.failed && (!rules.incarnation_aware || alive == incarnation) =>
+            {
+                Some(vote)
+            }
+            _ => None,
+        });
     most_common(votes)
 }
 
@@ -738,7 +747,8 @@ fn judge_minority(config: &Config, next: &mut State, id: Id, source: Source) {
     let grace = config.minority_grace_rounds();
     let ignore = config.mutated(Mutation::IgnoreMinorityVote);
     let c = next.controller_mut(id);
-    let Some((winner, count)) = majority.filter(|(_, count)| *count >= 2 && count * 2 > votes.len())
+    let Some((winner, count)) =
+        majority.filter(|(_, count)| *count >= 2 && count * 2 > votes.len())
     else {
         for peer in c.peers.iter_mut() {
             peer.dissent_rounds = 0;

@@ -175,18 +175,15 @@ pub fn svg(init: &State, steps: &[(Action, State)]) -> String {
     }
     for (index, (action, after)) in steps.iter().enumerate() {
         let y = 45 + index * row_h;
-        match *action {
-            Action::LoseHeartbeat { from, to } => {
-                let colour = "red";
-                let _ = write!(
-                    out,
-                    "<line x1='{}' y1='{y}' x2='{}' y2='{}' stroke='{colour}' marker-end='url(#a)'/>",
-                    lane_x(from),
-                    lane_x(to),
-                    y + 6
-                );
-            }
-            _ => {}
+        if let Action::LoseHeartbeat { from, to } = *action {
+            // A lost heartbeat: a red arrow from sender to receiver.
+            let _ = write!(
+                out,
+                "<line x1='{}' y1='{y}' x2='{}' y2='{}' stroke='red' marker-end='url(#a)'/>",
+                lane_x(from),
+                lane_x(to),
+                y + 6
+            );
         }
         let label = match action.actor() {
             Some(id) => (lane_x(id), short(action)),

@@ -93,7 +93,11 @@ pub fn abstract_state(state: &State) -> AbstractState {
                     phase: up.then_some(c.phase),
                     role: c.role.filter(|_| up),
                     strength: c.output.filter(|_| up),
-                    sees: if up { ids(c, &|p| p.alive.is_some()) } else { vec![] },
+                    sees: if up {
+                        ids(c, &|p| p.alive.is_some())
+                    } else {
+                        vec![]
+                    },
                     failed: if up { ids(c, &|p| p.failed) } else { vec![] },
                     alarms: if up { ids(c, &|p| p.alarm) } else { vec![] },
                     agreed: assignment(c.agreed.filter(|_| up)),
@@ -168,7 +172,10 @@ impl TraceSet {
             let _ = write!(out, "{:<16}", kind.name());
             for stage in stages {
                 let class = (kind, stage);
-                let cell = match (self.reachable.contains(&class), self.covered.contains(&class)) {
+                let cell = match (
+                    self.reachable.contains(&class),
+                    self.covered.contains(&class),
+                ) {
                     (true, true) => "covered",
                     (true, false) => "MISSED",
                     (false, _) => "-",
