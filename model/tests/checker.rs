@@ -6,14 +6,20 @@ use model::{search, Config, Mutation, RlModel, Variant};
 use stateright::{Checker, Expectation, HasDiscoveries, Model};
 use std::collections::BTreeSet;
 
-/// Three founders, no late joiner, no faults: small enough to pin exactly.
-fn small() -> Config {
+/// Three founders and the given late joiners and fault budgets.
+fn scope(late_joiners: u8, crashes: u8, restarts: u8, lost_heartbeats: u8) -> Config {
     Config {
-        late_joiners: 0,
-        max_crashes: 0,
-        max_restarts: 0,
+        late_joiners,
+        max_crashes: crashes,
+        max_restarts: restarts,
+        max_lost_heartbeats: lost_heartbeats,
         ..Config::default()
     }
+}
+
+/// Three founders, no late joiner, no faults: small enough to pin exactly.
+fn small() -> Config {
+    scope(0, 0, 0, 0)
 }
 
 #[test]
@@ -68,41 +74,23 @@ fn default_configuration_holds_and_every_witness_is_discovered() {
 
 #[test]
 fn loss_witnesses_are_discovered_when_heartbeats_can_be_lost() {
-    let config = Config {
-        late_joiners: 0,
-        max_crashes: 0,
-        max_restarts: 0,
-        max_lost_heartbeats: 2,
-        ..Config::default()
-    };
-    let model = RlModel::new(config);
+    let model = RlModel::new(scope(0, 0, 0, 2));
     let explored = search::explore(&model, 5_000_000, |_, _| {});
     for name in ["minority voter FAILED", "re-vote after heartbeat loss"] {
         assert!(explored.discovery(name).is_some(), "{name} not witnessed");
     }
 }
 
-fn mutated(mutation: Mutation, lost_heartbeats: u8) -> Vec<&'static str> {
+fn mutated(mutation: Mutation, base: Config) -> Vec<&'static str> {
     failures(Config {
-        late_joiners: 1,
-        max_crashes: 1,
-        max_restarts: 1,
-        max_lost_heartbeats: lost_heartbeats,
         mutation: Some(mutation),
-        ..Config::default()
+        ..base
     })
 }
 
 #[test]
 fn mutation_promote_without_failure_is_caught() {
-    let failed = failures(Config {
-        late_joiners: 0,
-        max_crashes: 0,
-        max_restarts: 0,
-        max_lost_heartbeats: 1,
-        mutation: Some(Mutation::PromoteWithoutFailure),
-        ..Config::default()
-    });
+    let failed = mutated(Mutation::PromoteWithoutFailure, scope(0, 0, 0, 1));
     assert!(
         failed.contains(&"actuator has a single owner"),
         "{failed:?}"
@@ -111,7 +99,7 @@ fn mutation_promote_without_failure_is_caught() {
 
 #[test]
 fn mutation_failback_is_caught() {
-    let failed = mutated(Mutation::Failback, 0);
+    let failed = mutated(Mutation::Failback, scope(1, 1, 1, 0));
     assert!(
         failed.contains(&"a heard Primary is never demoted"),
         "{failed:?}"
@@ -120,7 +108,7 @@ fn mutation_failback_is_caught() {
 
 #[test]
 fn mutation_output_before_role_is_caught() {
-    let failed = mutated(Mutation::OutputBeforeRole, 0);
+    let failed = mutated(Mutation::OutputBeforeRole, scope(1, 1, 1, 0));
     assert!(
         failed.contains(&"no command output without a role"),
         "{failed:?}"
@@ -131,21 +119,14 @@ fn mutation_output_before_role_is_caught() {
 fn mutation_admit_fourth_is_caught() {
     // The fourth takes Tertiary beside the real Tertiary: the system never settles and the
     // fourth is never seen ignored.
-    let failed = mutated(Mutation::AdmitFourth, 0);
+    let failed = mutated(Mutation::AdmitFourth, scope(1, 1, 1, 0));
     assert!(failed.contains(&"settles after faults stop"), "{failed:?}");
     assert!(failed.contains(&"fourth controller ignored"), "{failed:?}");
 }
 
 #[test]
 fn mutation_ignore_minority_vote_is_caught() {
-    let failed = failures(Config {
-        late_joiners: 0,
-        max_crashes: 0,
-        max_restarts: 0,
-        max_lost_heartbeats: 2,
-        mutation: Some(Mutation::IgnoreMinorityVote),
-        ..Config::default()
-    });
+    let failed = mutated(Mutation::IgnoreMinorityVote, scope(0, 0, 0, 2));
     assert!(failed.contains(&"minority voter FAILED"), "{failed:?}");
 }
 

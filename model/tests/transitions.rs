@@ -38,6 +38,13 @@ fn settle(mut state: model::State, rounds: usize) -> model::State {
     state
 }
 
+/// Three founders formed, then the Primary (C1) crashed and the survivors re-voted.
+fn formed_then_primary_crashed() -> model::State {
+    let state = settle(start(3), 3);
+    let state = step(&state, Action::Crash { controller: 1 });
+    settle(state, 5)
+}
+
 #[test]
 fn three_founders_vote_roles_by_lowest_id() {
     let state = settle(start(3), 3);
@@ -78,9 +85,7 @@ fn a_lone_controller_waits_for_the_window_then_takes_primary() {
 
 #[test]
 fn primary_crash_promotes_every_lower_role() {
-    let state = settle(start(3), 3);
-    let state = step(&state, Action::Crash { controller: 1 });
-    let state = settle(state, 5);
+    let state = formed_then_primary_crashed();
     assert_eq!(state.controller(2).role, Some(Role::Primary));
     assert_eq!(state.controller(3).role, Some(Role::Secondary));
     assert_eq!(state.actuator_owner(), Some(2));
@@ -92,9 +97,7 @@ fn primary_crash_promotes_every_lower_role() {
 
 #[test]
 fn restarted_primary_comes_back_in_the_lowest_role() {
-    let state = settle(start(3), 3);
-    let state = step(&state, Action::Crash { controller: 1 });
-    let state = settle(state, 5);
+    let state = formed_then_primary_crashed();
     let state = step(&state, Action::Restart { controller: 1 });
     let state = settle(state, 6);
     assert_eq!(state.controller(1).incarnation, 1);
