@@ -87,6 +87,13 @@ impl Config {
         }
     }
 
+    /// Rounds after a lost heartbeat during which the two sides of an asymmetric partition
+    /// may both command as Primary: the dead-man deadline, a round to hear each other again,
+    /// a round to exchange the merged vote.
+    pub fn partition_rounds(&self) -> u8 {
+        self.dead_after_rounds + 2
+    }
+
     /// Checks the bounds; the error names the field.
     pub fn validate(&self) -> Result<(), String> {
         let count = self.controller_count();

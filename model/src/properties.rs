@@ -44,19 +44,20 @@ pub fn catalogue() -> Vec<PropertyInfo> {
           "two steady controllers that agree on the result never hold the same role",
           roles_unique_among_agreeing),
         p("actuator has a single owner", Always,
-          "never two live controllers command at Primary strength (DDS would pick one by GUID, not by vote)",
+          "never two live controllers command at Primary strength (DDS would pick one by GUID, not by vote), \
+           except during an asymmetric partition: within partition_rounds of a lost heartbeat",
           single_owner),
         p("no command output without a role", Always,
           "a controller publishes commands only with a role, at its role's strength (a new Primary: 20 until the old one yields), once a Primary exists",
           output_needs_role),
-        p("a heard Primary is never demoted", Always,
-          "a Primary none of whose heartbeat links lost a heartbeat keeps its role",
+        p("a live Primary is never demoted", Always,
+          "outside a partition window a live Primary keeps its role (no oscillation, no failback)",
           heard_primary_never_demoted),
-        p("a heard role holder is never demoted", Always,
-          "no role holder whose heartbeats keep flowing moves to a lower role (no oscillation)",
+        p("a live role holder is never demoted", Always,
+          "outside a partition window no live role holder moves to a lower role (late joiners come in below)",
           heard_holder_never_demoted),
         p("at most three role holders", Always,
-          "a controller beyond three never holds a role",
+          "a controller beyond three never holds a role (partition sides excepted, as above)",
           at_most_three_holders),
         p("settled roles form a prefix", Always,
           "when the controllers have settled, no Tertiary without a Secondary, no Secondary without a Primary",
@@ -147,11 +148,19 @@ fn roles_unique_among_agreeing(_: &RlModel, s: &State) -> bool {
     })
 }
 
-fn single_owner(_: &RlModel, s: &State) -> bool {
-    s.up()
-        .filter(|c| c.output == Some(Role::Primary.strength()))
-        .count()
-        <= 1
+/// Within this many rounds of a lost heartbeat the controllers may be split in two systems
+/// (a controller that hears nobody cannot tell a dead peer from a dead link, and the paper
+/// keeps a lone survivor driving); the split must heal within it (docs/protocol.md).
+pub fn partitioned(model: &RlModel, s: &State) -> bool {
+    s.history.rounds_since_loss < model.config.partition_rounds()
+}
+
+fn single_owner(model: &RlModel, s: &State) -> bool {
+    partitioned(model, s)
+        || s.up()
+            .filter(|c| c.output == Some(Role::Primary.strength()))
+            .count()
+            <= 1
 }
 
 fn output_needs_role(_: &RlModel, s: &State) -> bool {
@@ -169,15 +178,15 @@ fn output_needs_role(_: &RlModel, s: &State) -> bool {
 }
 
 fn heard_primary_never_demoted(_: &RlModel, s: &State) -> bool {
-    s.history.demoted_while_heard != Some(Role::Primary)
+    s.history.demoted_outside_partition != Some(Role::Primary)
 }
 
 fn heard_holder_never_demoted(_: &RlModel, s: &State) -> bool {
-    s.history.demoted_while_heard.is_none()
+    s.history.demoted_outside_partition.is_none()
 }
 
-fn at_most_three_holders(_: &RlModel, s: &State) -> bool {
-    s.up().filter(|c| c.role.is_some()).count() <= crate::types::ROLE_COUNT
+fn at_most_three_holders(model: &RlModel, s: &State) -> bool {
+    partitioned(model, s) || s.up().filter(|c| c.role.is_some()).count() <= crate::types::ROLE_COUNT
 }
 
 fn settled_roles_prefix(_: &RlModel, s: &State) -> bool {

@@ -31,7 +31,10 @@ pub fn init_states(config: &Config) -> Vec<State> {
                 .collect(),
             lost_links: 0,
             overdue_votes: 0,
-            history: History::default(),
+            history: History {
+                rounds_since_loss: config.settle_within_rounds,
+                ..History::default()
+            },
         })
         .collect()
 }
@@ -106,8 +109,7 @@ pub fn next_state(config: &Config, state: &State, action: Action) -> Option<Stat
             next.lost_links |= link_bit(from, to);
             next.history.losses += 1;
             next.history.quiet_rounds = 0;
-            next.controller_mut(from).link_lost = true;
-            next.controller_mut(to).link_lost = true;
+            next.history.rounds_since_loss = 0;
         }
         Action::Tick => tick(config, state, &mut next),
         Action::ExpireWindow { controller } => {
@@ -127,6 +129,7 @@ pub fn next_state(config: &Config, state: &State, action: Action) -> Option<Stat
             deliver_votes(config, &mut next, &senders, to);
         }
         Action::Crash { controller } => {
+            vote_superseded(config, &mut next, controller);
             let c = next.controller_mut(controller);
             let incarnation = c.incarnation;
             *c = Controller::new(controller, Life::Down);
@@ -253,10 +256,11 @@ fn tick(config: &Config, before: &State, next: &mut State) {
                 }
             }
             Phase::Voting | Phase::Steady => {
-                // A controller still voting re-reads every round: who is incumbent, and what
-                // the running system agreed, comes with the heartbeats.
-                let rereads = rules.decide_on_heartbeats && c.phase == Phase::Voting;
-                if membership_changed || rereads {
+                // Re-vote whenever what it knows gives another vote: a peer lost or new, or
+                // (default rules) another incumbent's result, which comes with the heartbeats.
+                let knowledge_changed =
+                    rules.decide_on_heartbeats && Some(compute_vote(config, c)) != c.vote;
+                if membership_changed || knowledge_changed {
                     revote(config, next, id);
                 }
             }
@@ -270,12 +274,12 @@ fn tick(config: &Config, before: &State, next: &mut State) {
                 c.output = Some(Role::Primary.strength());
                 hold_primary_strength(config, c);
             }
-        } else if rules.minority_grace {
-            judge_minority(config, next, id, Source::DurableVotes);
         }
     }
     next.lost_links = 0;
     next.history.quiet_rounds = (next.history.quiet_rounds + 1).min(config.settle_within_rounds);
+    next.history.rounds_since_loss =
+        (next.history.rounds_since_loss + 1).min(config.settle_within_rounds);
 }
 
 /// No heartbeat from a peer this round; after `dead_after_rounds` of silence it is lost
@@ -355,6 +359,10 @@ fn receive_heartbeat(
         outcome.membership_changed = !peer.failed;
     }
     if rules.decide_on_heartbeats {
+        if peer.heard_vote != sender.vote {
+            // A dissent counts only while the votes it is judged on stay the same.
+            peer.dissent_rounds = 0;
+        }
         peer.heard_agreed = sender.agreed;
         peer.heard_vote = sender.vote;
         peer.claims_primary = sender.output == Some(Role::Primary.strength());
@@ -386,6 +394,7 @@ fn revote(config: &Config, next: &mut State, id: Id) {
     if c.vote != Some(vote) {
         c.vote = Some(vote);
         c.self_dissent_rounds = 0;
+        vote_superseded(config, next, id);
     }
     if config.rules().decide_on_heartbeats {
         // Decided at the round boundary; only a controller alone decides at once.
@@ -398,6 +407,14 @@ fn revote(config: &Config, next: &mut State, id: Id) {
 }
 
 /// The voting algorithm: who should hold which role, as this controller sees it.
+///
+/// A function of what the controller knows, never of its own earlier votes, so controllers
+/// that know the same vote the same: every live member is ranked by the best role any known
+/// agreed result gives that very incarnation (its own result and, with the default rules,
+/// every incumbent's as this round's heartbeats carry it), then by lowest id; three at most.
+/// Keeping known roles is what avoids oscillation; losing a holder promotes those below it;
+/// newcomers come in below by id; two results from a healed partition merge with the
+/// lower id first.
 pub fn compute_vote(config: &Config, c: &Controller) -> Assignment {
     let rules = config.rules();
     let members: Vec<Holder> = c
@@ -411,63 +428,40 @@ pub fn compute_vote(config: &Config, c: &Controller) -> Assignment {
             },
         })
         .collect();
-    // A holder named in an earlier result keeps its place only while that very incarnation
-    // lives (the paper's rules know controllers by id only).
-    let alive = |holder: &Holder| {
-        members.iter().any(|m| {
-            m.id == holder.id && (!rules.incarnation_aware || m.incarnation == holder.incarnation)
-        })
-    };
-    // Precedence: the roles already held stay with their holders, in order, so a loss
-    // promotes every lower role by one (paper, "Late Joiner"). A controller keeps the order of
-    // its own latest vote; a newcomer takes the running system's result.
-    // The vote is a function of what the controller knows, never of its own earlier votes,
-    // so controllers that know the same vote the same.
-    let previous = match c.agreed {
-        // An incumbent still voting ranks from its pending vote: others may already have
-        // agreed it.
-        // The agreed Primary sequences newcomers; the others follow its vote as heard.
-        Some(agreed) if c.phase == Phase::Voting && rules.decide_on_heartbeats => {
-            let primary_vote = agreed
-                .holder(Role::Primary)
-                .filter(|p| *p != c.id)
-                .map(|p| c.peer(p))
-                .filter(|peer| peer.alive.is_some() && !peer.failed && peer.silent_rounds == 0)
-                .and_then(|peer| peer.heard_vote);
-            primary_vote.or(c.vote).or(c.agreed)
-        }
-        Some(agreed) => Some(agreed),
-        None if rules.decide_on_heartbeats => running_result(c),
-        None if c.late_joiner => durable_result(config, c),
-        None => None,
-    };
-    let ranked_ids: Vec<Id> = match previous {
-        Some(previous) if !config.mutated(Mutation::Failback) => {
-            let kept: Vec<Id> = previous.holders().filter(alive).map(|h| h.id).collect();
-            if rules.keep_standby_order {
-                kept
-            } else {
-                // Paper: "Precedence should be given to any currently Active Controller";
-                // the others are ranked by id again.
-                previous
-                    .holder(Role::Primary)
-                    .filter(|primary| kept.contains(primary))
-                    .into_iter()
-                    .collect()
-            }
-        }
-        _ => Vec::new(),
-    };
-    let mut ranked: Vec<Holder> = ranked_ids
-        .iter()
-        .filter_map(|id| members.iter().find(|m| m.id == *id).copied())
-        .collect();
-    // Everyone else (system initialization, or joiners) by lowest id.
-    for member in &members {
-        if !ranked.iter().any(|r| r.id == member.id) {
-            ranked.push(*member);
-        }
+    let mut known: Vec<Assignment> = c.agreed.into_iter().collect();
+    if rules.decide_on_heartbeats {
+        known.extend(
+            c.peers
+                .iter()
+                .filter(|p| p.incumbent())
+                .filter_map(|p| p.heard_agreed),
+        );
+    } else if c.agreed.is_none() && c.late_joiner {
+        // Paper: a late joiner "assesses the existing system priority" from durable votes.
+        known.extend(durable_result(config, c));
     }
+    let rank = |member: &Holder| -> usize {
+        if config.mutated(Mutation::Failback) {
+            return ROLE_COUNT;
+        }
+        known
+            .iter()
+            .filter_map(|result| {
+                let role = if rules.incarnation_aware {
+                    result.role_of_holder(*member)
+                } else {
+                    result.role_of(member.id)
+                };
+                // Paper: "Precedence should be given to any currently Active Controller";
+                // the other roles are ranked by id again.
+                role.filter(|r| rules.keep_standby_order || *r == Role::Primary)
+            })
+            .map(Role::rank)
+            .min()
+            .unwrap_or(ROLE_COUNT)
+    };
+    let mut ranked = members.clone();
+    ranked.sort_by_key(|member| (rank(member), member.id));
     let mut vote = Assignment::from_ranked(ranked);
     if config.mutated(Mutation::AdmitFourth) && !vote.contains(c.id) && vote.len() == ROLE_COUNT {
         vote.0[ROLE_COUNT - 1] = Some(Holder {
@@ -476,23 +470,6 @@ pub fn compute_vote(config: &Config, c: &Controller) -> Assignment {
         });
     }
     vote
-}
-
-/// The running system's result as this round's heartbeats tell it: the Primary's own agreed
-/// result when heard, else the most common one among incumbents.
-fn running_result(c: &Controller) -> Option<Assignment> {
-    let results = c
-        .peers
-        .iter()
-        .filter(|p| p.incumbent())
-        .filter_map(|p| p.heard_agreed);
-    let common = most_common(results)?;
-    let primary = common.holder(Role::Primary).filter(|p| *p != c.id);
-    let primary_result = primary.and_then(|p| {
-        let peer = c.peer(p);
-        peer.incumbent().then_some(peer.heard_agreed).flatten()
-    });
-    Some(primary_result.unwrap_or(common))
 }
 
 /// The running system's result from the durable votes of live peers: the assignment most of
@@ -648,9 +625,8 @@ fn adopt(config: &Config, next: &mut State, id: Id, agreed: Assignment) {
         _ => None,
     };
     hold_primary_strength(config, c);
-    let heard = !c.link_lost;
     let restarted = c.incarnation > 0;
-    note_role_change(&mut next.history, old_role, new_role, heard);
+    note_role_change(config, &mut next.history, old_role, new_role);
     if new_role == Some(Role::Primary)
         && old_role != Some(Role::Primary)
         && restarted
@@ -680,16 +656,33 @@ fn hold_primary_strength(config: &Config, c: &mut Controller) {
     }
 }
 
-fn note_role_change(history: &mut History, old: Option<Role>, new: Option<Role>, heard: bool) {
+/// Records the history the properties read. A demotion outside a partition window (no
+/// heartbeat lost recently) is a violation: roles then only ever move up.
+fn note_role_change(config: &Config, history: &mut History, old: Option<Role>, new: Option<Role>) {
+    let partitioned = history.rounds_since_loss < config.partition_rounds();
     let Some(old) = old else {
         return;
     };
     let demoted = new.is_none_or(|new| new > old);
-    if demoted && heard && history.demoted_while_heard.is_none() {
-        history.demoted_while_heard = Some(old);
+    if demoted && !partitioned && history.demoted_outside_partition.is_none() {
+        history.demoted_outside_partition = Some(old);
     }
     if old == Role::Secondary && new == Some(Role::Primary) {
         history.secondary_promoted = true;
+    }
+}
+
+/// `id` published a new vote (or withdrew it). With the default rules no decision reads a
+/// durable copy, so superseded copies are dropped: the state stays canonical. The paper's
+/// rules decide on the copies, which stay until replaced.
+fn vote_superseded(config: &Config, next: &mut State, id: Id) {
+    if !config.rules().decide_on_heartbeats {
+        return;
+    }
+    for c in next.controllers.iter_mut() {
+        if c.id != id {
+            c.peer_mut(id).vote = None;
+        }
     }
 }
 
@@ -701,9 +694,11 @@ fn deliver_votes(config: &Config, next: &mut State, senders: &[Id], to: Id) {
         next.overdue_votes &= !link_bit(from, to);
         let receiver = next.controller_mut(to);
         receiver.peer_mut(from).vote = Some(vote);
-        // A dissent counts only while the votes stay the same: new information restarts it.
-        receiver.peer_mut(from).dissent_rounds = 0;
-        receiver.self_dissent_rounds = 0;
+        if !config.rules().decide_on_heartbeats {
+            // A dissent counts only while the votes it is judged on stay the same.
+            receiver.peer_mut(from).dissent_rounds = 0;
+            receiver.self_dissent_rounds = 0;
+        }
     }
     let c = next.controller_mut(to);
     match c.phase {
@@ -777,7 +772,7 @@ fn judge_minority(config: &Config, next: &mut State, id: Id, source: Source) {
     if own_dissents {
         c.self_dissent_rounds = c.self_dissent_rounds.saturating_add(1);
         if c.self_dissent_rounds > grace && !ignore {
-            fail_self(next, id);
+            fail_self(config, next, id);
             return;
         }
     } else {
@@ -788,14 +783,14 @@ fn judge_minority(config: &Config, next: &mut State, id: Id, source: Source) {
     }
 }
 
-fn fail_self(next: &mut State, id: Id) {
+fn fail_self(config: &Config, next: &mut State, id: Id) {
+    vote_superseded(config, next, id);
     let c = next.controller_mut(id);
     let old_role = c.role;
-    let heard = !c.link_lost;
     c.phase = Phase::Failed;
     c.role = None;
     c.output = None;
     c.vote = None;
     c.agreed = None;
-    note_role_change(&mut next.history, old_role, None, heard);
+    note_role_change(config, &mut next.history, old_role, None);
 }

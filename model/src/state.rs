@@ -166,8 +166,6 @@ pub struct Controller {
     pub self_dissent_rounds: u8,
     /// Indexed by id - 1; its own entry is unused.
     pub peers: [Peer; MAX_CONTROLLERS],
-    /// Ghost: some heartbeat to or from this incarnation was lost.
-    pub link_lost: bool,
 }
 
 impl Controller {
@@ -185,7 +183,6 @@ impl Controller {
             vote: None,
             self_dissent_rounds: 0,
             peers: [Peer::default(); MAX_CONTROLLERS],
-            link_lost: false,
         }
     }
 
@@ -227,8 +224,10 @@ pub struct History {
     pub restarts: u8,
     /// Fault-free rounds since the last crash, restart, join or loss (saturates).
     pub quiet_rounds: u8,
-    /// A role holder none of whose heartbeat links lost a heartbeat moved to a lower role.
-    pub demoted_while_heard: Option<Role>,
+    /// Rounds since the last lost heartbeat (saturates; starts saturated).
+    pub rounds_since_loss: u8,
+    /// A role holder moved to a lower role outside a partition window.
+    pub demoted_outside_partition: Option<Role>,
     /// A restarted controller took Primary while another live controller held a role.
     pub restart_jumped_queue: bool,
     /// A Secondary became Primary (witness).

@@ -101,7 +101,7 @@ fn mutation_promote_without_failure_is_caught() {
 fn mutation_failback_is_caught() {
     let failed = mutated(Mutation::Failback, scope(1, 1, 1, 0));
     assert!(
-        failed.contains(&"a heard Primary is never demoted"),
+        failed.contains(&"a live Primary is never demoted"),
         "{failed:?}"
     );
 }
