@@ -42,7 +42,7 @@ impl Default for Config {
             max_lost_heartbeats: 0,
             dead_after_rounds: 2,
             window_rounds: 2,
-            settle_within_rounds: 6,
+            settle_within_rounds: 8,
             variant: Variant::Default,
             mutation: None,
         }
@@ -85,13 +85,6 @@ impl Config {
         } else {
             0
         }
-    }
-
-    /// Rounds after a lost heartbeat during which the two sides of an asymmetric partition
-    /// may both command as Primary: the dead-man deadline, a round to hear each other again,
-    /// a round to exchange the merged vote.
-    pub fn partition_rounds(&self) -> u8 {
-        self.dead_after_rounds + 2
     }
 
     /// Checks the bounds; the error names the field.

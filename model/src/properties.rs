@@ -45,16 +45,16 @@ pub fn catalogue() -> Vec<PropertyInfo> {
           roles_unique_among_agreeing),
         p("actuator has a single owner", Always,
           "never two live controllers command at Primary strength (DDS would pick one by GUID, not by vote), \
-           except during an asymmetric partition: within partition_rounds of a lost heartbeat",
+           outside a partition (from a lost heartbeat until the controllers settle again)",
           single_owner),
         p("no command output without a role", Always,
           "a controller publishes commands only with a role, at its role's strength (a new Primary: 20 until the old one yields), once a Primary exists",
           output_needs_role),
         p("a live Primary is never demoted", Always,
-          "outside a partition window a live Primary keeps its role (no oscillation, no failback)",
+          "outside a partition a live Primary keeps its role (no oscillation, no failback)",
           heard_primary_never_demoted),
         p("a live role holder is never demoted", Always,
-          "outside a partition window no live role holder moves to a lower role (late joiners come in below)",
+          "outside a partition no live role holder moves to a lower role (late joiners come in below)",
           heard_holder_never_demoted),
         p("at most three role holders", Always,
           "a controller beyond three never holds a role (partition sides excepted, as above)",
@@ -66,7 +66,7 @@ pub fn catalogue() -> Vec<PropertyInfo> {
           "with reliable heartbeats no controller is ever marked FAILED or fails itself",
           failed_only_after_loss),
         p("restarted controller enters below live holders", Always,
-          "a restarted controller never takes Primary while another live controller holds a role",
+          "outside a partition, a restarted controller never lands above a live controller that held a role when it restarted",
           restart_enters_below),
         p("actuator follows the settled Primary", Always,
           "once settled, the actuator's owner is the agreed Primary",
@@ -131,7 +131,11 @@ pub fn settled(state: &State) -> Option<Assignment> {
     }
     let agreed = result?;
     agreed.holder(Role::Primary)?;
-    let members_active = agreed.members().all(|id| state.controller(id).is_active());
+    // Every member commands at its role's strength (a new Primary may still be holding 20).
+    let members_active = agreed.members().all(|id| {
+        let c = state.controller(id);
+        c.is_active() && c.output == c.role.map(Role::strength)
+    });
     let room = agreed.len() == count || agreed.len() == crate::types::ROLE_COUNT;
     (members_active && room).then_some(agreed)
 }
@@ -148,11 +152,11 @@ fn roles_unique_among_agreeing(_: &RlModel, s: &State) -> bool {
     })
 }
 
-/// Within this many rounds of a lost heartbeat the controllers may be split in two systems
-/// (a controller that hears nobody cannot tell a dead peer from a dead link, and the paper
-/// keeps a lone survivor driving); the split must heal within it (docs/protocol.md).
-pub fn partitioned(model: &RlModel, s: &State) -> bool {
-    s.history.rounds_since_loss < model.config.partition_rounds()
+/// From a lost heartbeat until the controllers next settle, they may be split in two systems:
+/// a controller that hears nobody cannot tell a dead peer from a dead link, and the paper keeps
+/// a lone survivor driving. "settles after faults stop" bounds how long that can last.
+pub fn partitioned(_: &RlModel, s: &State) -> bool {
+    s.history.partition_open
 }
 
 fn single_owner(model: &RlModel, s: &State) -> bool {

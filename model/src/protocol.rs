@@ -31,10 +31,8 @@ pub fn init_states(config: &Config) -> Vec<State> {
                 .collect(),
             lost_links: 0,
             overdue_votes: 0,
-            history: History {
-                rounds_since_loss: config.settle_within_rounds,
-                ..History::default()
-            },
+            history: History::default(),
+            durable_votes: !config.rules().decide_on_heartbeats,
         })
         .collect()
 }
@@ -109,7 +107,7 @@ pub fn next_state(config: &Config, state: &State, action: Action) -> Option<Stat
             next.lost_links |= link_bit(from, to);
             next.history.losses += 1;
             next.history.quiet_rounds = 0;
-            next.history.rounds_since_loss = 0;
+            next.history.partition_open = true;
         }
         Action::Tick => tick(config, state, &mut next),
         Action::ExpireWindow { controller } => {
@@ -146,6 +144,14 @@ pub fn next_state(config: &Config, state: &State, action: Action) -> Option<Stat
             };
             *c = Controller::new(controller, Life::Up);
             c.incarnation = incarnation;
+            if matches!(action, Action::Restart { .. }) {
+                // Ghost: who held a role when it restarted (it must come in below them).
+                c.held_roles_at_restart = state
+                    .controllers
+                    .iter()
+                    .filter(|d| d.id != controller && d.is_active() && d.role.is_some())
+                    .fold(0u8, |mask, d| mask | 1 << (d.id - 1));
+            }
             if config.mutated(Mutation::OutputBeforeRole) {
                 c.output = Some(Role::Tertiary.strength());
             }
@@ -278,8 +284,9 @@ fn tick(config: &Config, before: &State, next: &mut State) {
     }
     next.lost_links = 0;
     next.history.quiet_rounds = (next.history.quiet_rounds + 1).min(config.settle_within_rounds);
-    next.history.rounds_since_loss =
-        (next.history.rounds_since_loss + 1).min(config.settle_within_rounds);
+    if next.history.partition_open && crate::properties::settled(next).is_some() {
+        next.history.partition_open = false;
+    }
 }
 
 /// No heartbeat from a peer this round; after `dead_after_rounds` of silence it is lost
@@ -598,12 +605,18 @@ fn try_agree(config: &Config, next: &mut State, id: Id, source: Source) {
 }
 
 fn adopt(config: &Config, next: &mut State, id: Id, agreed: Assignment) {
-    let others_hold_roles = next
-        .controllers
-        .iter()
-        .any(|d| d.id != id && d.is_active() && d.role.is_some());
+    // Ghost: a restarted controller's first role lands above a live controller that held a
+    // role when it restarted (failback).
+    let first = next.controller(id);
+    let jumped_queue = first.role.is_none()
+        && agreed.role_of(id).is_some_and(|own| {
+            next.controllers.iter().any(|d| {
+                first.held_roles_at_restart & (1 << (d.id - 1)) != 0
+                    && d.is_active()
+                    && agreed.role_of(d.id).is_some_and(|theirs| theirs > own)
+            })
+        });
     let c = next.controller_mut(id);
-    let joined_running_system = c.late_joiner;
     let old_role = c.role;
     let mut new_role = if config.rules().incarnation_aware {
         agreed.role_of_holder(Holder {
@@ -625,14 +638,8 @@ fn adopt(config: &Config, next: &mut State, id: Id, agreed: Assignment) {
         _ => None,
     };
     hold_primary_strength(config, c);
-    let restarted = c.incarnation > 0;
-    note_role_change(config, &mut next.history, old_role, new_role);
-    if new_role == Some(Role::Primary)
-        && old_role != Some(Role::Primary)
-        && restarted
-        && joined_running_system
-        && others_hold_roles
-    {
+    note_role_change(&mut next.history, old_role, new_role);
+    if jumped_queue && !next.history.partition_open {
         next.history.restart_jumped_queue = true;
     }
 }
@@ -656,10 +663,10 @@ fn hold_primary_strength(config: &Config, c: &mut Controller) {
     }
 }
 
-/// Records the history the properties read. A demotion outside a partition window (no
-/// heartbeat lost recently) is a violation: roles then only ever move up.
-fn note_role_change(config: &Config, history: &mut History, old: Option<Role>, new: Option<Role>) {
-    let partitioned = history.rounds_since_loss < config.partition_rounds();
+/// Records the history the properties read. A demotion outside a partition (see
+/// `properties::partitioned`) is a violation: roles then only ever move up.
+fn note_role_change(history: &mut History, old: Option<Role>, new: Option<Role>) {
+    let partitioned = history.partition_open;
     let Some(old) = old else {
         return;
     };
@@ -729,9 +736,17 @@ fn judge_minority(config: &Config, next: &mut State, id: Id, source: Source) {
     if !matches!(c.phase, Phase::Voting | Phase::Steady) {
         return;
     }
+    let grace = config.minority_grace_rounds();
+    let ignore = config.mutated(Mutation::IgnoreMinorityVote);
     let Electorate {
         votes, counts_self, ..
     } = electorate(config, c, source);
+    // Judging itself, it counts every live peer's vote, FAILED marks notwithstanding: two
+    // sides that marked each other FAILED would otherwise each ignore being outvoted.
+    let own_outvoted = counts_self && c.vote.is_some_and(|own| outvoted(config, c, own, source));
+    if judge_self(config, next, id, own_outvoted, grace, ignore) {
+        return;
+    }
     let mut majority: Option<(Assignment, usize)> = None;
     for (_, vote) in &votes {
         let count = votes.iter().filter(|(_, v)| v == vote).count();
@@ -739,25 +754,17 @@ fn judge_minority(config: &Config, next: &mut State, id: Id, source: Source) {
             majority = Some((*vote, count));
         }
     }
-    let grace = config.minority_grace_rounds();
-    let ignore = config.mutated(Mutation::IgnoreMinorityVote);
     let c = next.controller_mut(id);
-    let Some((winner, count)) =
-        majority.filter(|(_, count)| *count >= 2 && count * 2 > votes.len())
-    else {
-        for peer in c.peers.iter_mut() {
-            peer.dissent_rounds = 0;
-        }
-        c.self_dissent_rounds = 0;
-        return;
-    };
+    let winner = majority
+        .filter(|(_, count)| *count >= 2 && count * 2 > votes.len())
+        .map(|(vote, _)| vote);
     let mut marked = false;
     for (voter, vote) in &votes {
         if *voter == id {
             continue;
         }
         let peer = c.peer_mut(*voter);
-        if *vote == winner {
+        if winner.is_none_or(|winner| *vote == winner) {
             peer.dissent_rounds = 0;
             continue;
         }
@@ -768,19 +775,60 @@ fn judge_minority(config: &Config, next: &mut State, id: Id, source: Source) {
             marked = true;
         }
     }
-    let own_dissents = counts_self && c.vote.is_some_and(|own| own != winner) && count >= 2;
-    if own_dissents {
-        c.self_dissent_rounds = c.self_dissent_rounds.saturating_add(1);
-        if c.self_dissent_rounds > grace && !ignore {
-            fail_self(config, next, id);
-            return;
-        }
-    } else {
-        c.self_dissent_rounds = 0;
-    }
     if marked {
         revote(config, next, id);
     }
+}
+
+/// Two or more other live voters agree on a result other than `own`, and they are a majority
+/// of the others (paper: "does not agree with the two votes of the other controllers").
+fn outvoted(config: &Config, c: &Controller, own: Assignment, source: Source) -> bool {
+    let rules = config.rules();
+    let others: Vec<Assignment> = c
+        .peers
+        .iter()
+        .enumerate()
+        .filter(|(index, peer)| *index + 1 != usize::from(c.id) && peer.alive.is_some())
+        .filter_map(|(_, peer)| match source {
+            // Newcomers' votes never count (see `electorate`).
+            Source::Heartbeats => peer.heard_agreed.and(peer.heard_vote),
+            Source::DurableVotes => match (peer.alive, peer.vote) {
+                (Some(alive), Some((incarnation, vote)))
+                    if !rules.incarnation_aware || alive == incarnation =>
+                {
+                    Some(vote)
+                }
+                _ => None,
+            },
+        })
+        .collect();
+    others.iter().any(|vote| {
+        let count = others.iter().filter(|v| *v == vote).count();
+        *vote != own && count >= 2 && count * 2 > others.len()
+    })
+}
+
+/// Counts the rounds this controller has been outvoted; past the grace it fails itself.
+/// Returns whether it did.
+fn judge_self(
+    config: &Config,
+    next: &mut State,
+    id: Id,
+    outvoted: bool,
+    grace: u8,
+    ignore: bool,
+) -> bool {
+    let c = next.controller_mut(id);
+    if !outvoted {
+        c.self_dissent_rounds = 0;
+        return false;
+    }
+    c.self_dissent_rounds = c.self_dissent_rounds.saturating_add(1);
+    if c.self_dissent_rounds > grace && !ignore {
+        fail_self(config, next, id);
+        return true;
+    }
+    false
 }
 
 fn fail_self(config: &Config, next: &mut State, id: Id) {
@@ -792,5 +840,5 @@ fn fail_self(config: &Config, next: &mut State, id: Id) {
     c.output = None;
     c.vote = None;
     c.agreed = None;
-    note_role_change(config, &mut next.history, old_role, None);
+    note_role_change(&mut next.history, old_role, None);
 }

@@ -162,6 +162,9 @@ pub struct Controller {
     pub agreed: Option<Assignment>,
     /// Its own published vote.
     pub vote: Option<Assignment>,
+    /// Ghost, set at restart: bit `id - 1` for every controller that held a role then; a
+    /// restarted controller must come in below all of them.
+    pub held_roles_at_restart: u8,
     /// Consecutive rounds in which two peers agreed on a result different from its vote.
     pub self_dissent_rounds: u8,
     /// Indexed by id - 1; its own entry is unused.
@@ -181,6 +184,7 @@ impl Controller {
             window_quiet_rounds: 0,
             agreed: None,
             vote: None,
+            held_roles_at_restart: 0,
             self_dissent_rounds: 0,
             peers: [Peer::default(); MAX_CONTROLLERS],
         }
@@ -224,11 +228,13 @@ pub struct History {
     pub restarts: u8,
     /// Fault-free rounds since the last crash, restart, join or loss (saturates).
     pub quiet_rounds: u8,
-    /// Rounds since the last lost heartbeat (saturates; starts saturated).
-    pub rounds_since_loss: u8,
+    /// A heartbeat was lost and the controllers have not settled since: the two sides of an
+    /// asymmetric partition may both act (see `properties::partitioned`).
+    pub partition_open: bool,
     /// A role holder moved to a lower role outside a partition window.
     pub demoted_outside_partition: Option<Role>,
-    /// A restarted controller took Primary while another live controller held a role.
+    /// A restarted controller took a role above one that a live controller held when it
+    /// restarted.
     pub restart_jumped_queue: bool,
     /// A Secondary became Primary (witness).
     pub secondary_promoted: bool,
@@ -245,6 +251,8 @@ pub struct State {
     /// it must arrive before the round ends (the timing assumption).
     pub overdue_votes: u16,
     pub history: History,
+    /// Decisions read durable votes (the paper's rules), so their delivery is modelled.
+    pub durable_votes: bool,
 }
 
 pub fn link_bit(from: Id, to: Id) -> u16 {
@@ -264,8 +272,13 @@ impl State {
         self.controllers.iter().filter(|c| c.is_up())
     }
 
-    /// A vote from `from` that `to` has not received yet.
+    /// A vote from `from` that `to` has not received yet. Only the paper's rules decide on
+    /// durable votes; with the default rules votes travel in heartbeats, and the durable copy
+    /// is for late readers and tools, so its delivery is not modelled (`durable_votes`).
     pub fn vote_pending(&self, from: Id, to: Id) -> bool {
+        if !self.durable_votes {
+            return false;
+        }
         let sender = self.controller(from);
         let receiver = self.controller(to);
         if from == to || !sender.is_up() || !receiver.is_up() {
