@@ -1,8 +1,8 @@
 //! The size of a check: how many controllers, which faults, how many rounds the timers span.
 //!
 //! Every fault is bounded by a budget so the state space is finite; the defaults are the
-//! configuration `check` runs (three founders, one late joiner, one crash and one restart,
-//! reliable heartbeats; `--lost-heartbeats N` adds loss).
+//! configuration `check` runs (three founders, one late joiner, one crash, one restart and two
+//! lost heartbeats).
 
 use crate::types::{Id, Mutation, Rules, Variant, MAX_CONTROLLERS};
 use serde::{Deserialize, Serialize};
@@ -39,7 +39,7 @@ impl Default for Config {
             late_joiners: 1,
             max_crashes: 1,
             max_restarts: 1,
-            max_lost_heartbeats: 0,
+            max_lost_heartbeats: 2,
             dead_after_rounds: 2,
             window_rounds: 2,
             settle_within_rounds: 8,
@@ -58,6 +58,19 @@ impl Config {
             max_crashes: 2,
             max_restarts: 2,
             ..Config::default()
+        }
+    }
+
+    /// A link that stays broken: three controllers, no other fault, enough lost heartbeats
+    /// for a one-way loss to outlast the minority grace (the scope of the minority witness).
+    pub fn link_failure() -> Config {
+        let base = Config::default();
+        Config {
+            late_joiners: 0,
+            max_crashes: 0,
+            max_restarts: 0,
+            max_lost_heartbeats: base.dead_after_rounds + base.minority_grace_rounds(),
+            ..base
         }
     }
 

@@ -76,7 +76,7 @@ struct Scope {
     #[arg(long, default_value_t = 1)]
     restarts: u8,
     /// Heartbeats that may be lost in total over a run (0 = reliable heartbeats).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 2)]
     lost_heartbeats: u8,
     /// Which rules: the corrected default, or the paper's text read literally.
     #[arg(long, value_enum, default_value_t = Variant::Default)]
@@ -197,12 +197,6 @@ fn check(args: CheckArgs) -> Result<ExitCode, String> {
     let discoveries = checker.discoveries();
     let mut failures = Vec::new();
     println!();
-    if config.max_lost_heartbeats < config.dead_after_rounds {
-        println!(
-            "  (loss witnesses need --lost-heartbeats >= {}: a false detection takes that many)",
-            config.dead_after_rounds
-        );
-    }
     for info in catalogue() {
         let found = discoveries.contains_key(info.name);
         let (verdict, ok) = match (&info.expectation, found) {
@@ -218,7 +212,17 @@ fn check(args: CheckArgs) -> Result<ExitCode, String> {
             Expectation::Sometimes => "sometimes",
             Expectation::Eventually => "eventually",
         };
-        println!("  {verdict:>15}  {kind:<9} {}", info.name);
+        print!("  {verdict:>15}  {kind:<9} {}", info.name);
+        if verdict == "not applicable" {
+            let link_failure = Config::link_failure();
+            print!(
+                " (needs {} lost heartbeats: check --controllers 3 --late-joiners 0 --crashes 0 \
+                 --restarts 0 --lost-heartbeats {})",
+                info.losses_needed(&config),
+                link_failure.max_lost_heartbeats
+            );
+        }
+        println!();
         if !ok {
             failures.push(info);
         }
@@ -284,10 +288,15 @@ fn explore(scope: &Scope, addr: &str) -> Result<ExitCode, String> {
 }
 
 fn write_traces(scope: &Scope, out: &std::path::Path, check: bool) -> Result<ExitCode, String> {
-    let config = scope.config()?;
-    let model = RlModel::new(config);
-    eprintln!("exploring {} ...", model.config.summary());
-    let set = traces::generate(&model, |states, edges| {
+    // The configured scope, plus a persistent link failure for the minority voter's path.
+    let models = [
+        RlModel::new(scope.config()?),
+        RlModel::new(Config::link_failure()),
+    ];
+    for model in &models {
+        eprintln!("exploring {} ...", model.config.summary());
+    }
+    let set = traces::generate(&models, |states, edges| {
         eprintln!("  ... {states} states, {edges} edges");
     });
     println!("{}", set.coverage_report());

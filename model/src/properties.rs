@@ -15,15 +15,22 @@ pub struct PropertyInfo {
     pub expectation: Expectation,
     pub meaning: &'static str,
     pub condition: fn(&RlModel, &State) -> bool,
-    /// A witness that needs a false failure detection: only reachable when at least
-    /// `dead_after_rounds` heartbeats may be lost.
-    pub needs_loss: bool,
 }
 
 impl PropertyInfo {
+    /// Lost heartbeats the witness needs: a false detection takes `dead_after_rounds` of
+    /// them; a minority that outlasts the grace takes the grace on top.
+    pub fn losses_needed(&self, config: &crate::Config) -> u8 {
+        match self.name {
+            "re-vote after heartbeat loss" => config.dead_after_rounds,
+            "minority voter FAILED" => config.dead_after_rounds + config.minority_grace_rounds(),
+            _ => 0,
+        }
+    }
+
     /// Whether the configuration can reach this property's witness at all.
     pub fn applies(&self, config: &crate::Config) -> bool {
-        !self.needs_loss || config.max_lost_heartbeats >= config.dead_after_rounds
+        config.max_lost_heartbeats >= self.losses_needed(config)
     }
 }
 
@@ -34,10 +41,6 @@ pub fn catalogue() -> Vec<PropertyInfo> {
         expectation,
         meaning,
         condition,
-        needs_loss: matches!(
-            name,
-            "minority voter FAILED" | "re-vote after heartbeat loss"
-        ),
     };
     vec![
         p("roles unique among agreeing controllers", Always,

@@ -198,8 +198,29 @@ impl TraceSet {
     }
 }
 
-/// Generates the trace set of a model.
-pub fn generate(model: &RlModel, progress: impl FnMut(usize, usize)) -> TraceSet {
+/// Generates the trace set of one or more scopes of the model, numbered in order.
+pub fn generate(models: &[RlModel], mut progress: impl FnMut(usize, usize)) -> TraceSet {
+    let mut set = TraceSet {
+        files: Vec::new(),
+        reachable: BTreeSet::new(),
+        covered: BTreeSet::new(),
+        unique_states: 0,
+    };
+    let mut index = Vec::new();
+    for model in models {
+        generate_scope(model, &mut progress, &mut set, &mut index);
+    }
+    let index_text = serde_json::to_string_pretty(&index).unwrap_or_default() + "\n";
+    set.files.push(("index.json".to_string(), index_text));
+    set
+}
+
+fn generate_scope(
+    model: &RlModel,
+    progress: &mut impl FnMut(usize, usize),
+    set: &mut TraceSet,
+    index: &mut Vec<IndexEntry>,
+) {
     let explored = search::explore(model, usize::MAX, progress);
     let mut chosen: Vec<(String, Path)> = Vec::new();
     let mut seen_actions: BTreeSet<Vec<crate::Action>> = BTreeSet::new();
@@ -229,11 +250,8 @@ pub fn generate(model: &RlModel, progress: impl FnMut(usize, usize)) -> TraceSet
         );
     }
     let hash = model_hash();
-    let mut covered = BTreeSet::new();
-    let mut files = Vec::new();
-    let mut index = Vec::new();
-    for (number, (purpose, path)) in chosen.iter().enumerate() {
-        let name = format!("{:04}.jsonl", number + 1);
+    for (purpose, path) in &chosen {
+        let name = format!("{:04}.jsonl", set.files.len() + 1);
         let mut text = String::new();
         let header = Header {
             format: FORMAT,
@@ -249,7 +267,7 @@ pub fn generate(model: &RlModel, progress: impl FnMut(usize, usize)) -> TraceSet
         let mut covers = BTreeSet::new();
         for (step, (action, after)) in path.steps.iter().enumerate() {
             for class in classes(before, action, after) {
-                covered.insert((class.kind, class.before));
+                set.covered.insert((class.kind, class.before));
                 covers.insert(format!("{}@{:?}", class.kind.name(), class.before).to_lowercase());
             }
             text.push_str(&to_json(&Step {
@@ -266,16 +284,10 @@ pub fn generate(model: &RlModel, progress: impl FnMut(usize, usize)) -> TraceSet
             steps: path.steps.len(),
             covers: covers.into_iter().collect(),
         });
-        files.push((name, text));
+        set.files.push((name, text));
     }
-    let index_text = serde_json::to_string_pretty(&index).unwrap_or_default() + "\n";
-    files.push(("index.json".to_string(), index_text));
-    TraceSet {
-        files,
-        reachable: explored.reachable_coverage_classes().into_iter().collect(),
-        covered,
-        unique_states: explored.unique_states,
-    }
+    set.reachable.extend(explored.reachable_coverage_classes());
+    set.unique_states += explored.unique_states;
 }
 
 fn to_json(value: &impl Serialize) -> String {

@@ -4,8 +4,11 @@ use model::{traces, Config, RlModel};
 
 #[test]
 fn committed_traces_match_the_model() {
-    let model = RlModel::new(Config::default());
-    let set = traces::generate(&model, |_, _| {});
+    let models = [
+        RlModel::new(Config::default()),
+        RlModel::new(Config::link_failure()),
+    ];
+    let set = traces::generate(&models, |_, _| {});
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../traces");
     let differences = traces::compare(&set, &dir).expect("traces directory readable");
     assert!(
@@ -17,14 +20,15 @@ fn committed_traces_match_the_model() {
 
 #[test]
 fn generation_is_deterministic() {
-    let model = RlModel::new(Config {
+    let models = [RlModel::new(Config {
         late_joiners: 0,
         max_crashes: 0,
         max_restarts: 0,
+        max_lost_heartbeats: 0,
         ..Config::default()
-    });
-    let first = traces::generate(&model, |_, _| {});
-    let second = traces::generate(&model, |_, _| {});
+    })];
+    let first = traces::generate(&models, |_, _| {});
+    let second = traces::generate(&models, |_, _| {});
     assert_eq!(first.files, second.files);
 }
 
