@@ -214,13 +214,14 @@ fn check(args: CheckArgs) -> Result<ExitCode, String> {
         };
         print!("  {verdict:>15}  {kind:<9} {}", info.name);
         if verdict == "not applicable" {
-            let link_failure = Config::link_failure();
-            print!(
-                " (needs {} lost heartbeats: check --controllers 3 --late-joiners 0 --crashes 0 \
-                 --restarts 0 --lost-heartbeats {})",
-                info.losses_needed(&config),
-                link_failure.max_lost_heartbeats
-            );
+            print!(" ({})", info.needs(&config));
+            if info.losses_needed(&config) > config.max_lost_heartbeats {
+                print!(
+                    " - see check --controllers 3 --late-joiners 0 --crashes 0 --restarts 0 \
+                     --lost-heartbeats {}",
+                    Config::link_failure().max_lost_heartbeats
+                );
+            }
         }
         println!();
         if !ok {

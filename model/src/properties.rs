@@ -28,9 +28,25 @@ impl PropertyInfo {
         }
     }
 
-    /// Whether the configuration can reach this property's witness at all.
+    /// Whether the configuration has the faults this property's witness needs at all.
     pub fn applies(&self, config: &crate::Config) -> bool {
-        config.max_lost_heartbeats >= self.losses_needed(config)
+        let faults = match self.name {
+            "Primary crash promotes the Secondary" => config.max_crashes >= 1,
+            "restarted controller takes the lowest role" => {
+                config.max_crashes >= 1 && config.max_restarts >= 1
+            }
+            "fourth controller ignored" => config.controller_count() >= 4,
+            _ => true,
+        };
+        faults && config.max_lost_heartbeats >= self.losses_needed(config)
+    }
+
+    /// Why `applies` is false, for the report.
+    pub fn needs(&self, config: &crate::Config) -> String {
+        match self.losses_needed(config) {
+            0 => "needs a crash, a restart or a fourth controller in scope".to_string(),
+            n => format!("needs {n} lost heartbeats"),
+        }
     }
 }
 

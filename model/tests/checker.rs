@@ -75,18 +75,7 @@ fn one_loss_crash_restart_and_late_joiner_hold_with_every_witness() {
 
 #[test]
 fn a_persistent_link_failure_holds_and_fails_the_minority() {
-    let failed = failures(Config::link_failure());
-    // This scope has no crash, restart or joiner, so those witnesses cannot occur in it.
-    let expected = [
-        "Primary crash promotes the Secondary",
-        "fourth controller ignored",
-        "late joiner becomes Tertiary",
-        "restarted controller takes the lowest role",
-    ];
-    assert!(
-        failed.iter().all(|name| expected.contains(name)),
-        "{failed:?}"
-    );
+    assert_eq!(failures(Config::link_failure()), Vec::<&str>::new());
     let model = RlModel::new(Config::link_failure());
     let explored = search::explore(&model, 5_000_000, |_, _| {});
     for name in ["minority voter FAILED", "re-vote after heartbeat loss"] {
