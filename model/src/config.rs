@@ -74,6 +74,32 @@ impl Config {
         }
     }
 
+    /// The paper-variant scopes of docs/findings.md (F2, F3, F4), without network faults.
+    pub fn paper_findings() -> Vec<Config> {
+        let paper = Config {
+            max_lost_heartbeats: 0,
+            variant: Variant::Paper,
+            ..Config::default()
+        };
+        vec![
+            Config {
+                late_joiners: 0,
+                max_crashes: 0,
+                max_restarts: 0,
+                ..paper.clone()
+            },
+            Config {
+                late_joiners: 0,
+                ..paper.clone()
+            },
+            Config {
+                max_crashes: 0,
+                max_restarts: 0,
+                ..paper
+            },
+        ]
+    }
+
     pub fn controller_count(&self) -> usize {
         usize::from(self.founders) + usize::from(self.late_joiners)
     }

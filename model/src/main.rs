@@ -289,12 +289,10 @@ fn explore(scope: &Scope, addr: &str) -> Result<ExitCode, String> {
 }
 
 fn write_traces(scope: &Scope, out: &std::path::Path, check: bool) -> Result<ExitCode, String> {
-    // The configured scope, plus a persistent link failure for the minority voter's path.
-    let models = [
-        RlModel::new(scope.config()?),
-        RlModel::new(Config::link_failure()),
-    ];
-    for model in &models {
+    // The configured scope, a persistent link failure for the minority voter's path, and
+    // the paper variant's counterexamples.
+    let models = traces::standard(scope.config()?);
+    for (model, _) in &models {
         eprintln!("exploring {} ...", model.config.summary());
     }
     let set = traces::generate(&models, |states, edges| {

@@ -198,8 +198,38 @@ impl TraceSet {
     }
 }
 
+/// What a scope contributes to the trace set.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub enum Contribution {
+    /// Witnesses, counterexamples, one trace per transition class, and random walks.
+    Everything,
+    /// Only the shortest counterexamples (the paper variant's findings).
+    Counterexamples,
+}
+
+/// The trace set `traces` writes: the default scope, the persistent link failure, and the
+/// counterexamples of the paper variant's findings.
+pub fn standard(scope: Config) -> Vec<(RlModel, Contribution)> {
+    let mut scopes = vec![
+        (RlModel::new(scope), Contribution::Everything),
+        (
+            RlModel::new(Config::link_failure()),
+            Contribution::Everything,
+        ),
+    ];
+    scopes.extend(
+        Config::paper_findings()
+            .into_iter()
+            .map(|config| (RlModel::new(config), Contribution::Counterexamples)),
+    );
+    scopes
+}
+
 /// Generates the trace set of one or more scopes of the model, numbered in order.
-pub fn generate(models: &[RlModel], mut progress: impl FnMut(usize, usize)) -> TraceSet {
+pub fn generate(
+    models: &[(RlModel, Contribution)],
+    mut progress: impl FnMut(usize, usize),
+) -> TraceSet {
     let mut set = TraceSet {
         files: Vec::new(),
         reachable: BTreeSet::new(),
@@ -207,8 +237,8 @@ pub fn generate(models: &[RlModel], mut progress: impl FnMut(usize, usize)) -> T
         unique_states: 0,
     };
     let mut index = Vec::new();
-    for model in models {
-        generate_scope(model, &mut progress, &mut set, &mut index);
+    for (model, contribution) in models {
+        generate_scope(model, *contribution, &mut progress, &mut set, &mut index);
     }
     let index_text = serde_json::to_string_pretty(&index).unwrap_or_default() + "\n";
     set.files.push(("index.json".to_string(), index_text));
@@ -217,6 +247,7 @@ pub fn generate(models: &[RlModel], mut progress: impl FnMut(usize, usize)) -> T
 
 fn generate_scope(
     model: &RlModel,
+    contribution: Contribution,
     progress: &mut impl FnMut(usize, usize),
     set: &mut TraceSet,
     index: &mut Vec<IndexEntry>,
@@ -230,14 +261,25 @@ fn generate_scope(
             chosen.push((purpose, path));
         }
     };
+    let variant = format!("{:?}", model.config.variant).to_lowercase();
     for info in crate::properties::catalogue() {
+        let counterexample = info.expectation == stateright::Expectation::Always;
+        if contribution == Contribution::Counterexamples && !counterexample {
+            continue;
+        }
         if let Some(path) = explored.discovery(info.name) {
-            let what = match info.expectation {
-                stateright::Expectation::Always => "counterexample",
-                _ => "witness",
+            let what = if counterexample {
+                format!("counterexample ({variant} variant)")
+            } else {
+                "witness".to_string()
             };
             add(format!("{what}: {}", info.name), path, &mut chosen);
         }
+    }
+    if contribution == Contribution::Counterexamples {
+        set.unique_states += explored.unique_states;
+        write_chosen(model, &chosen, set, index);
+        return;
     }
     for (class, path) in explored.class_paths() {
         add(class_purpose(&class), path, &mut chosen);
@@ -249,8 +291,19 @@ fn generate_scope(
             &mut chosen,
         );
     }
+    write_chosen(model, &chosen, set, index);
+    set.reachable.extend(explored.reachable_coverage_classes());
+    set.unique_states += explored.unique_states;
+}
+
+fn write_chosen(
+    model: &RlModel,
+    chosen: &[(String, Path)],
+    set: &mut TraceSet,
+    index: &mut Vec<IndexEntry>,
+) {
     let hash = model_hash();
-    for (purpose, path) in &chosen {
+    for (purpose, path) in chosen {
         let name = format!("{:04}.jsonl", set.files.len() + 1);
         let mut text = String::new();
         let header = Header {
@@ -286,8 +339,6 @@ fn generate_scope(
         });
         set.files.push((name, text));
     }
-    set.reachable.extend(explored.reachable_coverage_classes());
-    set.unique_states += explored.unique_states;
 }
 
 fn to_json(value: &impl Serialize) -> String {
