@@ -32,9 +32,26 @@ pub fn init_states(config: &Config) -> Vec<State> {
             lost_links: 0,
             overdue_votes: 0,
             history: History::default(),
-            durable_votes: !config.rules().decide_on_heartbeats,
         })
         .collect()
+}
+
+/// A vote from `from` that `to` has not received yet. Only the paper's rules decide on
+/// durable votes; with the default rules votes travel in heartbeats and the durable copy is
+/// for late readers and tools, so its delivery is not modelled.
+pub fn vote_pending(config: &Config, state: &State, from: Id, to: Id) -> bool {
+    if config.rules().decide_on_heartbeats {
+        return false;
+    }
+    let sender = state.controller(from);
+    let receiver = state.controller(to);
+    if from == to || !sender.is_up() || !receiver.is_up() {
+        return false;
+    }
+    match sender.vote {
+        Some(vote) => receiver.peer(from).vote != Some((sender.incarnation, vote)),
+        None => false,
+    }
 }
 
 /// The actions enabled in a state, in a fixed order.
@@ -47,7 +64,10 @@ pub fn actions(config: &Config, state: &State, out: &mut Vec<Action>) {
         }
     }
     for to in ids.clone() {
-        if ids.clone().any(|from| state.vote_pending(from, to)) {
+        if ids
+            .clone()
+            .any(|from| vote_pending(config, state, from, to))
+        {
             out.push(Action::DeliverVotes { to });
         }
     }
@@ -58,7 +78,7 @@ pub fn actions(config: &Config, state: &State, out: &mut Vec<Action>) {
         .any(|a| matches!(a, Action::ExpireWindow { .. }));
     let vote_overdue = out[urgent_before..].iter().any(|a| match *a {
         Action::DeliverVotes { to } => config.ids().any(|from| {
-            state.overdue_votes & link_bit(from, to) != 0 && state.vote_pending(from, to)
+            state.overdue_votes & link_bit(from, to) != 0 && vote_pending(config, state, from, to)
         }),
         _ => false,
     });
@@ -119,7 +139,7 @@ pub fn next_state(config: &Config, state: &State, action: Action) -> Option<Stat
         Action::DeliverVotes { to } => {
             let senders: Vec<Id> = config
                 .ids()
-                .filter(|from| state.vote_pending(*from, to))
+                .filter(|from| vote_pending(config, state, *from, to))
                 .collect();
             if senders.is_empty() {
                 return None;
@@ -213,7 +233,7 @@ fn tick(config: &Config, before: &State, next: &mut State) {
     // Votes still undelivered now become overdue: they must arrive within the next round.
     for &from in &ids {
         for &to in &ids {
-            if before.vote_pending(from, to) {
+            if vote_pending(config, before, from, to) {
                 next.overdue_votes |= link_bit(from, to);
             }
         }

@@ -251,8 +251,6 @@ pub struct State {
     /// it must arrive before the round ends (the timing assumption).
     pub overdue_votes: u16,
     pub history: History,
-    /// Decisions read durable votes (the paper's rules), so their delivery is modelled.
-    pub durable_votes: bool,
 }
 
 pub fn link_bit(from: Id, to: Id) -> u16 {
@@ -270,24 +268,6 @@ impl State {
 
     pub fn up(&self) -> impl Iterator<Item = &Controller> {
         self.controllers.iter().filter(|c| c.is_up())
-    }
-
-    /// A vote from `from` that `to` has not received yet. Only the paper's rules decide on
-    /// durable votes; with the default rules votes travel in heartbeats, and the durable copy
-    /// is for late readers and tools, so its delivery is not modelled (`durable_votes`).
-    pub fn vote_pending(&self, from: Id, to: Id) -> bool {
-        if !self.durable_votes {
-            return false;
-        }
-        let sender = self.controller(from);
-        let receiver = self.controller(to);
-        if from == to || !sender.is_up() || !receiver.is_up() {
-            return false;
-        }
-        match sender.vote {
-            Some(vote) => receiver.peer(from).vote != Some((sender.incarnation, vote)),
-            None => false,
-        }
     }
 
     /// The controller the actuator accepts commands from: DDS exclusive ownership picks the

@@ -133,7 +133,12 @@ fn a_crashed_controllers_vote_disappears() {
     let state = settle(start(3), 3);
     let state = step(&state, Action::Crash { controller: 3 });
     assert_eq!(state.controller(3).vote, None);
-    assert!(!state.vote_pending(3, 1));
+    assert!(!model::protocol::vote_pending(
+        &Config::default(),
+        &state,
+        3,
+        1
+    ));
 }
 
 #[test]
