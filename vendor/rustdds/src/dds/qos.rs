@@ -684,8 +684,9 @@ impl QosPolicies {
         Some(policy::Ownership::Exclusive { strength })
       }
       (Some(OwnershipKind::Exclusive), None) => {
-        warn!("QosPolicies deserializer: Received OwnershipKind::Exclusive but no strength value.");
-        None
+        // Ownership strength is a writer-only policy: readers (Connext, Cyclone) announce
+        // EXCLUSIVE without it. Treat it as strength 0 so the reader still matches.
+        Some(policy::Ownership::Exclusive { strength: 0 })
       }
       (None, Some(_strength)) => {
         warn!(
