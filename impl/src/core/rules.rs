@@ -1,0 +1,372 @@
+//! The protocol's rules, applied to one controller's state at its round boundary.
+//!
+//! Each function is the implementation of the model's rule of the same name
+//! (`model/src/protocol.rs`, default variant); docs/protocol.md states them in prose. Decisions
+//! read only what this round's heartbeats carried (finding F5): nothing is decided as
+//! messages arrive.
+
+use super::state::{ControllerState, Peer};
+use super::types::{AlarmReason, Assignment, ControllerId, Heartbeat, Holder, Phase, Role};
+use super::ROLE_COUNT;
+
+/// Round-based lengths the rules use, derived from the configured timing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Rounds {
+    /// A peer silent for this many rounds is lost (the dead-man deadline / period).
+    pub dead_after: u32,
+    /// The initialization window closes after this many rounds without a new peer.
+    pub window: u32,
+    /// A minority voter is marked FAILED after dissenting this many rounds (dead_after + 1).
+    pub minority_grace: u32,
+}
+
+/// The end of a round: every heartbeat heard this round (the latest per peer) is taken in,
+/// silent peers are counted down, then the controller decides.
+pub fn end_round(rounds: &Rounds, c: &mut ControllerState, heard: &[Heartbeat]) {
+    let mut membership_changed = false;
+    let mut new_peer = false;
+    let mut ids: Vec<ControllerId> = c.peers.keys().copied().collect();
+    ids.extend(heard.iter().map(|h| h.from));
+    ids.sort_unstable();
+    ids.dedup();
+    for peer_id in ids {
+        if peer_id == c.id {
+            continue;
+        }
+        match heard.iter().rev().find(|h| h.from == peer_id) {
+            Some(heartbeat) => {
+                let outcome = receive_heartbeat(c, heartbeat);
+                membership_changed |= outcome.membership_changed;
+                new_peer |= outcome.new_peer;
+            }
+            None => {
+                if c.peers.get(&peer_id).is_some_and(|p| p.alive.is_some()) {
+                    membership_changed |= miss_heartbeat(rounds, c, peer_id);
+                }
+            }
+        }
+    }
+    match c.phase {
+        Phase::Initializing => {
+            c.late_joiner = c.peers.values().any(Peer::incumbent);
+            if !new_peer {
+                c.window_quiet_rounds = (c.window_quiet_rounds + 1).min(rounds.window);
+            }
+            if c.members_heard() >= ROLE_COUNT && ready_to_vote(c) {
+                close_window(c);
+            }
+        }
+        Phase::Voting | Phase::Steady => {
+            // Re-vote whenever what it knows gives another vote: a peer lost or new, or
+            // another incumbent's result, which comes with the heartbeats.
+            let knowledge_changed = Some(compute_vote(c)) != c.vote;
+            if membership_changed || knowledge_changed {
+                revote(c);
+            }
+        }
+        Phase::Failed => {}
+    }
+    try_agree(c);
+    judge_minority(rounds, c);
+    if c.role == Some(Role::Primary) && c.is_active() {
+        c.output = Some(Role::Primary.strength());
+        hold_primary_strength(c);
+    }
+}
+
+/// No heartbeat from a live peer this round; after `dead_after` silent rounds it is lost and
+/// an alarm is raised. Returns whether the membership changed.
+fn miss_heartbeat(rounds: &Rounds, c: &mut ControllerState, peer_id: ControllerId) -> bool {
+    let Some(peer) = c.peers.get_mut(&peer_id) else {
+        return false;
+    };
+    peer.silent_rounds = (peer.silent_rounds + 1).min(rounds.dead_after);
+    if peer.silent_rounds < rounds.dead_after {
+        return false;
+    }
+    let was_member = !peer.failed;
+    let alarm = peer.alarm.or(Some(AlarmReason::Lost));
+    *peer = Peer {
+        alarm,
+        ..Peer::default()
+    };
+    was_member
+}
+
+struct HeartbeatOutcome {
+    membership_changed: bool,
+    new_peer: bool,
+}
+
+/// Takes in a peer's heartbeat. A new incarnation retires the old one at once: its FAILED
+/// mark and slot belonged to a process that no longer exists (finding F3).
+fn receive_heartbeat(c: &mut ControllerState, heartbeat: &Heartbeat) -> HeartbeatOutcome {
+    let peer = c.peers.entry(heartbeat.from).or_default();
+    let mut outcome = HeartbeatOutcome {
+        membership_changed: false,
+        new_peer: false,
+    };
+    if peer.alive == Some(heartbeat.incarnation) {
+        peer.silent_rounds = 0;
+    } else {
+        peer.failed = false;
+        peer.dissent_rounds = 0;
+        peer.alive = Some(heartbeat.incarnation);
+        peer.silent_rounds = 0;
+        // The majority clears the alarm of a controller that came back.
+        peer.alarm = None;
+        outcome.new_peer = true;
+        outcome.membership_changed = true;
+    }
+    if peer.heard_vote != heartbeat.vote {
+        // A dissent counts only while the votes it is judged on stay the same.
+        peer.dissent_rounds = 0;
+    }
+    peer.heard_agreed = heartbeat.agreed;
+    peer.heard_vote = heartbeat.vote;
+    peer.claims_primary = heartbeat.strength == Some(Role::Primary.strength());
+    if heartbeat.phase == Phase::Failed && !peer.failed {
+        // It announced its own failure: every voter excludes it.
+        peer.failed = true;
+        peer.alarm = Some(AlarmReason::Failed);
+        outcome.membership_changed = true;
+    }
+    outcome
+}
+
+/// A late joiner votes only once it has heard the running system's result.
+fn ready_to_vote(c: &ControllerState) -> bool {
+    !c.late_joiner || c.peers.values().any(Peer::incumbent)
+}
+
+/// The initialization window may time out now (checked right after a round ends).
+pub fn window_can_expire(rounds: &Rounds, c: &ControllerState) -> bool {
+    c.phase == Phase::Initializing && c.window_quiet_rounds >= rounds.window && ready_to_vote(c)
+}
+
+/// The initialization window closes: cast the first vote (paper, "Voting Algorithm").
+pub fn close_window(c: &mut ControllerState) {
+    c.phase = Phase::Voting;
+    revote(c);
+}
+
+/// Computes and publishes its vote. Decided at the round boundary; only a controller alone
+/// agrees at once.
+fn revote(c: &mut ControllerState) {
+    if c.phase == Phase::Failed {
+        return;
+    }
+    let vote = compute_vote(c);
+    c.phase = Phase::Voting;
+    if c.vote != Some(vote) {
+        c.vote = Some(vote);
+        c.self_dissent_rounds = 0;
+    }
+    if electorate(c).size == 1 {
+        try_agree(c);
+    }
+}
+
+/// The voting algorithm: who should hold which role, as this controller sees it.
+///
+/// A function of what it knows, never of its own earlier votes (finding F6): every live
+/// member is ranked by the best role any known agreed result gives that very incarnation (its
+/// own and every incumbent's, from heartbeats), then by lowest id; three at most. Live holders
+/// keep their roles (no oscillation), a lost holder's juniors move up, newcomers come in
+/// below, and the results of a healed partition merge with the lower id first.
+pub fn compute_vote(c: &ControllerState) -> Assignment {
+    let mut known: Vec<Assignment> = c.agreed.into_iter().collect();
+    known.extend(
+        c.peers
+            .values()
+            .filter(|p| p.incumbent())
+            .filter_map(|p| p.heard_agreed),
+    );
+    let rank = |member: &Holder| -> usize {
+        known
+            .iter()
+            .filter_map(|result| result.role_of_holder(*member))
+            .map(Role::rank)
+            .min()
+            .unwrap_or(ROLE_COUNT)
+    };
+    let mut ranked = c.members();
+    ranked.sort_by_key(|member| (rank(member), member.id));
+    Assignment::from_ranked(ranked)
+}
+
+/// Who decides: while a running system exists only its incumbents' votes count, so a
+/// newcomer never completes a quorum (finding F4); otherwise everyone's.
+pub struct Electorate {
+    pub votes: Vec<(ControllerId, Assignment)>,
+    /// How many controllers the quorum is a majority of.
+    pub size: usize,
+    /// Whether this controller's own vote counts.
+    pub counts_self: bool,
+}
+
+pub fn electorate(c: &ControllerState) -> Electorate {
+    let running_system = c.agreed.is_some() || c.peers.values().any(Peer::incumbent);
+    let counts_self = !running_system || c.agreed.is_some();
+    let mut votes = Vec::new();
+    let mut size = usize::from(counts_self);
+    if counts_self {
+        if let Some(own) = c.vote {
+            votes.push((c.id, own));
+        }
+    }
+    for (&id, peer) in &c.peers {
+        if id == c.id || peer.failed || peer.alive.is_none() {
+            continue;
+        }
+        if running_system && !peer.incumbent() {
+            continue;
+        }
+        size += 1;
+        if let Some(vote) = peer.heard_vote {
+            votes.push((id, vote));
+        }
+    }
+    Electorate {
+        votes,
+        size,
+        counts_self,
+    }
+}
+
+/// Takes the voted result once a majority of the electorate cast the same vote (paper:
+/// "using its own vote and achieving two votes in agreement for a role").
+fn try_agree(c: &mut ControllerState) {
+    if c.phase != Phase::Voting {
+        return;
+    }
+    let Some(own) = c.vote else {
+        return;
+    };
+    let electorate = electorate(c);
+    let agreeing = electorate.votes.iter().filter(|(_, v)| *v == own).count();
+    if electorate.size > 0 && agreeing > electorate.size / 2 {
+        adopt(c, own);
+    }
+}
+
+fn adopt(c: &mut ControllerState, agreed: Assignment) {
+    let role = agreed.role_of_holder(c.holder());
+    c.agreed = Some(agreed);
+    c.phase = Phase::Steady;
+    c.role = role;
+    // No command output before a Primary exists and the controller holds a role.
+    c.output = match (role, agreed.holder(Role::Primary)) {
+        (Some(role), Some(_)) => Some(role.strength()),
+        _ => None,
+    };
+    hold_primary_strength(c);
+}
+
+/// A new Primary keeps its previous strength while another live controller still claims
+/// Primary in its heartbeats (finding F8): two writers at Primary strength would let DDS, not
+/// the vote, pick the commander.
+fn hold_primary_strength(c: &mut ControllerState) {
+    if c.role != Some(Role::Primary) {
+        return;
+    }
+    let contested = c
+        .peers
+        .values()
+        .any(|p| p.alive.is_some() && p.claims_primary);
+    if contested {
+        c.output = c
+            .output
+            .filter(|strength| *strength < Role::Primary.strength())
+            .or(Some(Role::Secondary.strength()));
+    }
+}
+
+/// Marks minority voters FAILED; a controller that is itself the minority fails itself (paper:
+/// "Any unit that does not agree with the two votes of the other controllers will take itself
+/// offline").
+fn judge_minority(rounds: &Rounds, c: &mut ControllerState) {
+    if !matches!(c.phase, Phase::Voting | Phase::Steady) {
+        return;
+    }
+    let grace = rounds.minority_grace;
+    let Electorate {
+        votes, counts_self, ..
+    } = electorate(c);
+    // Judging itself it counts every live peer's vote, FAILED marks notwithstanding
+    // (finding F7).
+    let own_outvoted = counts_self && c.vote.is_some_and(|own| outvoted(c, own));
+    if judge_self(c, own_outvoted, grace) {
+        return;
+    }
+    let mut majority: Option<(Assignment, usize)> = None;
+    for (_, vote) in &votes {
+        let count = votes.iter().filter(|(_, v)| v == vote).count();
+        if majority.is_none_or(|(_, best)| count > best) {
+            majority = Some((*vote, count));
+        }
+    }
+    let winner = majority
+        .filter(|(_, count)| *count >= 2 && count * 2 > votes.len())
+        .map(|(vote, _)| vote);
+    let mut marked = false;
+    for (voter, vote) in &votes {
+        if *voter == c.id {
+            continue;
+        }
+        let Some(peer) = c.peers.get_mut(voter) else {
+            continue;
+        };
+        if winner.is_none_or(|winner| *vote == winner) {
+            peer.dissent_rounds = 0;
+            continue;
+        }
+        peer.dissent_rounds = peer.dissent_rounds.saturating_add(1);
+        if peer.dissent_rounds > grace {
+            peer.failed = true;
+            peer.alarm = Some(AlarmReason::Failed);
+            marked = true;
+        }
+    }
+    if marked {
+        revote(c);
+    }
+}
+
+/// Two or more other live voters agree on a result other than `own`, and they are a majority
+/// of the others.
+fn outvoted(c: &ControllerState, own: Assignment) -> bool {
+    let others: Vec<Assignment> = c
+        .live_peers()
+        .filter(|(id, _)| *id != c.id)
+        // Newcomers' votes never count (see `electorate`).
+        .filter_map(|(_, peer)| peer.heard_agreed.and(peer.heard_vote))
+        .collect();
+    others.iter().any(|vote| {
+        let count = others.iter().filter(|v| *v == vote).count();
+        *vote != own && count >= 2 && count * 2 > others.len()
+    })
+}
+
+/// Counts the rounds this controller has been outvoted; past the grace it fails itself.
+fn judge_self(c: &mut ControllerState, outvoted: bool, grace: u32) -> bool {
+    if !outvoted {
+        c.self_dissent_rounds = 0;
+        return false;
+    }
+    c.self_dissent_rounds = c.self_dissent_rounds.saturating_add(1);
+    if c.self_dissent_rounds > grace {
+        fail_self(c);
+        return true;
+    }
+    false
+}
+
+/// Stops commanding and voting until restarted.
+pub fn fail_self(c: &mut ControllerState) {
+    c.phase = Phase::Failed;
+    c.role = None;
+    c.output = None;
+    c.vote = None;
+    c.agreed = None;
+}

@@ -1,0 +1,114 @@
+//! What one controller knows: its own phase, role, vote and agreed result, and one entry per
+//! peer (the paper's RedundancyInfo). Field for field the model's `Controller` and `Peer`
+//! (`model/src/state.rs`), so the conformance abstraction is a plain mapping.
+
+use super::types::{AlarmReason, Assignment, ControllerId, Holder, Incarnation, Phase, Role};
+use std::collections::BTreeMap;
+
+/// What a controller knows of one peer.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Peer {
+    /// `Some(incarnation)` while the peer is believed alive.
+    pub alive: Option<Incarnation>,
+    /// Rounds since its last heartbeat (the paper's dead-man count, inverted).
+    pub silent_rounds: u32,
+    /// Marked FAILED: it cast a minority vote past the grace, or announced its own failure.
+    pub failed: bool,
+    /// Consecutive rounds its vote has disagreed with a majority.
+    pub dissent_rounds: u32,
+    /// A controller-failed alarm is raised for it and not yet cleared.
+    pub alarm: Option<AlarmReason>,
+    /// The agreed result its last heartbeat carried (`Some` = it is an incumbent of a
+    /// running system).
+    pub heard_agreed: Option<Assignment>,
+    /// The vote its last heartbeat carried.
+    pub heard_vote: Option<Assignment>,
+    /// Its last heartbeat said it commands at Primary strength.
+    pub claims_primary: bool,
+}
+
+impl Peer {
+    /// Alive, not FAILED, and holding an agreed result.
+    pub fn incumbent(&self) -> bool {
+        self.alive.is_some() && !self.failed && self.heard_agreed.is_some()
+    }
+}
+
+/// One controller's protocol state.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ControllerState {
+    pub id: ControllerId,
+    pub incarnation: Incarnation,
+    pub phase: Phase,
+    pub role: Option<Role>,
+    /// The ownership strength it commands with; `None` = silent.
+    pub output: Option<u8>,
+    /// It heard an incumbent before voting: it joins a running system.
+    pub late_joiner: bool,
+    /// Rounds since the last new peer was heard, while initializing.
+    pub window_quiet_rounds: u32,
+    /// The last result that reached agreement.
+    pub agreed: Option<Assignment>,
+    /// Its own published vote.
+    pub vote: Option<Assignment>,
+    /// Consecutive rounds in which two peers agreed on a result other than its vote.
+    pub self_dissent_rounds: u32,
+    /// Every peer ever heard, by id.
+    pub peers: BTreeMap<ControllerId, Peer>,
+}
+
+impl ControllerState {
+    pub fn new(id: ControllerId, incarnation: Incarnation) -> ControllerState {
+        ControllerState {
+            id,
+            incarnation,
+            phase: Phase::Initializing,
+            role: None,
+            output: None,
+            late_joiner: false,
+            window_quiet_rounds: 0,
+            agreed: None,
+            vote: None,
+            self_dissent_rounds: 0,
+            peers: BTreeMap::new(),
+        }
+    }
+
+    /// Not FAILED: it takes part in voting.
+    pub fn is_active(&self) -> bool {
+        self.phase != Phase::Failed
+    }
+
+    pub fn holder(&self) -> Holder {
+        Holder {
+            id: self.id,
+            incarnation: self.incarnation,
+        }
+    }
+
+    /// Its membership view: itself and every peer believed alive and not FAILED, by id.
+    pub fn members(&self) -> Vec<Holder> {
+        let mut members: Vec<Holder> = self
+            .peers
+            .iter()
+            .filter(|(_, peer)| !peer.failed)
+            .filter_map(|(&id, peer)| peer.alive.map(|incarnation| Holder { id, incarnation }))
+            .collect();
+        members.push(self.holder());
+        members.sort();
+        members
+    }
+
+    /// Distinct controllers heard (itself included), FAILED ones too: the window counts heads.
+    pub fn members_heard(&self) -> usize {
+        1 + self.peers.values().filter(|p| p.alive.is_some()).count()
+    }
+
+    /// Peers believed alive.
+    pub fn live_peers(&self) -> impl Iterator<Item = (ControllerId, &Peer)> {
+        self.peers
+            .iter()
+            .filter(|(_, p)| p.alive.is_some())
+            .map(|(&id, p)| (id, p))
+    }
+}
