@@ -20,6 +20,8 @@
 //! The adapter's loop: `while core.next_deadline_ms() <= now { core.step(Input::Timer, now) }`,
 //! and `core.step(Input::Heartbeat(..), now)` for every heartbeat received.
 
+#[cfg(feature = "mutation")]
+pub mod mutation;
 pub mod rules;
 pub mod state;
 pub mod types;
@@ -81,6 +83,8 @@ pub enum Command {
     },
     /// The protocol state changed (phase, role, agreed result or vote): show it.
     Status(Status),
+    /// The status LEDs to show (paper, "LED Operation").
+    Leds(crate::leds::LedPattern),
     /// A line for the console (paper, "LED Operation": relative number and the Primary).
     Console(String),
 }
@@ -116,6 +120,8 @@ pub struct Core {
     heartbeat_due_ms: u64,
     /// The window times out at this instant (right after the round end that made it due).
     window_due_ms: Option<u64>,
+    /// The LEDs last shown.
+    leds: crate::leds::LedPattern,
     /// Heartbeats that named this controller's id with another incarnation (misconfiguration).
     pub duplicate_id_heartbeats: u64,
 }
@@ -132,6 +138,7 @@ impl Core {
             round_end_ms: next_boundary(now_ms, period),
             heartbeat_due_ms: now_ms,
             window_due_ms: None,
+            leds: crate::leds::LedPattern::ALL_OFF,
             duplicate_id_heartbeats: 0,
         }
     }
@@ -232,6 +239,23 @@ impl Core {
         commands
     }
 
+    /// The LEDs for the current state: own role green, a failed unit's role red, own health.
+    fn leds_now(&self) -> crate::leds::LedPattern {
+        let c = &self.state;
+        let alarmed: Vec<ControllerId> = c
+            .peers
+            .iter()
+            .filter(|(_, p)| p.alarm.is_some())
+            .map(|(&id, _)| id)
+            .collect();
+        crate::leds::pattern(&crate::leds::LedInputs {
+            phase: c.phase,
+            own_role: c.role,
+            failed_roles: crate::leds::failed_roles(c.agreed.as_ref(), &alarmed),
+            own_fault: false,
+        })
+    }
+
     /// Runs the earliest due timer: the round end, then the window expiry, then the heartbeat.
     fn fire_timer(&mut self, now_ms: u64, commands: &mut Vec<Command>) {
         let period = self.config.heartbeat_period_ms.max(1);
@@ -260,7 +284,7 @@ impl Core {
     }
 
     /// The commands that follow from a state change.
-    fn changes(&self, before: &ControllerState, commands: &mut Vec<Command>) {
+    fn changes(&mut self, before: &ControllerState, commands: &mut Vec<Command>) {
         let after = &self.state;
         if before.vote != after.vote {
             commands.push(Command::PublishVote(VoteRecord {
@@ -289,6 +313,11 @@ impl Core {
                 (Some(_), None) => commands.push(Command::ClearAlarm { about: id }),
                 _ => {}
             }
+        }
+        let leds = self.leds_now();
+        if leds != self.leds {
+            self.leds = leds;
+            commands.push(Command::Leds(leds));
         }
         let shown = |c: &ControllerState| (c.phase, c.role, c.output, c.agreed, c.vote);
         if shown(before) != shown(after) || before.members() != after.members() {

@@ -82,6 +82,8 @@ fn miss_heartbeat(rounds: &Rounds, c: &mut ControllerState, peer_id: ControllerI
     };
     peer.silent_rounds = (peer.silent_rounds + 1).min(rounds.dead_after);
     if peer.silent_rounds < rounds.dead_after {
+        #[cfg(feature = "mutation")]
+        super::mutation::promote_without_failure(c, peer_id);
         return false;
     }
     let was_member = !peer.failed;
@@ -183,6 +185,10 @@ pub fn compute_vote(c: &ControllerState) -> Assignment {
             .filter_map(|p| p.heard_agreed),
     );
     let rank = |member: &Holder| -> usize {
+        #[cfg(feature = "mutation")]
+        if super::mutation::rank_by_id_only() {
+            return ROLE_COUNT;
+        }
         known
             .iter()
             .filter_map(|result| result.role_of_holder(*member))
@@ -192,6 +198,8 @@ pub fn compute_vote(c: &ControllerState) -> Assignment {
     };
     let mut ranked = c.members();
     ranked.sort_by_key(|member| (rank(member), member.id));
+    #[cfg(feature = "mutation")]
+    super::mutation::admit_fourth_vote(c, &mut ranked);
     Assignment::from_ranked(ranked)
 }
 
@@ -252,6 +260,8 @@ fn try_agree(c: &mut ControllerState) {
 
 fn adopt(c: &mut ControllerState, agreed: Assignment) {
     let role = agreed.role_of_holder(c.holder());
+    #[cfg(feature = "mutation")]
+    let role = super::mutation::admit_fourth_role(role);
     c.agreed = Some(agreed);
     c.phase = Phase::Steady;
     c.role = role;
@@ -290,6 +300,8 @@ fn judge_minority(rounds: &Rounds, c: &mut ControllerState) {
         return;
     }
     let grace = rounds.minority_grace;
+    #[cfg(feature = "mutation")]
+    let grace = super::mutation::minority_grace(grace);
     let Electorate {
         votes, counts_self, ..
     } = electorate(c);

@@ -73,7 +73,7 @@ fn advance(core: &mut Core, now_ms: u64) -> Vec<Command> {
 fn actions(commands: Vec<Command>) -> Vec<Command> {
     commands
         .into_iter()
-        .filter(|c| !matches!(c, Command::Console(_) | Command::Status(_)))
+        .filter(|c| !matches!(c, Command::Console(_) | Command::Status(_) | Command::Leds(_)))
         .collect()
 }
 

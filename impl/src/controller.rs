@@ -1,0 +1,145 @@
+//! `rl controller`: one voting controller running the tracker application (the paper's
+//! Pixytracker): it reads the camera's `Circle` samples of the configured colour, computes
+//! pan/tilt with the original PD law, and writes `pixy/servo_control` through the RL API,
+//! which lets the commands out only while the controller holds a role, at its role's strength.
+
+use crate::api::{Options, Redundancy};
+use crate::config::Config;
+use crate::core::types::ControllerId;
+use crate::tracker::PanTiltController;
+use crate::wire::ServoControl;
+use rustdds::mio::{Events, Poll, PollOpt, Ready, Token};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+use tracing::warn;
+
+/// Arguments of `rl controller`.
+#[derive(clap::Args, Debug)]
+pub struct ControllerArgs {
+    /// This controller's id (1, 2, 3; a fourth is ignored by the vote). Roles at start go by
+    /// lowest id.
+    #[arg(long, value_parser = clap::value_parser!(u8).range(1..=250))]
+    pub id: ControllerId,
+    /// Configuration file (TOML; every field optional, see rl.toml.example).
+    #[arg(long, value_name = "PATH")]
+    pub config: Option<PathBuf>,
+    /// DDS domain id (overrides the configuration; default 53).
+    #[arg(long, value_name = "D")]
+    pub domain: Option<u16>,
+    /// Print one JSON event per line on stdout (status, output, vote, alarm) instead of
+    /// console lines: the record tools and the conformance suite read.
+    #[arg(long)]
+    pub json_events: bool,
+    /// Exit after this many milliseconds (tests and benchmarks).
+    #[arg(long, value_name = "MS")]
+    pub duration_ms: Option<u64>,
+}
+
+/// Loads the configuration named on the command line (defaults without one) and applies a
+/// `--domain` override, validating the result.
+pub fn load_config(path: Option<&Path>, domain: Option<u16>) -> Result<Config, crate::Error> {
+    let mut config = match path {
+        Some(path) => Config::load(path)?,
+        None => Config::default(),
+    };
+    if let Some(domain) = domain {
+        config.dds.domain = domain;
+        config.validate().map_err(|invalid| {
+            crate::Error::Usage(format!("--domain {domain}: {}", invalid.rule))
+        })?;
+    }
+    Ok(config)
+}
+
+/// SIGINT and SIGTERM set the returned flag.
+pub fn stop_on_signals() -> Result<Arc<AtomicBool>, crate::Error> {
+    let stop = Arc::new(AtomicBool::new(false));
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        signal_hook::flag::register(signal, Arc::clone(&stop))
+            .map_err(|e| crate::Error::io("installing a signal handler", e))?;
+    }
+    Ok(stop)
+}
+
+const CAMERA: Token = Token(0);
+
+/// Runs `rl controller`.
+pub fn run(args: ControllerArgs) -> Result<(), crate::Error> {
+    let config = load_config(args.config.as_deref(), args.domain)?;
+    let stop = stop_on_signals()?;
+    let rl = Redundancy::start(
+        &config,
+        args.id,
+        Options {
+            json_events: args.json_events,
+            console_leds: true,
+        },
+    )?;
+    let result = track(&rl, &config, &stop, args.duration_ms);
+    let stopped = rl.stop();
+    result.and(stopped)
+}
+
+/// The tracker application: camera in, commands out through the RL API.
+fn track(
+    rl: &Redundancy,
+    config: &Config,
+    stop: &AtomicBool,
+    duration_ms: Option<u64>,
+) -> Result<(), crate::Error> {
+    let dds = |e: crate::dds::DdsError| crate::Error::Dds(e.to_string());
+    let mut camera = rl.session().camera_reader().map_err(dds)?;
+    let mut commands = rl.command_writer()?;
+    let poll = Poll::new().map_err(|e| crate::Error::io("creating the event poll", e))?;
+    poll.register(&camera, CAMERA, Ready::readable(), PollOpt::edge())
+        .map_err(|e| crate::Error::io("registering the camera reader", e))?;
+    let mut events = Events::with_capacity(8);
+    let mut pan_tilt = PanTiltController::new(config.tracker.servo_frequency_hz);
+    let republish = Duration::from_millis(config.timing.command_republish_ms);
+    let started = Instant::now();
+    // The gimbal starts centred; the command is held (re-published before the deadline) so
+    // the actuator never falls to a weaker writer while this one lives.
+    let mut last_written = started - republish;
+    let mut write_errors = 0u64;
+    loop {
+        if stop.load(Ordering::SeqCst) || rl.is_finished() {
+            return Ok(());
+        }
+        if duration_ms.is_some_and(|limit| started.elapsed() >= Duration::from_millis(limit)) {
+            return Ok(());
+        }
+        let mut fresh = None;
+        for shape in camera.take() {
+            if shape.value.color == config.tracker.color {
+                fresh = Some(pan_tilt.update(shape.value.x, shape.value.y));
+            }
+        }
+        let due = last_written.elapsed() >= republish;
+        if fresh.is_some() || due {
+            let command = fresh.unwrap_or_else(|| pan_tilt.command());
+            let sample = ServoControl {
+                pan: command.pan,
+                tilt: command.tilt,
+                frequency: command.frequency,
+            };
+            match commands.write(sample) {
+                Ok(_) => {}
+                Err(error) => {
+                    write_errors += 1;
+                    if write_errors.is_power_of_two() {
+                        warn!(write_errors, "command not written: {error}");
+                    }
+                }
+            }
+            last_written = Instant::now();
+        }
+        let wait = republish.saturating_sub(last_written.elapsed());
+        match poll.poll(&mut events, Some(wait.min(Duration::from_millis(50)))) {
+            Ok(_) => {}
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(crate::Error::io("waiting for camera samples", e)),
+        }
+    }
+}

@@ -1,0 +1,42 @@
+//! The crate's top-level error: what a command reports before it exits, and with which code.
+
+/// A failure of an `rl` command.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// The configuration file is unreadable or invalid (names the field).
+    #[error(transparent)]
+    Config(#[from] crate::config::ConfigError),
+    /// A bad command-line value (names the flag).
+    #[error("{0}")]
+    Usage(String),
+    /// DDS could not be set up or used.
+    #[error("DDS: {0}")]
+    Dds(String),
+    /// An operating-system operation failed.
+    #[error("{context}: {source}")]
+    Io {
+        context: String,
+        #[source]
+        source: std::io::Error,
+    },
+    /// Anything else that ends a command.
+    #[error("{0}")]
+    Runtime(String),
+}
+
+impl Error {
+    /// 2 for bad input (configuration, flags), 1 for everything else.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            Error::Config(_) | Error::Usage(_) => 2,
+            _ => 1,
+        }
+    }
+
+    pub fn io(context: impl Into<String>, source: std::io::Error) -> Error {
+        Error::Io {
+            context: context.into(),
+            source,
+        }
+    }
+}

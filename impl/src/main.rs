@@ -1,0 +1,88 @@
+//! The `rl` command: controllers, simulators, status, demo and benchmarks.
+//!
+//! Exit codes: 0 success, 1 runtime failure, 2 bad arguments or configuration (the message
+//! names the field).
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// RL, a model-checked Redundancy Layer for three-way voting controllers over DDS.
+///
+/// Three `rl controller`s (ids 1, 2, 3) heartbeat each other at 4 Hz, vote roles
+/// Primary/Secondary/Tertiary (lowest id first) and command the actuator
+/// (`pixy/servo_control`) with DDS exclusive ownership at strength 30/20/10 by role. When the
+/// Primary dies the actuator follows the Secondary within the command deadline (100 ms), and
+/// the survivors re-vote.
+///
+/// Try it on one machine:  rl demo
+#[derive(Parser)]
+#[command(name = "rl", version, propagate_version = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run one voting controller with the tracker application.
+    ///
+    /// Example: rl controller --id 1 --config /etc/rl/rl.toml
+    Controller(rl::controller::ControllerArgs),
+    /// Camera simulator: publishes a YELLOW circle moving on a path, plus other colours.
+    Shapes(rl::sim::shapes::ShapesArgs),
+    /// Actuator simulator: an exclusive-ownership reader of the command topic.
+    ///
+    /// With --json it prints one JSON object per line (a stable interface, see
+    /// docs/architecture.md): {"event":"command",...} per accepted command and
+    /// {"event":"owner_changed",...} per ownership change.
+    Servo(rl::sim::servo::ServoArgs),
+    /// Live table of the controllers (phase, role, strength) and alarms, read from DDS.
+    ///
+    /// `rl status --json --once` prints one JSON object and exits.
+    Status(rl::status::StatusArgs),
+    /// Three controllers, camera and servo on this machine; kills and restarts the Primary
+    /// every few seconds so you can watch switchover, promotion and rejoin.
+    Demo(rl::demo::DemoArgs),
+    /// Failover, promotion, formation and resource benchmarks (docs/performance.md).
+    Bench(rl::bench::BenchArgs),
+    /// Check a configuration file and print the effective configuration.
+    CheckConfig {
+        /// The TOML file to check.
+        path: std::path::PathBuf,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(error) => {
+            // clap prints help/version to stdout with success, misuse to stderr with code 2.
+            let _ = error.print();
+            return match error.kind() {
+                clap::error::ErrorKind::DisplayHelp | clap::error::ErrorKind::DisplayVersion => {
+                    ExitCode::SUCCESS
+                }
+                _ => ExitCode::from(2),
+            };
+        }
+    };
+    rl::logging::init();
+    let result = match cli.command {
+        Command::Controller(args) => rl::controller::run(args),
+        Command::Shapes(args) => rl::sim::shapes::run(args).map_err(rl::Error::from),
+        Command::Servo(args) => rl::sim::servo::run(args).map_err(rl::Error::from),
+        Command::Status(args) => rl::status::run(args),
+        Command::Demo(args) => rl::demo::run(args),
+        Command::Bench(args) => rl::bench::run(args),
+        Command::CheckConfig { path } => rl::config::Config::load(&path)
+            .map(|config| print!("{}", toml::to_string(&config).unwrap_or_default()))
+            .map_err(rl::Error::from),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(error) => {
+            eprintln!("rl: {error}");
+            ExitCode::from(error.exit_code())
+        }
+    }
+}

@@ -1,0 +1,297 @@
+//! Child processes for the demo, the benchmarks and the tests: controllers started and killed
+//! for real (`kill -9`, SIGSTOP/SIGCONT), and the servo simulator's JSON event stream.
+
+use crate::core::types::ControllerId;
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc::{self, Receiver};
+use std::time::Instant;
+
+/// One line of `rl servo --json` (the documented interface).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(tag = "event", rename_all = "snake_case")]
+pub enum ServoEvent {
+    Command {
+        t_ms: u64,
+        writer_guid: String,
+        controller_id: Option<ControllerId>,
+        strength: Option<i32>,
+        pan: u16,
+        tilt: u16,
+    },
+    OwnerChanged {
+        t_ms: u64,
+        from_controller_id: Option<ControllerId>,
+        to_controller_id: Option<ControllerId>,
+        gap_ms: Option<u64>,
+    },
+}
+
+/// A line a child printed, with the time it was read.
+#[derive(Clone, Debug)]
+pub struct Line {
+    pub at: Instant,
+    pub source: String,
+    pub text: String,
+}
+
+/// Sends every line of a child's stdout (and stderr) to a channel, tagged with `source`.
+fn forward_lines(child: &mut Child, source: &str, to: mpsc::Sender<Line>) {
+    if let Some(stdout) = child.stdout.take() {
+        let to = to.clone();
+        let source = source.to_string();
+        std::thread::spawn(move || {
+            for text in BufReader::new(stdout).lines().map_while(Result::ok) {
+                let line = Line {
+                    at: Instant::now(),
+                    source: source.clone(),
+                    text,
+                };
+                if to.send(line).is_err() {
+                    break;
+                }
+            }
+        });
+    }
+    if let Some(stderr) = child.stderr.take() {
+        let source = format!("{source}!");
+        std::thread::spawn(move || {
+            for text in BufReader::new(stderr).lines().map_while(Result::ok) {
+                let line = Line {
+                    at: Instant::now(),
+                    source: source.clone(),
+                    text,
+                };
+                if to.send(line).is_err() {
+                    break;
+                }
+            }
+        });
+    }
+}
+
+/// Sends a signal to a process.
+pub fn signal(pid: u32, signal: i32) -> std::io::Result<()> {
+    let pid = libc::pid_t::try_from(pid).map_err(std::io::Error::other)?;
+    // SAFETY: kill(2) has no memory effects; a bad pid is reported through errno.
+    if unsafe { libc::kill(pid, signal) } == 0 {
+        Ok(())
+    } else {
+        Err(std::io::Error::last_os_error())
+    }
+}
+
+/// Controllers (and simulators) run as child processes of one `rl` executable.
+pub struct Fleet {
+    exe: PathBuf,
+    config: Option<PathBuf>,
+    domain: u16,
+    extra_env: Vec<(String, String)>,
+    controllers: BTreeMap<ControllerId, Child>,
+    others: Vec<Child>,
+    lines: mpsc::Sender<Line>,
+}
+
+impl Fleet {
+    /// A fleet of `exe` processes on `domain`; every child's output goes to the returned
+    /// channel, one [`Line`] per line.
+    pub fn new(exe: &Path, config: Option<&Path>, domain: u16) -> (Fleet, Receiver<Line>) {
+        let (lines, receiver) = mpsc::channel();
+        (
+            Fleet {
+                exe: exe.to_path_buf(),
+                config: config.map(Path::to_path_buf),
+                domain,
+                extra_env: Vec::new(),
+                controllers: BTreeMap::new(),
+                others: Vec::new(),
+                lines,
+            },
+            receiver,
+        )
+    }
+
+    /// An environment variable every child gets (e.g. `RUST_LOG`).
+    pub fn env(&mut self, key: &str, value: &str) {
+        self.extra_env.push((key.into(), value.into()));
+    }
+
+    fn command(&self, args: &[&str]) -> Command {
+        let mut command = Command::new(&self.exe);
+        command.args(args);
+        if let Some(config) = &self.config {
+            command.arg("--config").arg(config);
+        }
+        command
+            .arg("--domain")
+            .arg(self.domain.to_string())
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped());
+        for (key, value) in &self.extra_env {
+            command.env(key, value);
+        }
+        command
+    }
+
+    /// Starts `rl controller --id <id>`; returns its pid.
+    pub fn start_controller(&mut self, id: ControllerId) -> std::io::Result<u32> {
+        self.start_controller_with(id, &[])
+    }
+
+    /// Starts `rl controller --id <id> <extra>`; returns its pid.
+    pub fn start_controller_with(
+        &mut self,
+        id: ControllerId,
+        extra: &[&str],
+    ) -> std::io::Result<u32> {
+        let id_text = id.to_string();
+        let mut args = vec!["controller", "--id", &id_text];
+        args.extend_from_slice(extra);
+        let mut child = self.command(&args).spawn()?;
+        forward_lines(&mut child, &format!("C{id}"), self.lines.clone());
+        let pid = child.id();
+        self.controllers.insert(id, child);
+        Ok(pid)
+    }
+
+    /// Starts another `rl` subcommand (e.g. `shapes`, `servo --json`) tagged `source`.
+    pub fn start_other(&mut self, source: &str, args: &[&str]) -> std::io::Result<u32> {
+        let mut child = self.command(args).spawn()?;
+        forward_lines(&mut child, source, self.lines.clone());
+        let pid = child.id();
+        self.others.push(child);
+        Ok(pid)
+    }
+
+    pub fn pid(&self, id: ControllerId) -> Option<u32> {
+        self.controllers.get(&id).map(Child::id)
+    }
+
+    pub fn running(&self) -> impl Iterator<Item = ControllerId> + '_ {
+        self.controllers.keys().copied()
+    }
+
+    /// `kill -9` and reap.
+    pub fn kill(&mut self, id: ControllerId) -> std::io::Result<()> {
+        if let Some(mut child) = self.controllers.remove(&id) {
+            child.kill()?;
+            child.wait()?;
+        }
+        Ok(())
+    }
+
+    /// SIGSTOP (`stop = true`) or SIGCONT.
+    pub fn pause(&self, id: ControllerId, stop: bool) -> std::io::Result<()> {
+        match self.controllers.get(&id) {
+            Some(child) => signal(
+                child.id(),
+                if stop { libc::SIGSTOP } else { libc::SIGCONT },
+            ),
+            None => Ok(()),
+        }
+    }
+
+    /// SIGTERM to everyone, then SIGKILL whoever is still running after a second.
+    pub fn stop_all(&mut self) {
+        let mut children: Vec<Child> = std::mem::take(&mut self.controllers)
+            .into_values()
+            .chain(std::mem::take(&mut self.others))
+            .collect();
+        for child in &children {
+            let _ = signal(child.id(), libc::SIGCONT);
+            let _ = signal(child.id(), libc::SIGTERM);
+        }
+        let deadline = Instant::now() + std::time::Duration::from_secs(1);
+        for child in &mut children {
+            while Instant::now() < deadline {
+                if matches!(child.try_wait(), Ok(Some(_))) {
+                    break;
+                }
+                std::thread::sleep(std::time::Duration::from_millis(10));
+            }
+            let _ = child.kill();
+            let _ = child.wait();
+        }
+    }
+}
+
+impl Drop for Fleet {
+    fn drop(&mut self) {
+        self.stop_all();
+    }
+}
+
+/// Parses a servo JSON line; `None` for anything else (human lines, partial output).
+pub fn parse_servo_event(text: &str) -> Option<ServoEvent> {
+    serde_json::from_str(text).ok()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn servo_lines_parse_by_their_event_field() {
+        let command = r#"{"event":"command","t_ms":12,"writer_guid":"01.02","controller_id":null,"strength":30,"pan":500,"tilt":400}"#;
+        assert_eq!(
+            parse_servo_event(command),
+            Some(ServoEvent::Command {
+                t_ms: 12,
+                writer_guid: "01.02".into(),
+                controller_id: None,
+                strength: Some(30),
+                pan: 500,
+                tilt: 400
+            })
+        );
+        let change = r#"{"event":"owner_changed","t_ms":99,"from_controller_id":1,"to_controller_id":2,"gap_ms":104}"#;
+        assert!(matches!(
+            parse_servo_event(change),
+            Some(ServoEvent::OwnerChanged {
+                gap_ms: Some(104),
+                ..
+            })
+        ));
+        assert_eq!(parse_servo_event("owner: C1"), None);
+    }
+}
+
+/// One line of `rl controller --json-events` (see `runtime`).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+pub struct ControllerEvent {
+    /// Wall-clock milliseconds (the controller's round clock).
+    pub t_ms: u64,
+    pub id: ControllerId,
+    pub incarnation: u64,
+    /// `started`, `status`, `output`, `vote`, `alarm`, `leds`, `stopped`.
+    pub event: String,
+    #[serde(default)]
+    pub role: Option<crate::core::Role>,
+    #[serde(default)]
+    pub strength: Option<u8>,
+    #[serde(default)]
+    pub about: Option<ControllerId>,
+    #[serde(default)]
+    pub reason: Option<crate::core::AlarmReason>,
+    #[serde(default)]
+    pub raised: Option<bool>,
+    #[serde(default)]
+    pub status: Option<crate::core::Status>,
+}
+
+/// Parses a controller event line; `None` for anything else.
+pub fn parse_controller_event(text: &str) -> Option<ControllerEvent> {
+    serde_json::from_str(text).ok()
+}
+
+/// Wall-clock milliseconds now (comparable with controller event times on this machine).
+pub fn wall_ms() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_millis() as u64)
+        .unwrap_or(0)
+}

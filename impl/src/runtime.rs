@@ -1,0 +1,323 @@
+//! The voting thread: runs the pure core over DDS. It takes heartbeats and votes from their
+//! readers, fires the core's timers, and performs the commands it returns (publish heartbeat,
+//! vote and alarms, update the shared status the application reads, LEDs, console, ROS 2
+//! status, JSON events).
+//!
+//! The core's clock: milliseconds of the wall clock read once at start, advanced by the
+//! monotonic clock. Controllers whose wall clocks agree (NTP) share round boundaries, and a
+//! wall-clock step while running cannot stall or rush the rounds.
+
+use crate::api::{Options, Shared};
+use crate::config::Config;
+use crate::core::{
+    Command, ControllerId, Core, CoreConfig, Input, Rounds, Status, VoteRecord,
+};
+use crate::dds::{Reader, Session, Writer};
+use crate::leds::{ConsoleLeds, LedBank};
+use crate::wire::{AlarmSample, ControllerAlarm, HeartbeatSample, VoteSample};
+use rustdds::mio::{Events, Poll, PollOpt, Ready, Token};
+use serde_json::json;
+use std::io::Write;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use tracing::{info, warn};
+
+/// Milliseconds on the wall clock at start, advanced monotonically.
+#[derive(Clone, Copy, Debug)]
+pub struct RoundClock {
+    started: Instant,
+    started_wall_ms: u64,
+}
+
+impl RoundClock {
+    pub fn start() -> RoundClock {
+        let started_wall_ms = SystemTime::now()
+            .duration_since(UNIX_EPOCH)
+            .map(|d| d.as_millis() as u64)
+            .unwrap_or(0);
+        RoundClock {
+            started: Instant::now(),
+            started_wall_ms,
+        }
+    }
+
+    pub fn now_ms(&self) -> u64 {
+        self.started_wall_ms + self.started.elapsed().as_millis() as u64
+    }
+}
+
+/// The longest the thread sleeps without looking at its flags (stop, fault).
+const FLAG_CHECK_MS: u64 = 50;
+
+const HEARTBEATS: Token = Token(0);
+const VOTES: Token = Token(1);
+
+struct Endpoints {
+    heartbeats_in: Reader<HeartbeatSample>,
+    votes_in: Reader<VoteSample>,
+    heartbeats_out: Writer<HeartbeatSample>,
+    votes_out: Writer<VoteSample>,
+    alarms_out: Writer<AlarmSample>,
+    ros_status: Option<crate::dds::StatusPublisher>,
+    _ros_node: Option<ros2_client::Node>,
+}
+
+/// Starts the voting thread of controller `id`.
+pub(crate) fn spawn(
+    session: Arc<Session>,
+    config: Config,
+    id: ControllerId,
+    options: Options,
+) -> Result<(Arc<Shared>, JoinHandle<Result<(), crate::Error>>), crate::Error> {
+    let dds = |e: crate::dds::DdsError| crate::Error::Dds(e.to_string());
+    let (ros_node, ros_status) = match session.ros_node(id) {
+        Ok(mut node) => match session.status_publisher(&mut node) {
+            Ok(publisher) => (Some(node), Some(publisher)),
+            Err(error) => {
+                warn!("no ROS 2 status topic: {error}");
+                (Some(node), None)
+            }
+        },
+        Err(error) => {
+            warn!("no ROS 2 node: {error}");
+            (None, None)
+        }
+    };
+    let endpoints = Endpoints {
+        heartbeats_in: session.heartbeat_reader().map_err(dds)?,
+        votes_in: session.vote_reader().map_err(dds)?,
+        heartbeats_out: session.heartbeat_writer().map_err(dds)?,
+        votes_out: session.vote_writer().map_err(dds)?,
+        alarms_out: session.alarm_writer().map_err(dds)?,
+        ros_status,
+        _ros_node: ros_node,
+    };
+    let clock = RoundClock::start();
+    // A new incarnation at every start: the start time, with the pid to separate two starts
+    // in the same millisecond.
+    let incarnation = clock.now_ms() << 16 | u64::from(std::process::id() & 0xffff);
+    let timing = &config.timing;
+    let core_config = CoreConfig {
+        id,
+        incarnation,
+        heartbeat_period_ms: timing.heartbeat_period_ms,
+        rounds: Rounds {
+            dead_after: timing.dead_after_rounds(),
+            window: timing.window_rounds(),
+            minority_grace: timing.minority_grace_rounds(),
+        },
+    };
+    let core = Core::new(core_config, clock.now_ms());
+    let shared = Arc::new(Shared {
+        status: Mutex::new(core.status()),
+        alarms: Mutex::new(Vec::new()),
+        fault: AtomicBool::new(false),
+        stop: AtomicBool::new(false),
+    });
+    let thread_shared = Arc::clone(&shared);
+    let thread = std::thread::Builder::new()
+        .name(format!("rl-voting-{id}"))
+        .spawn(move || {
+            let mut voting = Voting {
+                core,
+                clock,
+                endpoints,
+                shared: thread_shared,
+                options,
+                leds: ConsoleLeds::new(std::io::stderr()),
+            };
+            voting.run()
+        })
+        .map_err(|e| crate::Error::io("starting the voting thread", e))?;
+    info!(id, incarnation, domain = config.dds.domain, "controller started");
+    Ok((shared, thread))
+}
+
+struct Voting {
+    core: Core,
+    clock: RoundClock,
+    endpoints: Endpoints,
+    shared: Arc<Shared>,
+    options: Options,
+    leds: ConsoleLeds<std::io::Stderr>,
+}
+
+impl Voting {
+    fn run(&mut self) -> Result<(), crate::Error> {
+        let poll = Poll::new().map_err(|e| crate::Error::io("creating the event poll", e))?;
+        let register = |reader: &dyn rustdds::mio::Evented, token| {
+            poll.register(reader, token, Ready::readable(), PollOpt::edge())
+                .map_err(|e| crate::Error::io("registering a DDS reader", e))
+        };
+        register(&self.endpoints.heartbeats_in, HEARTBEATS)?;
+        register(&self.endpoints.votes_in, VOTES)?;
+        let mut events = Events::with_capacity(16);
+        self.event("started", json!({}));
+        while !self.shared.stop.load(Ordering::SeqCst) {
+            if self.shared.fault.swap(false, Ordering::SeqCst) {
+                self.step(Input::LocalFault);
+            }
+            while self.core.next_deadline_ms() <= self.clock.now_ms() {
+                self.step(Input::Timer);
+            }
+            let wait_ms = self
+                .core
+                .next_deadline_ms()
+                .saturating_sub(self.clock.now_ms())
+                .min(FLAG_CHECK_MS);
+            match poll.poll(&mut events, Some(Duration::from_millis(wait_ms))) {
+                Ok(_) => {}
+                // SIGSTOP/SIGCONT interrupts the wait: not an error.
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(crate::Error::io("waiting for DDS samples", e)),
+            }
+            // Edge-triggered: drain both readers whatever woke us.
+            for heartbeat in self.endpoints.heartbeats_in.take() {
+                self.step(Input::Heartbeat(heartbeat.value));
+            }
+            for vote in self.endpoints.votes_in.take() {
+                self.step(Input::Vote(vote.value));
+            }
+        }
+        self.event("stopped", json!({}));
+        Ok(())
+    }
+
+    fn step(&mut self, input: Input) {
+        let now = self.clock.now_ms();
+        for command in self.core.step(input, now) {
+            self.perform(command);
+        }
+    }
+
+    fn perform(&mut self, command: Command) {
+        let id = self.core.config().id;
+        let incarnation = self.core.config().incarnation;
+        match command {
+            Command::PublishHeartbeat(heartbeat) => {
+                if let Err(error) = self.endpoints.heartbeats_out.write(&heartbeat) {
+                    warn!("heartbeat not sent: {error}");
+                }
+            }
+            Command::PublishVote(record) => {
+                self.event("vote", json!({ "vote": record.vote }));
+                self.write_vote(record);
+            }
+            Command::SetOutput { role, strength } => {
+                self.event("output", json!({ "role": role, "strength": strength }));
+            }
+            Command::RaiseAlarm { about, reason } => {
+                self.alarm(ControllerAlarm {
+                    reporter: id,
+                    reporter_incarnation: incarnation,
+                    about,
+                    about_incarnation: None,
+                    reason,
+                    raised: true,
+                });
+            }
+            Command::ClearAlarm { about } => {
+                let reason = self
+                    .shared
+                    .alarms
+                    .lock()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .iter()
+                    .find(|(who, _)| *who == about)
+                    .map(|(_, reason)| *reason)
+                    .unwrap_or(crate::core::AlarmReason::Lost);
+                self.alarm(ControllerAlarm {
+                    reporter: id,
+                    reporter_incarnation: incarnation,
+                    about,
+                    about_incarnation: None,
+                    reason,
+                    raised: false,
+                });
+            }
+            Command::Status(status) => self.status(status),
+            Command::Leds(pattern) => {
+                if self.options.console_leds && !self.options.json_events {
+                    if let Err(error) = self.leds.show(pattern) {
+                        warn!("LEDs: {error}");
+                    }
+                }
+                self.event("leds", json!({ "leds": pattern.to_string() }));
+            }
+            Command::Console(line) => {
+                if self.options.json_events {
+                    info!("{line}");
+                } else {
+                    println!("{line}");
+                }
+            }
+        }
+    }
+
+    fn write_vote(&self, record: VoteRecord) {
+        if let Err(error) = self.endpoints.votes_out.write(&record) {
+            warn!("vote not published: {error}");
+        }
+    }
+
+    fn alarm(&mut self, alarm: ControllerAlarm) {
+        {
+            let mut alarms = self.shared.alarms.lock().unwrap_or_else(|e| e.into_inner());
+            alarms.retain(|(about, _)| *about != alarm.about);
+            if alarm.raised {
+                alarms.push((alarm.about, alarm.reason));
+            }
+        }
+        let verb = if alarm.raised { "RAISED" } else { "cleared" };
+        let line = format!(
+            "C{}: alarm {verb}: controller C{} {:?}",
+            alarm.reporter, alarm.about, alarm.reason
+        );
+        if self.options.json_events {
+            info!("{line}");
+        } else {
+            println!("{line}");
+        }
+        self.event(
+            "alarm",
+            json!({ "about": alarm.about, "reason": alarm.reason, "raised": alarm.raised }),
+        );
+        if let Err(error) = self.endpoints.alarms_out.write(&alarm) {
+            warn!("alarm not published: {error}");
+        }
+    }
+
+    fn status(&mut self, status: Status) {
+        if let Some(ros) = &self.endpoints.ros_status {
+            if let Ok(text) = serde_json::to_string(&status) {
+                if let Err(error) = ros.publish(&text) {
+                    warn!("ROS 2 status not published: {error}");
+                }
+            }
+        }
+        self.event("status", json!({ "status": status }));
+        *self.shared.status() = status;
+    }
+
+    /// One JSON event line on stdout (with `--json-events`): the record of what it did.
+    fn event(&self, kind: &str, fields: serde_json::Value) {
+        if !self.options.json_events {
+            return;
+        }
+        let mut record = json!({
+            "t_ms": self.clock.now_ms(),
+            "id": self.core.config().id,
+            "incarnation": self.core.config().incarnation,
+            "event": kind,
+        });
+        if let (Some(record), serde_json::Value::Object(fields)) = (record.as_object_mut(), fields)
+        {
+            record.extend(fields);
+        }
+        let mut out = std::io::stdout().lock();
+        let _ = writeln!(out, "{record}");
+        let _ = out.flush();
+    }
+}

@@ -1,0 +1,315 @@
+//! `rl status`: what every controller says about itself, read from the DDS topics (their
+//! heartbeats and the controller alarm topic), as a live table or one JSON object.
+//!
+//! The board is pure (samples and times in, a view out) so the demo and the benchmarks use it
+//! too; only [`run`] touches DDS.
+
+use crate::core::types::{AlarmReason, ControllerId, Heartbeat, Incarnation, Phase, Role};
+use crate::wire::ControllerAlarm;
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// Arguments of `rl status`.
+#[derive(clap::Args, Debug)]
+pub struct StatusArgs {
+    /// Print one JSON object per refresh instead of a table.
+    #[arg(long)]
+    pub json: bool,
+    /// Listen for a while (three heartbeat periods), print once and exit.
+    #[arg(long)]
+    pub once: bool,
+    /// Configuration file (domain, topic names, heartbeat period).
+    #[arg(long, value_name = "PATH")]
+    pub config: Option<std::path::PathBuf>,
+    /// DDS domain id (overrides the configuration).
+    #[arg(long, value_name = "D")]
+    pub domain: Option<u16>,
+}
+
+/// One controller as the board last heard it.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ControllerView {
+    pub id: ControllerId,
+    pub incarnation: Incarnation,
+    pub phase: Phase,
+    pub role: Option<Role>,
+    pub strength: Option<u8>,
+    /// `P=1 S=2 T=3`, or null before agreement.
+    pub agreed: Option<String>,
+    pub vote: Option<String>,
+    /// Heard within the dead-man deadline.
+    pub alive: bool,
+    /// Milliseconds since its last heartbeat.
+    pub last_heard_ms: u64,
+}
+
+/// A raised controller alarm and who raised it.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct AlarmView {
+    pub about: ControllerId,
+    pub reason: AlarmReason,
+    pub raised_by: Vec<ControllerId>,
+}
+
+/// What `rl status --json` prints.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct StatusView {
+    pub controllers: Vec<ControllerView>,
+    pub alarms: Vec<AlarmView>,
+}
+
+/// The latest heartbeat per controller and the raised alarms.
+#[derive(Clone, Debug, Default)]
+pub struct Board {
+    heartbeats: BTreeMap<ControllerId, (Heartbeat, u64)>,
+    /// (about, reporter) -> reason, for raised alarms.
+    alarms: BTreeMap<(ControllerId, ControllerId), AlarmReason>,
+}
+
+impl Board {
+    pub fn heartbeat(&mut self, heartbeat: Heartbeat, now_ms: u64) {
+        self.heartbeats.insert(heartbeat.from, (heartbeat, now_ms));
+    }
+
+    pub fn alarm(&mut self, alarm: &ControllerAlarm) {
+        let key = (alarm.about, alarm.reporter);
+        if alarm.raised {
+            self.alarms.insert(key, alarm.reason);
+        } else {
+            self.alarms.remove(&key);
+        }
+    }
+
+    /// The latest heartbeat of a controller.
+    pub fn latest(&self, id: ControllerId) -> Option<&Heartbeat> {
+        self.heartbeats.get(&id).map(|(h, _)| h)
+    }
+
+    /// The controllers heard within `alive_within_ms`.
+    pub fn alive(&self, now_ms: u64, alive_within_ms: u64) -> impl Iterator<Item = &Heartbeat> {
+        self.heartbeats
+            .values()
+            .filter(move |(_, at)| now_ms.saturating_sub(*at) <= alive_within_ms)
+            .map(|(h, _)| h)
+    }
+
+    /// The live controller commanding at the highest strength (ties: lowest id).
+    pub fn commander(&self, now_ms: u64, alive_within_ms: u64) -> Option<&Heartbeat> {
+        self.alive(now_ms, alive_within_ms)
+            .filter(|h| h.strength.is_some())
+            .min_by_key(|h| (std::cmp::Reverse(h.strength), h.from))
+    }
+
+    pub fn view(&self, now_ms: u64, alive_within_ms: u64) -> StatusView {
+        let controllers = self
+            .heartbeats
+            .values()
+            .map(|(h, at)| {
+                let since = now_ms.saturating_sub(*at);
+                ControllerView {
+                    id: h.from,
+                    incarnation: h.incarnation,
+                    phase: h.phase,
+                    role: h.role,
+                    strength: h.strength,
+                    agreed: h.agreed.map(|a| a.to_string()),
+                    vote: h.vote.map(|a| a.to_string()),
+                    alive: since <= alive_within_ms,
+                    last_heard_ms: since,
+                }
+            })
+            .collect();
+        let mut alarms: Vec<AlarmView> = Vec::new();
+        for (&(about, reporter), &reason) in &self.alarms {
+            match alarms.iter_mut().find(|a| a.about == about) {
+                Some(view) => view.raised_by.push(reporter),
+                None => alarms.push(AlarmView {
+                    about,
+                    reason,
+                    raised_by: vec![reporter],
+                }),
+            }
+        }
+        StatusView {
+            controllers,
+            alarms,
+        }
+    }
+}
+
+/// The table `rl status` prints.
+pub fn render_table(view: &StatusView) -> String {
+    let mut out = String::from("ID  PHASE         ROLE       STRENGTH  AGREED              HEARD\n");
+    for c in &view.controllers {
+        let role = c.role.map(|r| r.name()).unwrap_or("-");
+        let strength = c
+            .strength
+            .map(|s| s.to_string())
+            .unwrap_or_else(|| "-".into());
+        let heard = if c.alive {
+            format!("{} ms ago", c.last_heard_ms)
+        } else {
+            format!("LOST ({} ms)", c.last_heard_ms)
+        };
+        out.push_str(&format!(
+            "C{:<2} {:<13} {:<10} {:<9} {:<19} {}\n",
+            c.id,
+            c.phase.name(),
+            role,
+            strength,
+            c.agreed.as_deref().unwrap_or("-"),
+            heard
+        ));
+    }
+    if view.alarms.is_empty() {
+        out.push_str("alarms: none\n");
+    }
+    for a in &view.alarms {
+        let by: Vec<String> = a.raised_by.iter().map(|id| format!("C{id}")).collect();
+        out.push_str(&format!(
+            "ALARM C{} {:?} (raised by {})\n",
+            a.about,
+            a.reason,
+            by.join(", ")
+        ));
+    }
+    out
+}
+
+/// Live inputs of the board: the heartbeat and controller alarm readers of one session.
+pub struct BoardFeed {
+    heartbeats: crate::dds::Reader<crate::wire::HeartbeatSample>,
+    alarms: crate::dds::Reader<crate::wire::AlarmSample>,
+    started: std::time::Instant,
+}
+
+impl BoardFeed {
+    pub fn new(session: &crate::dds::Session) -> Result<BoardFeed, crate::Error> {
+        let dds = |e: crate::dds::DdsError| crate::Error::Dds(e.to_string());
+        Ok(BoardFeed {
+            heartbeats: session.heartbeat_reader().map_err(dds)?,
+            alarms: session.alarm_reader().map_err(dds)?,
+            started: std::time::Instant::now(),
+        })
+    }
+
+    /// Milliseconds since the feed started.
+    pub fn now_ms(&self) -> u64 {
+        self.started.elapsed().as_millis() as u64
+    }
+
+    /// Takes in what has arrived; returns the heartbeats (for callers that watch changes).
+    pub fn update(&mut self, board: &mut Board) -> Vec<Heartbeat> {
+        let now = self.now_ms();
+        let heartbeats: Vec<Heartbeat> =
+            self.heartbeats.take().into_iter().map(|h| h.value).collect();
+        for heartbeat in &heartbeats {
+            board.heartbeat(*heartbeat, now);
+        }
+        for alarm in self.alarms.take() {
+            board.alarm(&alarm.value);
+        }
+        heartbeats
+    }
+}
+
+/// Runs `rl status`.
+pub fn run(args: StatusArgs) -> Result<(), crate::Error> {
+    let config = crate::controller::load_config(args.config.as_deref(), args.domain)?;
+    let stop = crate::controller::stop_on_signals()?;
+    let session = crate::dds::Session::new(&config.dds, &config.timing)
+        .map_err(|e| crate::Error::Dds(e.to_string()))?;
+    let mut feed = BoardFeed::new(&session)?;
+    let mut board = Board::default();
+    let period_ms = config.timing.heartbeat_period_ms;
+    let alive_within_ms = config.timing.peer_deadline_ms;
+    // Discovery plus a few heartbeats: enough to hear every live controller.
+    let listen_ms = 1000 + 3 * period_ms;
+    let refresh_ms = 500;
+    let mut next_print_ms = if args.once { listen_ms } else { refresh_ms };
+    loop {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+        feed.update(&mut board);
+        let now = feed.now_ms();
+        if now < next_print_ms {
+            if stop.load(std::sync::atomic::Ordering::SeqCst) {
+                return Ok(());
+            }
+            continue;
+        }
+        next_print_ms = now + refresh_ms;
+        let view = board.view(now, alive_within_ms);
+        if args.json {
+            let line = serde_json::to_string(&view)
+                .map_err(|e| crate::Error::Runtime(format!("status JSON: {e}")))?;
+            println!("{line}");
+        } else {
+            if !args.once {
+                // Clear the screen and home the cursor: a live table.
+                print!("\x1b[2J\x1b[H");
+            }
+            print!("{}", render_table(&view));
+        }
+        use std::io::Write;
+        let _ = std::io::stdout().flush();
+        if args.once || stop.load(std::sync::atomic::Ordering::SeqCst) {
+            return Ok(());
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::core::types::{Assignment, Holder};
+
+    fn hb(from: ControllerId, role: Option<Role>) -> Heartbeat {
+        let agreed = Assignment::from_ranked([1, 2, 3].map(|id| Holder { id, incarnation: 0 }));
+        Heartbeat {
+            from,
+            incarnation: 0,
+            phase: Phase::Steady,
+            role,
+            strength: role.map(Role::strength),
+            agreed: Some(agreed),
+            vote: Some(agreed),
+        }
+    }
+
+    #[test]
+    fn the_view_lists_controllers_and_marks_the_silent_ones_lost() {
+        let mut board = Board::default();
+        board.heartbeat(hb(1, Some(Role::Primary)), 1000);
+        board.heartbeat(hb(2, Some(Role::Secondary)), 1500);
+        let view = board.view(1700, 500);
+        assert_eq!(view.controllers.len(), 2);
+        assert!(!view.controllers[0].alive, "700 ms silent > 500 ms");
+        assert!(view.controllers[1].alive);
+        assert_eq!(board.commander(1700, 500).map(|h| h.from), Some(2));
+        let json = serde_json::to_value(&view).unwrap();
+        assert_eq!(json["controllers"][1]["role"], "secondary");
+        assert_eq!(json["controllers"][1]["strength"], 20);
+        assert_eq!(json["controllers"][1]["agreed"], "P=1 S=2 T=3");
+    }
+
+    #[test]
+    fn an_alarm_stays_raised_until_every_reporter_clears_it() {
+        let mut board = Board::default();
+        let alarm = |reporter, raised| ControllerAlarm {
+            reporter,
+            reporter_incarnation: 0,
+            about: 1,
+            about_incarnation: None,
+            reason: AlarmReason::Lost,
+            raised,
+        };
+        board.alarm(&alarm(2, true));
+        board.alarm(&alarm(3, true));
+        assert_eq!(board.view(0, 500).alarms[0].raised_by, vec![2, 3]);
+        board.alarm(&alarm(2, false));
+        assert_eq!(board.view(0, 500).alarms[0].raised_by, vec![3]);
+        board.alarm(&alarm(3, false));
+        assert!(board.view(0, 500).alarms.is_empty());
+        assert!(render_table(&board.view(0, 500)).contains("alarms: none"));
+    }
+}

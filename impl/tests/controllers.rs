@@ -1,0 +1,272 @@
+//! Real `rl controller` processes over real DDS on loopback: formation, failover, promotion,
+//! late joiners, a fourth controller, restarts, SIGSTOP/SIGCONT, malformed samples, bad
+//! configuration. Each test has its own DDS domain (201-215) so tests running in parallel
+//! never hear each other.
+
+mod support;
+
+use rl::core::{AlarmReason, Phase, Role};
+use rl::procs::ServoEvent;
+use std::time::Duration;
+use support::Cluster;
+
+const FORM: Duration = Duration::from_secs(15);
+const P: Option<Role> = Some(Role::Primary);
+const S: Option<Role> = Some(Role::Secondary);
+const T: Option<Role> = Some(Role::Tertiary);
+
+fn formed_three(cluster: &mut Cluster) {
+    for id in 1..=3 {
+        cluster.start(id);
+    }
+    cluster.wait_for("P=1 S=2 T=3", FORM, |c| {
+        c.steady_with(1, P) && c.steady_with(2, S) && c.steady_with(3, T)
+    });
+}
+
+#[test]
+fn three_controllers_form_with_roles_by_id_and_the_servo_follows_the_primary() {
+    let mut cluster = Cluster::new("form3", 201, "");
+    cluster.start_servo();
+    formed_three(&mut cluster);
+    cluster.wait_for("servo follows C1", FORM, |c| c.servo_commander() == Some(1));
+    let agreed = cluster.status[&2].agreed.map(|a| a.to_string());
+    assert_eq!(agreed.as_deref(), Some("P=1 S=2 T=3"));
+}
+
+#[test]
+fn two_controllers_form_as_primary_and_secondary() {
+    let mut cluster = Cluster::new("form2", 202, "");
+    cluster.start(2);
+    cluster.start(1);
+    cluster.wait_for("P=1 S=2", FORM, |c| c.steady_with(1, P) && c.steady_with(2, S));
+}
+
+#[test]
+fn a_single_controller_becomes_primary_after_the_window() {
+    let mut cluster = Cluster::new("form1", 203, "");
+    cluster.start(3);
+    cluster.wait_for("C3 Primary alone", FORM, |c| c.steady_with(3, P));
+}
+
+#[test]
+fn kill_9_of_the_primary_hands_the_servo_to_the_secondary_which_is_promoted() {
+    let mut cluster = Cluster::new("kill", 204, "");
+    cluster.start_servo();
+    formed_three(&mut cluster);
+    cluster.wait_for("servo follows C1", FORM, |c| c.servo_commander() == Some(1));
+    let killed_at = std::time::Instant::now();
+    cluster.fleet.kill(1).unwrap();
+    cluster.wait_for("servo owner C2", Duration::from_secs(5), |c| {
+        c.servo_owner() == Some(2)
+    });
+    let gap_ms = cluster.servo.iter().rev().find_map(|(_, e)| match e {
+        ServoEvent::OwnerChanged {
+            from_controller_id: Some(1),
+            gap_ms,
+            ..
+        } => *gap_ms,
+        _ => None,
+    });
+    // Switchover is the command deadline (100 ms) plus a write period, not a re-vote.
+    assert!(
+        gap_ms.is_some_and(|g| g < 400),
+        "gap after the Primary died: {gap_ms:?} ms"
+    );
+    cluster.wait_for("C2 promoted to 30, C3 to 20", FORM, |c| {
+        c.steady_with(2, P) && c.steady_with(3, S)
+    });
+    let promoted_after = killed_at.elapsed();
+    assert!(promoted_after < Duration::from_secs(5), "{promoted_after:?}");
+    for reporter in [2, 3] {
+        assert!(
+            cluster.events.iter().any(|(_, e)| e.id == reporter
+                && e.event == "alarm"
+                && e.about == Some(1)
+                && e.raised == Some(true)
+                && e.reason == Some(AlarmReason::Lost)),
+            "C{reporter} raised an alarm for C1"
+        );
+    }
+    cluster.wait_for("servo follows C2", FORM, |c| c.servo_commander() == Some(2));
+}
+
+#[test]
+fn sigstop_sigcont_primary_resumes_commanding() {
+    let mut cluster = Cluster::new("sigstop", 205, "");
+    cluster.start_servo();
+    formed_three(&mut cluster);
+    cluster.wait_for("servo follows C1", FORM, |c| c.servo_commander() == Some(1));
+    cluster.fleet.pause(1, true).unwrap();
+    cluster.wait_for("servo owner C2 while C1 is stopped", Duration::from_secs(5), |c| {
+        c.servo_owner() == Some(2)
+    });
+    cluster.wait_for("C2 promoted", FORM, |c| c.steady_with(2, P));
+    let resumed_from = cluster.events.len();
+    cluster.fleet.pause(1, false).unwrap();
+    // C1's participant must survive the stop: the others hear it again and clear its alarm.
+    cluster.wait_for("C2 and C3 clear the alarm for C1", FORM, |c| {
+        [2, 3].iter().all(|&reporter| {
+            c.events[resumed_from..].iter().any(|(_, e)| {
+                e.id == reporter && e.event == "alarm" && e.about == Some(1) && e.raised == Some(false)
+            })
+        })
+    });
+    // One system again: every controller steady, one Primary, the servo following it.
+    cluster.wait_for("settled with one Primary", FORM, |c| {
+        let steady = c.status.values().filter(|s| s.phase == Phase::Steady).count() == 3;
+        let primaries: Vec<u8> = c.status.values().filter(|s| s.role == P && s.strength == Some(30)).map(|s| s.id).collect();
+        steady && primaries.len() == 1 && c.servo_commander() == primaries.first().copied()
+    });
+}
+
+#[test]
+fn a_late_joiner_comes_in_as_tertiary() {
+    let mut cluster = Cluster::new("late", 206, "");
+    cluster.start(1);
+    cluster.start(2);
+    cluster.wait_for("P=1 S=2", FORM, |c| c.steady_with(1, P) && c.steady_with(2, S));
+    cluster.start(3);
+    cluster.wait_for("C3 Tertiary", FORM, |c| c.steady_with(3, T));
+    assert!(cluster.steady_with(1, P) && cluster.steady_with(2, S));
+}
+
+#[test]
+fn a_fourth_controller_is_ignored() {
+    let mut cluster = Cluster::new("fourth", 207, "");
+    formed_three(&mut cluster);
+    cluster.start(4);
+    cluster.wait_for("C4 steady without a role", FORM, |c| c.steady_with(4, None));
+    assert!(cluster.steady_with(1, P) && cluster.steady_with(2, S) && cluster.steady_with(3, T));
+    assert!(
+        !cluster.events.iter().any(|(_, e)| e.id == 4 && e.event == "output" && e.strength.is_some()),
+        "C4 never commands"
+    );
+}
+
+#[test]
+fn a_restarted_primary_comes_back_in_the_lowest_role() {
+    let mut cluster = Cluster::new("restart", 208, "");
+    formed_three(&mut cluster);
+    cluster.fleet.kill(1).unwrap();
+    cluster.wait_for("P=2 S=3", FORM, |c| c.steady_with(2, P) && c.steady_with(3, S));
+    cluster.status.remove(&1);
+    cluster.start(1);
+    cluster.wait_for("C1 back as Tertiary", FORM, |c| c.steady_with(1, T));
+    assert!(cluster.steady_with(2, P) && cluster.steady_with(3, S), "{}", cluster.describe());
+}
+
+#[test]
+fn malformed_heartbeats_are_dropped_and_nothing_crashes() {
+    let mut cluster = Cluster::new("malformed", 209, "");
+    formed_three(&mut cluster);
+    let config = rl::config::Config {
+        dds: rl::config::Dds {
+            domain: 209,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let session = rl::dds::Session::new(&config.dds, &config.timing).unwrap();
+    let writer = session.heartbeat_writer().unwrap();
+    let garbage = [
+        rl::wire::HeartbeatSample {
+            from_id: 0,
+            ..Default::default()
+        },
+        rl::wire::HeartbeatSample {
+            from_id: 2,
+            phase: 200,
+            role: 9,
+            strength: 77,
+            ..Default::default()
+        },
+        rl::wire::HeartbeatSample {
+            from_id: 9,
+            phase: 2,
+            role: 1,
+            strength: 10,
+            ..Default::default()
+        },
+    ];
+    for _ in 0..40 {
+        for sample in garbage {
+            writer.write_sample(sample).unwrap();
+        }
+        cluster.pump(Duration::from_millis(25));
+    }
+    cluster.pump(Duration::from_secs(1));
+    assert!(cluster.steady_with(1, P) && cluster.steady_with(2, S) && cluster.steady_with(3, T), "{}", cluster.describe());
+    for id in 1..=3 {
+        assert!(cluster.fleet.pid(id).is_some());
+        assert!(
+            !cluster.events.iter().any(|(_, e)| e.id == id && e.event == "stopped"),
+            "C{id} still runs"
+        );
+    }
+}
+
+fn run_rl(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(support::RL)
+        .args(args)
+        .output()
+        .expect("run rl")
+}
+
+#[test]
+fn bad_configuration_exits_2_naming_the_field() {
+    let dir = support::tempdir::Dir::new("badconfig");
+    let cases = [
+        ("[timing]\npeer_deadline_ms = 300\n", "timing.peer_deadline_ms"),
+        ("[timin]\n", "timin"),
+        ("[dds]\ndomain = \"x\"\n", "dds.domain"),
+        ("[timing]\nheartbeat_period_ms = 0\n", "timing.heartbeat_period_ms"),
+    ];
+    for (text, field) in cases {
+        let path = dir.0.join("bad.toml");
+        std::fs::write(&path, text).unwrap();
+        let out = run_rl(&["controller", "--id", "1", "--config", path.to_str().unwrap()]);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{text:?}: {stderr}");
+        assert!(stderr.contains(field), "{text:?}: message names {field}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{stderr}");
+    }
+    let missing = run_rl(&["controller", "--id", "1", "--config", "/nonexistent/rl.toml"]);
+    assert_eq!(missing.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&missing.stderr).contains("/nonexistent/rl.toml"));
+    let bad_id = run_rl(&["controller", "--id", "0"]);
+    assert_eq!(bad_id.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&bad_id.stderr).contains("--id"));
+    let bad_domain = run_rl(&["controller", "--id", "1", "--domain", "300"]);
+    assert_eq!(bad_domain.status.code(), Some(2), "{}", String::from_utf8_lossy(&bad_domain.stderr));
+}
+
+#[test]
+fn status_once_json_lists_the_controllers_and_exits() {
+    let mut cluster = Cluster::new("status", 210, "");
+    formed_three(&mut cluster);
+    let out = run_rl(&["status", "--json", "--once", "--domain", "210"]);
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8_lossy(&out.stdout);
+    let view: serde_json::Value = serde_json::from_str(text.trim()).expect("one JSON object");
+    let controllers = view["controllers"].as_array().expect("controllers");
+    let roles: Vec<(u64, String, u64)> = controllers
+        .iter()
+        .map(|c| {
+            (
+                c["id"].as_u64().unwrap(),
+                c["role"].as_str().unwrap_or("-").to_string(),
+                c["strength"].as_u64().unwrap_or(0),
+            )
+        })
+        .collect();
+    assert_eq!(
+        roles,
+        vec![
+            (1, "primary".into(), 30),
+            (2, "secondary".into(), 20),
+            (3, "tertiary".into(), 10)
+        ]
+    );
+    assert!(view["alarms"].as_array().is_some_and(|a| a.is_empty()));
+}

@@ -1,0 +1,203 @@
+//! Shared harness of the process-level tests: a cluster of real `rl` processes on one DDS
+//! domain, their JSON events collected, and bounded waits that report what was seen.
+
+#![allow(dead_code)]
+
+use rl::core::{Phase, Role, Status};
+use rl::procs::{parse_controller_event, parse_servo_event, Fleet, Line, ServoEvent};
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::sync::mpsc::Receiver;
+use std::time::{Duration, Instant};
+
+pub const RL: &str = env!("CARGO_BIN_EXE_rl");
+
+/// A configuration for tests: the paper's timing, but a 1 s initialization window so that
+/// formations with fewer than three controllers don't wait 10 s.
+pub fn test_config(dir: &std::path::Path, extra: &str) -> PathBuf {
+    let path = dir.join("rl.toml");
+    std::fs::write(
+        &path,
+        format!("[timing]\ninit_window_ms = 1000\n{extra}\n"),
+    )
+    .unwrap();
+    path
+}
+
+pub struct Cluster {
+    pub fleet: Fleet,
+    lines: Receiver<Line>,
+    pub started: Instant,
+    /// Latest status per controller id (from `status` events).
+    pub status: BTreeMap<u8, Status>,
+    /// Every servo event, with when it was read.
+    pub servo: Vec<(Instant, ServoEvent)>,
+    /// Every controller event line, in arrival order.
+    pub events: Vec<(Instant, rl::procs::ControllerEvent)>,
+    /// Everything the children printed, for failure reports.
+    pub transcript: Vec<String>,
+    _dir: tempdir::Dir,
+}
+
+pub mod tempdir {
+    /// A temporary directory removed on drop.
+    pub struct Dir(pub std::path::PathBuf);
+    impl Dir {
+        pub fn new(tag: &str) -> Dir {
+            let path = std::env::temp_dir().join(format!(
+                "rl-test-{tag}-{}-{}",
+                std::process::id(),
+                std::time::SystemTime::now()
+                    .duration_since(std::time::UNIX_EPOCH)
+                    .unwrap()
+                    .as_nanos()
+            ));
+            std::fs::create_dir_all(&path).unwrap();
+            Dir(path)
+        }
+    }
+    impl Drop for Dir {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+}
+
+impl Cluster {
+    /// A cluster on its own `domain` (each test uses a distinct one).
+    pub fn new(tag: &str, domain: u16, config_extra: &str) -> Cluster {
+        let dir = tempdir::Dir::new(tag);
+        let config = test_config(&dir.0, config_extra);
+        let (fleet, lines) = Fleet::new(std::path::Path::new(RL), Some(&config), domain);
+        Cluster {
+            fleet,
+            lines,
+            started: Instant::now(),
+            status: BTreeMap::new(),
+            servo: Vec::new(),
+            events: Vec::new(),
+            transcript: Vec::new(),
+            _dir: dir,
+        }
+    }
+
+    pub fn start(&mut self, id: u8) -> u32 {
+        self.fleet
+            .start_controller_with(id, &["--json-events"])
+            .expect("start rl controller")
+    }
+
+    pub fn start_servo(&mut self) {
+        self.fleet
+            .start_other("servo", &["servo", "--json"])
+            .expect("start rl servo");
+    }
+
+    /// Takes in every line printed so far (waiting up to `wait`).
+    pub fn pump(&mut self, wait: Duration) {
+        let deadline = Instant::now() + wait;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.lines.recv_timeout(left.max(Duration::from_millis(1))) {
+                Ok(line) => self.take(line),
+                Err(_) => break,
+            }
+            if Instant::now() >= deadline {
+                while let Ok(line) = self.lines.try_recv() {
+                    self.take(line);
+                }
+                break;
+            }
+        }
+    }
+
+    fn take(&mut self, line: Line) {
+        let t = line.at.duration_since(self.started).as_millis();
+        self.transcript
+            .push(format!("{t:>6} ms {:>7}: {}", line.source, line.text));
+        if line.source == "servo" {
+            if let Some(event) = parse_servo_event(&line.text) {
+                self.servo.push((line.at, event));
+            }
+        } else if let Some(event) = parse_controller_event(&line.text) {
+            if let Some(status) = &event.status {
+                self.status.insert(event.id, status.clone());
+            }
+            self.events.push((line.at, event));
+        }
+    }
+
+    /// Waits until `done` holds, at most `timeout`; panics with `what` and the transcript.
+    pub fn wait_for(&mut self, what: &str, timeout: Duration, done: impl Fn(&Cluster) -> bool) {
+        let deadline = Instant::now() + timeout;
+        while !done(self) {
+            if Instant::now() >= deadline {
+                panic!(
+                    "timed out after {:?} waiting for: {what}\nlast status: {}\n--- transcript (last 60 lines) ---\n{}",
+                    timeout,
+                    self.describe(),
+                    self.transcript
+                        .iter()
+                        .rev()
+                        .take(60)
+                        .rev()
+                        .cloned()
+                        .collect::<Vec<_>>()
+                        .join("\n")
+                );
+            }
+            self.pump(Duration::from_millis(50));
+        }
+    }
+
+    /// One line per controller: phase, role, strength.
+    pub fn describe(&self) -> String {
+        self.status
+            .values()
+            .map(|s| {
+                format!(
+                    "C{} {} {:?} {:?}",
+                    s.id,
+                    s.phase,
+                    s.role.map(|r| r.name()),
+                    s.strength
+                )
+            })
+            .collect::<Vec<_>>()
+            .join("; ")
+    }
+
+    pub fn role_of(&self, id: u8) -> Option<Role> {
+        self.status.get(&id).and_then(|s| s.role)
+    }
+
+    pub fn steady_with(&self, id: u8, role: Option<Role>) -> bool {
+        self.status
+            .get(&id)
+            .is_some_and(|s| s.phase == Phase::Steady && s.role == role && s.strength == role.map(Role::strength))
+    }
+
+    /// The controller the servo follows now (its last owner change).
+    pub fn servo_owner(&self) -> Option<u8> {
+        self.servo.iter().rev().find_map(|(_, e)| match e {
+            ServoEvent::OwnerChanged {
+                to_controller_id, ..
+            } => Some(*to_controller_id),
+            _ => None,
+        })?
+    }
+
+    /// The id of the controller whose last accepted command the servo saw.
+    pub fn servo_commander(&self) -> Option<u8> {
+        self.servo.iter().rev().find_map(|(_, e)| match e {
+            ServoEvent::Command { controller_id, .. } => Some(*controller_id),
+            _ => None,
+        })?
+    }
+}
+
+impl Drop for Cluster {
+    fn drop(&mut self) {
+        self.fleet.stop_all();
+    }
+}
