@@ -59,7 +59,9 @@ pub fn run(args: DemoArgs) -> Result<(), crate::Error> {
     );
     let spawn = |e: std::io::Error| crate::Error::io("starting a child process", e);
     fleet.start_other("camera", &["shapes"]).map_err(spawn)?;
-    fleet.start_other("servo", &["servo", "--json"]).map_err(spawn)?;
+    fleet
+        .start_other("servo", &["servo", "--json"])
+        .map_err(spawn)?;
     for id in 1..=3 {
         fleet
             .start_controller_with(id, &["--json-events"])
@@ -80,8 +82,9 @@ pub fn run(args: DemoArgs) -> Result<(), crate::Error> {
                     Some(file) => file,
                     None => {
                         let path = dir.join(format!("{}.log", line.source.replace('!', ".stderr")));
-                        let file = std::fs::File::create(&path)
-                            .map_err(|e| crate::Error::io(format!("creating {}", path.display()), e))?;
+                        let file = std::fs::File::create(&path).map_err(|e| {
+                            crate::Error::io(format!("creating {}", path.display()), e)
+                        })?;
                         recordings.entry(line.source.clone()).or_insert(file)
                     }
                 };
@@ -96,8 +99,11 @@ pub fn run(args: DemoArgs) -> Result<(), crate::Error> {
                         ..
                     }) => {
                         owner = to_controller_id;
-                        let name = |id: Option<u8>| id.map(|i| format!("C{i}")).unwrap_or("-".into());
-                        let gap = gap_ms.map(|g| format!(" after a {g} ms gap")).unwrap_or_default();
+                        let name =
+                            |id: Option<u8>| id.map(|i| format!("C{i}")).unwrap_or("-".into());
+                        let gap = gap_ms
+                            .map(|g| format!(" after a {g} ms gap"))
+                            .unwrap_or_default();
                         println!(
                             "{} servo: owner {} -> {}{gap}",
                             stamp(line.at),
@@ -117,7 +123,8 @@ pub fn run(args: DemoArgs) -> Result<(), crate::Error> {
             match event.event.as_str() {
                 "status" => {
                     if let Some(status) = &event.status {
-                        let changed = entry.phase != Some(status.phase) || entry.role != status.role;
+                        let changed =
+                            entry.phase != Some(status.phase) || entry.role != status.role;
                         entry.phase = Some(status.phase);
                         entry.role = status.role;
                         entry.strength = status.strength;
@@ -126,15 +133,28 @@ pub fn run(args: DemoArgs) -> Result<(), crate::Error> {
                                 .role
                                 .map(|r| format!("{r} ({})", status.strength.unwrap_or(0)))
                                 .unwrap_or_else(|| "no role".into());
-                            println!("{} C{}: {} {}", stamp(line.at), event.id, status.phase, role);
+                            println!(
+                                "{} C{}: {} {}",
+                                stamp(line.at),
+                                event.id,
+                                status.phase,
+                                role
+                            );
                         }
                     }
                 }
                 "alarm" => {
                     if let (Some(about), Some(raised)) = (event.about, event.raised) {
                         let what = if raised { "raises" } else { "clears" };
-                        let reason = event.reason.map(|r| format!(" ({r:?})")).unwrap_or_default();
-                        println!("{} C{}: {what} alarm for C{about}{reason}", stamp(line.at), event.id);
+                        let reason = event
+                            .reason
+                            .map(|r| format!(" ({r:?})"))
+                            .unwrap_or_default();
+                        println!(
+                            "{} C{}: {what} alarm for C{about}{reason}",
+                            stamp(line.at),
+                            event.id
+                        );
                     }
                 }
                 "output" => entry.strength = event.strength,
@@ -142,7 +162,11 @@ pub fn run(args: DemoArgs) -> Result<(), crate::Error> {
             }
         }
         let now = Instant::now();
-        let settled = seen.values().filter(|s| s.phase == Some(Phase::Steady)).count() == 3
+        let settled = seen
+            .values()
+            .filter(|s| s.phase == Some(Phase::Steady))
+            .count()
+            == 3
             && owner.is_some()
             && killed.is_none();
         if settled {
@@ -159,9 +183,9 @@ pub fn run(args: DemoArgs) -> Result<(), crate::Error> {
                 killed = None;
                 cycles += 1;
             }
-        } else if settled_since
-            .is_some_and(|since| now.duration_since(since) >= Duration::from_secs(args.kill_every_s))
-        {
+        } else if settled_since.is_some_and(|since| {
+            now.duration_since(since) >= Duration::from_secs(args.kill_every_s)
+        }) {
             if args.cycles > 0 && cycles >= args.cycles {
                 break;
             }
@@ -183,7 +207,10 @@ pub fn run(args: DemoArgs) -> Result<(), crate::Error> {
             let roles: Vec<String> = Role::ALL
                 .iter()
                 .map(|role| {
-                    let holder = seen.iter().find(|(_, s)| s.role == Some(*role)).map(|(id, _)| *id);
+                    let holder = seen
+                        .iter()
+                        .find(|(_, s)| s.role == Some(*role))
+                        .map(|(id, _)| *id);
                     format!(
                         "{}={}",
                         &role.name()[..1].to_uppercase(),

@@ -69,8 +69,8 @@ fn main() -> ExitCode {
     rl::logging::init();
     let result = match cli.command {
         Command::Controller(args) => rl::controller::run(args),
-        Command::Shapes(args) => rl::sim::shapes::run(args).map_err(rl::Error::from),
-        Command::Servo(args) => rl::sim::servo::run(args).map_err(rl::Error::from),
+        Command::Shapes(args) => rl::sim::shapes::run(args),
+        Command::Servo(args) => rl::sim::servo::run(args),
         Command::Status(args) => rl::status::run(args),
         Command::Demo(args) => rl::demo::run(args),
         Command::Bench(args) => rl::bench::run(args),

@@ -187,10 +187,7 @@ impl Fleet {
     /// SIGSTOP (`stop = true`) or SIGCONT.
     pub fn pause(&self, id: ControllerId, stop: bool) -> std::io::Result<()> {
         match self.controllers.get(&id) {
-            Some(child) => signal(
-                child.id(),
-                if stop { libc::SIGSTOP } else { libc::SIGCONT },
-            ),
+            Some(child) => signal(child.id(), if stop { libc::SIGSTOP } else { libc::SIGCONT }),
             None => Ok(()),
         }
     }

@@ -9,9 +9,7 @@
 
 use crate::api::{Options, Shared};
 use crate::config::Config;
-use crate::core::{
-    Command, ControllerId, Core, CoreConfig, Input, Rounds, Status, VoteRecord,
-};
+use crate::core::{Command, ControllerId, Core, CoreConfig, Input, Rounds, Status, VoteRecord};
 use crate::dds::{Reader, Session, Writer};
 use crate::leds::{ConsoleLeds, LedBank};
 use crate::wire::{AlarmSample, ControllerAlarm, HeartbeatSample, VoteSample};
@@ -64,13 +62,16 @@ struct Endpoints {
     _ros_node: Option<ros2_client::Node>,
 }
 
+/// The voting thread; it returns how it ended.
+pub(crate) type VotingThread = JoinHandle<Result<(), crate::Error>>;
+
 /// Starts the voting thread of controller `id`.
 pub(crate) fn spawn(
     session: Arc<Session>,
     config: Config,
     id: ControllerId,
     options: Options,
-) -> Result<(Arc<Shared>, JoinHandle<Result<(), crate::Error>>), crate::Error> {
+) -> Result<(Arc<Shared>, VotingThread), crate::Error> {
     let dds = |e: crate::dds::DdsError| crate::Error::Dds(e.to_string());
     let (ros_node, ros_status) = match session.ros_node(id) {
         Ok(mut node) => match session.status_publisher(&mut node) {
@@ -131,7 +132,12 @@ pub(crate) fn spawn(
             voting.run()
         })
         .map_err(|e| crate::Error::io("starting the voting thread", e))?;
-    info!(id, incarnation, domain = config.dds.domain, "controller started");
+    info!(
+        id,
+        incarnation,
+        domain = config.dds.domain,
+        "controller started"
+    );
     Ok((shared, thread))
 }
 

@@ -139,7 +139,8 @@ impl Board {
 
 /// The table `rl status` prints.
 pub fn render_table(view: &StatusView) -> String {
-    let mut out = String::from("ID  PHASE         ROLE       STRENGTH  AGREED              HEARD\n");
+    let mut out =
+        String::from("ID  PHASE         ROLE       STRENGTH  AGREED              HEARD\n");
     for c in &view.controllers {
         let role = c.role.map(|r| r.name()).unwrap_or("-");
         let strength = c
@@ -201,8 +202,12 @@ impl BoardFeed {
     /// Takes in what has arrived; returns the heartbeats (for callers that watch changes).
     pub fn update(&mut self, board: &mut Board) -> Vec<Heartbeat> {
         let now = self.now_ms();
-        let heartbeats: Vec<Heartbeat> =
-            self.heartbeats.take().into_iter().map(|h| h.value).collect();
+        let heartbeats: Vec<Heartbeat> = self
+            .heartbeats
+            .take()
+            .into_iter()
+            .map(|h| h.value)
+            .collect();
         for heartbeat in &heartbeats {
             board.heartbeat(*heartbeat, now);
         }

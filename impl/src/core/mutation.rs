@@ -77,8 +77,7 @@ fn active(mutation: Mutation) -> bool {
 pub(super) fn promote_without_failure(c: &mut ControllerState, silent_peer: ControllerId) {
     if active(Mutation::PromoteWithoutFailure)
         && c.role == Some(Role::Secondary)
-        && c
-            .agreed
+        && c.agreed
             .is_some_and(|agreed| agreed.holder(Role::Primary) == Some(silent_peer))
     {
         c.role = Some(Role::Primary);

@@ -73,7 +73,12 @@ fn advance(core: &mut Core, now_ms: u64) -> Vec<Command> {
 fn actions(commands: Vec<Command>) -> Vec<Command> {
     commands
         .into_iter()
-        .filter(|c| !matches!(c, Command::Console(_) | Command::Status(_) | Command::Leds(_)))
+        .filter(|c| {
+            !matches!(
+                c,
+                Command::Console(_) | Command::Status(_) | Command::Leds(_)
+            )
+        })
         .collect()
 }
 
@@ -118,19 +123,32 @@ fn the_first_heartbeat_goes_out_at_start_then_a_quarter_period_after_each_bounda
     assert_eq!(c.next_deadline_ms(), 1010);
     assert_eq!(
         c.step(Input::Timer, 1010),
-        vec![Command::PublishHeartbeat(Heartbeat {
-            from: 1,
-            incarnation: 7,
-            phase: Phase::Initializing,
-            role: None,
-            strength: None,
-            agreed: None,
-            vote: None,
-        })]
+        vec![
+            Command::PublishHeartbeat(Heartbeat {
+                from: 1,
+                incarnation: 7,
+                phase: Phase::Initializing,
+                role: None,
+                strength: None,
+                agreed: None,
+                vote: None,
+            }),
+            // LED4 shows its own health before any role exists (paper, "LED Operation").
+            Command::Leds(crate::leds::LedPattern([
+                crate::leds::LedColor::Off,
+                crate::leds::LedColor::Off,
+                crate::leds::LedColor::Off,
+                crate::leds::LedColor::Green
+            ]))
+        ]
     );
     assert_eq!(c.next_deadline_ms(), 1250, "round end");
     assert_eq!(c.step(Input::Timer, 1250), vec![]);
-    assert_eq!(c.next_deadline_ms(), 1312, "heartbeat at boundary + period/4");
+    assert_eq!(
+        c.next_deadline_ms(),
+        1312,
+        "heartbeat at boundary + period/4"
+    );
 }
 
 #[test]
@@ -139,7 +157,10 @@ fn three_heads_close_the_window_and_the_vote_goes_by_lowest_id() {
     advance(&mut c, 62);
     deliver(
         &mut c,
-        &[heartbeat(3, Phase::Initializing), heartbeat(1, Phase::Initializing)],
+        &[
+            heartbeat(3, Phase::Initializing),
+            heartbeat(1, Phase::Initializing),
+        ],
         100,
     );
     let vote = assignment(&[(1, 0), (2, 0), (3, 0)]);
@@ -165,7 +186,10 @@ fn a_majority_of_identical_votes_gives_the_role_and_its_strength() {
     advance(&mut c, 62);
     deliver(
         &mut c,
-        &[heartbeat(2, Phase::Initializing), heartbeat(3, Phase::Initializing)],
+        &[
+            heartbeat(2, Phase::Initializing),
+            heartbeat(3, Phase::Initializing),
+        ],
         100,
     );
     advance(&mut c, 250);
@@ -195,9 +219,17 @@ fn a_majority_of_identical_votes_gives_the_role_and_its_strength() {
 fn a_lone_controller_waits_for_the_window_then_takes_primary() {
     let mut c = core(1, 0, 0);
     let commands = actions(advance(&mut c, 499));
-    assert_eq!(actions(c.step(Input::Timer, 500)), vec![], "second quiet round");
+    assert_eq!(
+        actions(c.step(Input::Timer, 500)),
+        vec![],
+        "second quiet round"
+    );
     assert_eq!(c.state().phase, Phase::Initializing);
-    assert_eq!(c.next_deadline_ms(), 500, "the window times out right after the round end");
+    assert_eq!(
+        c.next_deadline_ms(),
+        500,
+        "the window times out right after the round end"
+    );
     let vote = assignment(&[(1, 0)]);
     assert_eq!(
         actions(c.step(Input::Timer, 500)),
@@ -247,7 +279,11 @@ fn a_peer_silent_for_the_dead_man_deadline_is_lost_alarmed_and_re_voted() {
         ]
     );
     assert_eq!(c.state().phase, Phase::Voting);
-    assert_eq!(c.state().output, Some(20), "keeps commanding at its old strength");
+    assert_eq!(
+        c.state().output,
+        Some(20),
+        "keeps commanding at its old strength"
+    );
     // Round ending 1250: C3's heartbeat carries the same vote: promoted.
     advance(&mut c, 1062);
     deliver(
@@ -292,7 +328,11 @@ fn a_late_joiner_takes_the_lowest_free_role() {
         agreed: Some(vote),
         ..steady(from, running)
     };
-    deliver(&mut c, &[agreed_by_incumbents(1), agreed_by_incumbents(2)], 350);
+    deliver(
+        &mut c,
+        &[agreed_by_incumbents(1), agreed_by_incumbents(2)],
+        350,
+    );
     assert_eq!(
         actions(c.step(Input::Timer, 500)),
         vec![Command::SetOutput {
@@ -406,7 +446,11 @@ fn a_new_primary_holds_secondary_strength_while_the_old_one_claims_primary() {
     c.state.phase = Phase::Voting;
     advance(&mut c, 750);
     assert_eq!(c.state().role, Some(Role::Primary));
-    assert_eq!(c.state().output, Some(20), "two writers at 30 would let DDS pick");
+    assert_eq!(
+        c.state().output,
+        Some(20),
+        "two writers at 30 would let DDS pick"
+    );
 }
 
 #[test]
@@ -472,7 +516,9 @@ fn a_heartbeat_naming_our_own_id_is_reported_and_ignored() {
         }),
         10,
     );
-    assert!(matches!(&out[..], [Command::Console(line)] if line.contains("another controller")));
+    assert!(
+        matches!(&out[..], [Command::Console(line), Command::Leds(_)] if line.contains("another controller"))
+    );
     assert_eq!(c.duplicate_id_heartbeats, 1);
     assert!(c.state().peers.is_empty());
 }

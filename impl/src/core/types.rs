@@ -50,7 +50,9 @@ impl Role {
 
     /// The role a command strength stands for, if any.
     pub fn from_strength(strength: u8) -> Option<Role> {
-        Role::ALL.into_iter().find(|role| role.strength() == strength)
+        Role::ALL
+            .into_iter()
+            .find(|role| role.strength() == strength)
     }
 
     pub fn name(self) -> &'static str {
@@ -116,7 +118,9 @@ pub struct Holder {
 
 /// A vote's content: who should hold Primary, Secondary and Tertiary, in that order. Holes
 /// only ever appear at the end: `P=2 S=3 T=-`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
+)]
 pub struct Assignment(pub [Option<Holder>; ROLE_COUNT]);
 
 impl Assignment {

@@ -1,0 +1,20 @@
+//! # Conformance: RL's implementation checked against its model
+//!
+//! The model (`model/`) is the specification; its trace generator writes paths through the
+//! protocol (`traces/`), each step an action and the abstract state it leads to. This crate
+//! replays them against the implementation (`impl/`, package `rl`) and checks, after every
+//! step, that the implementation is in the state the model says (docs/conformance.md).
+//!
+//! - [`abstraction`]: the one abstraction function from implementation state to model state
+//!   (the only code that knows both crates' types);
+//! - [`trace`]: reading the trace files and their index;
+//! - [`replay`]: the core-level replay: real `rl::core::Core`s on a simulated clock and
+//!   network, one model action at a time, with a readable diff on a mismatch;
+//! - [`transcript`]: the readable per-trace transcripts kept as golden snapshots;
+//! - [`coverage`]: which (action kind x phase) pairs the replayed traces exercised.
+
+pub mod abstraction;
+pub mod coverage;
+pub mod replay;
+pub mod trace;
+pub mod transcript;

@@ -1,0 +1,248 @@
+//! Reading the model's trace set (`traces/NNNN.jsonl` and `traces/index.json`).
+//!
+//! The format is the model's (`model/src/traces.rs`, docs/model.md "Traces"): a header line
+//! with the configuration, purpose and initial abstract state, then one line per step with the
+//! action and the abstract state after it. The model only writes traces, so the reading side
+//! lives here, in the one crate that needs it; unknown fields are rejected so that a format
+//! change is noticed rather than half read. File input is never trusted: every problem is a
+//! [`TraceError`] naming the file and line.
+
+use model::traces::{AbstractController, AbstractState, FORMAT};
+use model::{Action, Config, Life, Phase, Role, Variant};
+use serde::Deserialize;
+use std::collections::{BTreeMap, BTreeSet};
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+/// One trace file, parsed.
+#[derive(Clone, Debug)]
+pub struct Trace {
+    /// The file name, e.g. `0004.jsonl`.
+    pub file: String,
+    pub model_hash: String,
+    pub config: Config,
+    pub purpose: String,
+    /// Which of the model's initial states the trace starts from.
+    pub initial_state_index: usize,
+    pub initial: AbstractState,
+    pub steps: Vec<TraceStep>,
+}
+
+/// One step: the action and the abstract state the model reached with it.
+#[derive(Clone, Debug)]
+pub struct TraceStep {
+    /// 1-based, as in the file.
+    pub number: usize,
+    pub action: Action,
+    pub state: AbstractState,
+}
+
+impl Trace {
+    /// The variant of the rules the trace was generated with.
+    pub fn variant(&self) -> Variant {
+        self.config.variant
+    }
+
+    /// The state before step `index` (0-based): the initial state or the previous step's.
+    pub fn state_before(&self, index: usize) -> &AbstractState {
+        match index.checked_sub(1) {
+            Some(previous) => &self.steps[previous].state,
+            None => &self.initial,
+        }
+    }
+}
+
+/// A trace file that cannot be read.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct TraceError {
+    pub path: PathBuf,
+    /// 1-based line, when the problem is on one line.
+    pub line: Option<usize>,
+    pub message: String,
+}
+
+impl fmt::Display for TraceError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.line {
+            Some(line) => write!(f, "{}:{line}: {}", self.path.display(), self.message),
+            None => write!(f, "{}: {}", self.path.display(), self.message),
+        }
+    }
+}
+
+impl std::error::Error for TraceError {}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct HeaderLine {
+    format: String,
+    model_hash: String,
+    config: Config,
+    purpose: String,
+    initial_state_index: usize,
+    initial: RecordedState,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct StepLine {
+    step: usize,
+    action: Action,
+    state: RecordedState,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RecordedState {
+    controllers: Vec<RecordedController>,
+    actuator_owner: Option<u8>,
+}
+
+/// `model::traces::AbstractController` as serialized (the model's type only serializes).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RecordedController {
+    id: u8,
+    life: Life,
+    incarnation: u8,
+    phase: Option<Phase>,
+    role: Option<Role>,
+    strength: Option<u8>,
+    sees: Vec<u8>,
+    failed: Vec<u8>,
+    alarms: Vec<u8>,
+    agreed: Option<String>,
+    vote: Option<String>,
+}
+
+impl From<RecordedState> for AbstractState {
+    fn from(recorded: RecordedState) -> AbstractState {
+        AbstractState {
+            controllers: recorded
+                .controllers
+                .into_iter()
+                .map(|c| AbstractController {
+                    id: c.id,
+                    life: c.life,
+                    incarnation: c.incarnation,
+                    phase: c.phase,
+                    role: c.role,
+                    strength: c.strength,
+                    sees: c.sees,
+                    failed: c.failed,
+                    alarms: c.alarms,
+                    agreed: c.agreed,
+                    vote: c.vote,
+                })
+                .collect(),
+            actuator_owner: recorded.actuator_owner,
+        }
+    }
+}
+
+/// Reads one trace file.
+pub fn read_trace(path: &Path) -> Result<Trace, TraceError> {
+    let error = |line: Option<usize>, message: String| TraceError {
+        path: path.to_path_buf(),
+        line,
+        message,
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| error(None, e.to_string()))?;
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty());
+    let (_, header_text) = lines
+        .next()
+        .ok_or_else(|| error(None, "empty file: no header line".into()))?;
+    let header: HeaderLine =
+        serde_json::from_str(header_text).map_err(|e| error(Some(1), format!("header: {e}")))?;
+    if header.format != FORMAT {
+        return Err(error(
+            Some(1),
+            format!("format {:?}, this suite reads {FORMAT:?}", header.format),
+        ));
+    }
+    let mut steps = Vec::new();
+    for (index, line) in lines {
+        let parsed: StepLine =
+            serde_json::from_str(line).map_err(|e| error(Some(index + 1), format!("step: {e}")))?;
+        if parsed.step != steps.len() + 1 {
+            return Err(error(
+                Some(index + 1),
+                format!(
+                    "step {} where step {} was expected",
+                    parsed.step,
+                    steps.len() + 1
+                ),
+            ));
+        }
+        steps.push(TraceStep {
+            number: parsed.step,
+            action: parsed.action,
+            state: parsed.state.into(),
+        });
+    }
+    let file = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    Ok(Trace {
+        file,
+        model_hash: header.model_hash,
+        config: header.config,
+        purpose: header.purpose,
+        initial_state_index: header.initial_state_index,
+        initial: header.initial.into(),
+        steps,
+    })
+}
+
+/// Reads every `*.jsonl` trace of a directory, in file-name order.
+pub fn read_dir(dir: &Path) -> Result<Vec<Trace>, TraceError> {
+    let error = |message: String| TraceError {
+        path: dir.to_path_buf(),
+        line: None,
+        message,
+    };
+    let mut paths = Vec::new();
+    for entry in std::fs::read_dir(dir).map_err(|e| error(e.to_string()))? {
+        let path = entry.map_err(|e| error(e.to_string()))?.path();
+        if path.extension().is_some_and(|ext| ext == "jsonl") {
+            paths.push(path);
+        }
+    }
+    paths.sort();
+    paths.iter().map(|path| read_trace(path)).collect()
+}
+
+/// The part of an `index.json` entry this suite reads (it also holds the purpose and length,
+/// which the trace files carry themselves).
+#[derive(Deserialize)]
+struct IndexEntry {
+    file: String,
+    covers: Vec<String>,
+}
+
+/// `index.json`: for each trace file, the coverage classes the model says it covers
+/// (`tick@steady`, `join@notstarted`, ...).
+pub fn read_index(path: &Path) -> Result<BTreeMap<String, BTreeSet<String>>, TraceError> {
+    let error = |message: String| TraceError {
+        path: path.to_path_buf(),
+        line: None,
+        message,
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| error(e.to_string()))?;
+    let entries: Vec<IndexEntry> = serde_json::from_str(&text).map_err(|e| error(e.to_string()))?;
+    Ok(entries
+        .into_iter()
+        .map(|entry| (entry.file, entry.covers.into_iter().collect()))
+        .collect())
+}
+
+/// The repository's trace directory (`traces/` beside this crate).
+pub fn default_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("..")
+        .join("traces")
+}

@@ -1,0 +1,121 @@
+//! The mutation check: a suite that cannot fail proves nothing. Each test selects one
+//! deliberate break of a voting rule in the core (`rl::core::mutation`, feature `mutation`),
+//! replays every default-variant trace, and asserts that the replay fails with a readable
+//! diff showing the broken field, model value against core value.
+//!
+//! The selection is per thread, so these tests run in parallel with each other and with the
+//! conformance suite without affecting it.
+
+use conformance::replay::{self, Failure, NAME_WIDTH, VALUE_WIDTH};
+use conformance::trace::{self, Trace};
+use rl::core::mutation::{self, Mutation};
+
+fn traces() -> Vec<Trace> {
+    trace::read_dir(&trace::default_dir()).expect("the trace set is readable")
+}
+
+/// Replays every default-variant trace with `mutation` selected; returns the failures.
+fn failures_under(mutation: Mutation) -> Vec<Failure> {
+    let traces: Vec<Trace> = traces()
+        .into_iter()
+        .filter(|trace| replay::skip_reason(trace).is_none())
+        .collect();
+    let _selected = mutation::select_scoped(mutation);
+    let failures: Vec<Failure> = traces
+        .iter()
+        .filter_map(|trace| replay::replay(trace).err())
+        .collect();
+    println!(
+        "{mutation:?}: {} of {} replayed traces fail",
+        failures.len(),
+        traces.len()
+    );
+    failures
+}
+
+/// The rows of a failure's diff marked as different: (field, model value, core value).
+fn differing_rows(message: &str) -> Vec<(String, String, String)> {
+    message
+        .lines()
+        .filter_map(|line| line.strip_prefix("  >> "))
+        .filter(|rest| !rest.starts_with("actuator owner"))
+        .filter_map(|rest| {
+            let core_column = NAME_WIDTH + VALUE_WIDTH;
+            let name = rest.get(..NAME_WIDTH)?.trim().to_string();
+            let model_value = rest.get(NAME_WIDTH..core_column)?.trim().to_string();
+            let core_value = rest.get(core_column..)?.trim().to_string();
+            Some((name, model_value, core_value))
+        })
+        .collect()
+}
+
+/// Asserts that some failure's readable diff shows `field` differing as `shows` accepts
+/// (model value, core value); prints that failure.
+fn assert_some_diff_shows(mutation: Mutation, field: &str, shows: impl Fn(&str, &str) -> bool) {
+    let failures = failures_under(mutation);
+    assert!(
+        !failures.is_empty(),
+        "{mutation:?}: every trace still conforms; the suite cannot see this rule broken"
+    );
+    let found = failures.iter().map(ToString::to_string).find(|message| {
+        differing_rows(message)
+            .iter()
+            .any(|(name, model_value, core_value)| name == field && shows(model_value, core_value))
+    });
+    match found {
+        Some(message) => println!("{message}"),
+        None => panic!(
+            "{mutation:?}: no failure shows the expected {field} difference; the first one:\n{}",
+            failures[0]
+        ),
+    }
+    assert_eq!(
+        mutation::selected(),
+        None,
+        "the selection ends with the test"
+    );
+}
+
+#[test]
+fn promote_without_failure_is_caught() {
+    // A Secondary that misses one heartbeat of its Primary takes Primary without a vote.
+    assert_some_diff_shows(Mutation::PromoteWithoutFailure, "role", |model, core| {
+        model == "secondary" && core == "primary"
+    });
+}
+
+#[test]
+fn ignore_minority_vote_is_caught() {
+    // The model marks the minority voter FAILED; the mutated core never does.
+    assert_some_diff_shows(Mutation::IgnoreMinorityVote, "failed", |model, core| {
+        model != "{}" && core == "{}"
+    });
+}
+
+#[test]
+fn failback_is_caught() {
+    // A restarted incarnation (`#1`) is voted Primary again instead of coming in below.
+    assert_some_diff_shows(Mutation::Failback, "vote", |model, core| {
+        let primary = |vote: &str| vote.split(' ').next().unwrap_or("").contains('#');
+        primary(core) && !primary(model)
+    });
+}
+
+#[test]
+fn admit_fourth_is_caught() {
+    // The fourth controller votes itself in as Tertiary.
+    assert_some_diff_shows(Mutation::AdmitFourth, "vote", |model, core| {
+        core.contains("T=4") && !model.contains("T=4")
+    });
+}
+
+#[test]
+fn without_a_selected_mutation_the_hooks_are_inert() {
+    assert_eq!(mutation::selected(), None);
+    let traces = traces();
+    for trace in traces.iter().filter(|t| replay::skip_reason(t).is_none()) {
+        if let Err(failure) = replay::replay(trace) {
+            panic!("with no mutation selected:\n{failure}");
+        }
+    }
+}
