@@ -69,9 +69,14 @@ pub struct Redundancy {
 
 impl Redundancy {
     /// Joins the configured DDS domain as controller `id` and starts voting.
-    pub fn start(config: &Config, id: ControllerId, options: Options) -> Result<Redundancy, crate::Error> {
+    pub fn start(
+        config: &Config,
+        id: ControllerId,
+        options: Options,
+    ) -> Result<Redundancy, crate::Error> {
         let session = Arc::new(
-            Session::new(&config.dds, &config.timing).map_err(|e| crate::Error::Dds(e.to_string()))?,
+            Session::new(&config.dds, &config.timing)
+                .map_err(|e| crate::Error::Dds(e.to_string()))?,
         );
         let (shared, thread) = runtime::spawn(Arc::clone(&session), config.clone(), id, options)?;
         Ok(Redundancy {
@@ -139,9 +144,9 @@ impl Redundancy {
     pub fn stop(mut self) -> Result<(), crate::Error> {
         self.shared.stop.store(true, Ordering::SeqCst);
         match self.thread.take() {
-            Some(thread) => thread
-                .join()
-                .unwrap_or_else(|_| Err(crate::Error::Runtime("the voting thread panicked".into()))),
+            Some(thread) => thread.join().unwrap_or_else(|_| {
+                Err(crate::Error::Runtime("the voting thread panicked".into()))
+            }),
             None => Ok(()),
         }
     }

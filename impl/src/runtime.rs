@@ -161,6 +161,8 @@ impl Voting {
         register(&self.endpoints.votes_in, VOTES)?;
         let mut events = Events::with_capacity(16);
         self.event("started", json!({}));
+        #[cfg(feature = "fault-injection")]
+        fault_injection::listen_on_stdin();
         while !self.shared.stop.load(Ordering::SeqCst) {
             if self.shared.fault.swap(false, Ordering::SeqCst) {
                 self.step(Input::LocalFault);
@@ -181,6 +183,10 @@ impl Voting {
             }
             // Edge-triggered: drain both readers whatever woke us.
             for heartbeat in self.endpoints.heartbeats_in.take() {
+                #[cfg(feature = "fault-injection")]
+                if fault_injection::dropped(heartbeat.value.from) {
+                    continue;
+                }
                 self.step(Input::Heartbeat(heartbeat.value));
             }
             for vote in self.endpoints.votes_in.take() {
@@ -325,5 +331,52 @@ impl Voting {
         let mut out = std::io::stdout().lock();
         let _ = writeln!(out, "{record}");
         let _ = out.flush();
+    }
+}
+
+/// Test-only fault injection (feature `fault-injection`): heartbeats from the peers named on
+/// stdin are dropped on arrival, as if the network lost them one way.
+#[cfg(feature = "fault-injection")]
+mod fault_injection {
+    use std::collections::BTreeSet;
+    use std::io::BufRead;
+    use std::sync::Mutex;
+
+    static DROPPED: Mutex<BTreeSet<u8>> = Mutex::new(BTreeSet::new());
+
+    pub fn dropped(from: u8) -> bool {
+        DROPPED
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .contains(&from)
+    }
+
+    /// Reads `drop-heartbeats-from <id>` and `accept-heartbeats-from <id>` lines.
+    pub fn listen_on_stdin() {
+        let _ = std::thread::Builder::new()
+            .name("rl-fault-injection".into())
+            .spawn(|| {
+                for line in std::io::stdin().lock().lines().map_while(Result::ok) {
+                    let mut words = line.split_whitespace();
+                    let (Some(verb), Some(id)) = (words.next(), words.next()) else {
+                        continue;
+                    };
+                    let Ok(id) = id.parse::<u8>() else {
+                        tracing::warn!("fault injection: bad id in {line:?}");
+                        continue;
+                    };
+                    let mut dropped = DROPPED.lock().unwrap_or_else(|e| e.into_inner());
+                    match verb {
+                        "drop-heartbeats-from" => {
+                            dropped.insert(id);
+                        }
+                        "accept-heartbeats-from" => {
+                            dropped.remove(&id);
+                        }
+                        _ => tracing::warn!("fault injection: unknown command {line:?}"),
+                    }
+                    tracing::info!("fault injection: dropping heartbeats from {dropped:?}");
+                }
+            });
     }
 }

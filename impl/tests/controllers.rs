@@ -39,7 +39,9 @@ fn two_controllers_form_as_primary_and_secondary() {
     let mut cluster = Cluster::new("form2", 202, "");
     cluster.start(2);
     cluster.start(1);
-    cluster.wait_for("P=1 S=2", FORM, |c| c.steady_with(1, P) && c.steady_with(2, S));
+    cluster.wait_for("P=1 S=2", FORM, |c| {
+        c.steady_with(1, P) && c.steady_with(2, S)
+    });
 }
 
 #[test]
@@ -77,7 +79,10 @@ fn kill_9_of_the_primary_hands_the_servo_to_the_secondary_which_is_promoted() {
         c.steady_with(2, P) && c.steady_with(3, S)
     });
     let promoted_after = killed_at.elapsed();
-    assert!(promoted_after < Duration::from_secs(5), "{promoted_after:?}");
+    assert!(
+        promoted_after < Duration::from_secs(5),
+        "{promoted_after:?}"
+    );
     for reporter in [2, 3] {
         assert!(
             cluster.events.iter().any(|(_, e)| e.id == reporter
@@ -98,9 +103,11 @@ fn sigstop_sigcont_primary_resumes_commanding() {
     formed_three(&mut cluster);
     cluster.wait_for("servo follows C1", FORM, |c| c.servo_commander() == Some(1));
     cluster.fleet.pause(1, true).unwrap();
-    cluster.wait_for("servo owner C2 while C1 is stopped", Duration::from_secs(5), |c| {
-        c.servo_owner() == Some(2)
-    });
+    cluster.wait_for(
+        "servo owner C2 while C1 is stopped",
+        Duration::from_secs(5),
+        |c| c.servo_owner() == Some(2),
+    );
     cluster.wait_for("C2 promoted", FORM, |c| c.steady_with(2, P));
     let resumed_from = cluster.events.len();
     cluster.fleet.pause(1, false).unwrap();
@@ -108,14 +115,27 @@ fn sigstop_sigcont_primary_resumes_commanding() {
     cluster.wait_for("C2 and C3 clear the alarm for C1", FORM, |c| {
         [2, 3].iter().all(|&reporter| {
             c.events[resumed_from..].iter().any(|(_, e)| {
-                e.id == reporter && e.event == "alarm" && e.about == Some(1) && e.raised == Some(false)
+                e.id == reporter
+                    && e.event == "alarm"
+                    && e.about == Some(1)
+                    && e.raised == Some(false)
             })
         })
     });
     // One system again: every controller steady, one Primary, the servo following it.
     cluster.wait_for("settled with one Primary", FORM, |c| {
-        let steady = c.status.values().filter(|s| s.phase == Phase::Steady).count() == 3;
-        let primaries: Vec<u8> = c.status.values().filter(|s| s.role == P && s.strength == Some(30)).map(|s| s.id).collect();
+        let steady = c
+            .status
+            .values()
+            .filter(|s| s.phase == Phase::Steady)
+            .count()
+            == 3;
+        let primaries: Vec<u8> = c
+            .status
+            .values()
+            .filter(|s| s.role == P && s.strength == Some(30))
+            .map(|s| s.id)
+            .collect();
         steady && primaries.len() == 1 && c.servo_commander() == primaries.first().copied()
     });
 }
@@ -125,7 +145,9 @@ fn a_late_joiner_comes_in_as_tertiary() {
     let mut cluster = Cluster::new("late", 206, "");
     cluster.start(1);
     cluster.start(2);
-    cluster.wait_for("P=1 S=2", FORM, |c| c.steady_with(1, P) && c.steady_with(2, S));
+    cluster.wait_for("P=1 S=2", FORM, |c| {
+        c.steady_with(1, P) && c.steady_with(2, S)
+    });
     cluster.start(3);
     cluster.wait_for("C3 Tertiary", FORM, |c| c.steady_with(3, T));
     assert!(cluster.steady_with(1, P) && cluster.steady_with(2, S));
@@ -139,7 +161,10 @@ fn a_fourth_controller_is_ignored() {
     cluster.wait_for("C4 steady without a role", FORM, |c| c.steady_with(4, None));
     assert!(cluster.steady_with(1, P) && cluster.steady_with(2, S) && cluster.steady_with(3, T));
     assert!(
-        !cluster.events.iter().any(|(_, e)| e.id == 4 && e.event == "output" && e.strength.is_some()),
+        !cluster
+            .events
+            .iter()
+            .any(|(_, e)| e.id == 4 && e.event == "output" && e.strength.is_some()),
         "C4 never commands"
     );
 }
@@ -149,11 +174,17 @@ fn a_restarted_primary_comes_back_in_the_lowest_role() {
     let mut cluster = Cluster::new("restart", 208, "");
     formed_three(&mut cluster);
     cluster.fleet.kill(1).unwrap();
-    cluster.wait_for("P=2 S=3", FORM, |c| c.steady_with(2, P) && c.steady_with(3, S));
+    cluster.wait_for("P=2 S=3", FORM, |c| {
+        c.steady_with(2, P) && c.steady_with(3, S)
+    });
     cluster.status.remove(&1);
     cluster.start(1);
     cluster.wait_for("C1 back as Tertiary", FORM, |c| c.steady_with(1, T));
-    assert!(cluster.steady_with(2, P) && cluster.steady_with(3, S), "{}", cluster.describe());
+    assert!(
+        cluster.steady_with(2, P) && cluster.steady_with(3, S),
+        "{}",
+        cluster.describe()
+    );
 }
 
 #[test]
@@ -196,11 +227,18 @@ fn malformed_heartbeats_are_dropped_and_nothing_crashes() {
         cluster.pump(Duration::from_millis(25));
     }
     cluster.pump(Duration::from_secs(1));
-    assert!(cluster.steady_with(1, P) && cluster.steady_with(2, S) && cluster.steady_with(3, T), "{}", cluster.describe());
+    assert!(
+        cluster.steady_with(1, P) && cluster.steady_with(2, S) && cluster.steady_with(3, T),
+        "{}",
+        cluster.describe()
+    );
     for id in 1..=3 {
         assert!(cluster.fleet.pid(id).is_some());
         assert!(
-            !cluster.events.iter().any(|(_, e)| e.id == id && e.event == "stopped"),
+            !cluster
+                .events
+                .iter()
+                .any(|(_, e)| e.id == id && e.event == "stopped"),
             "C{id} still runs"
         );
     }
@@ -217,28 +255,54 @@ fn run_rl(args: &[&str]) -> std::process::Output {
 fn bad_configuration_exits_2_naming_the_field() {
     let dir = support::tempdir::Dir::new("badconfig");
     let cases = [
-        ("[timing]\npeer_deadline_ms = 300\n", "timing.peer_deadline_ms"),
+        (
+            "[timing]\npeer_deadline_ms = 300\n",
+            "timing.peer_deadline_ms",
+        ),
         ("[timin]\n", "timin"),
         ("[dds]\ndomain = \"x\"\n", "dds.domain"),
-        ("[timing]\nheartbeat_period_ms = 0\n", "timing.heartbeat_period_ms"),
+        (
+            "[timing]\nheartbeat_period_ms = 0\n",
+            "timing.heartbeat_period_ms",
+        ),
     ];
     for (text, field) in cases {
         let path = dir.0.join("bad.toml");
         std::fs::write(&path, text).unwrap();
-        let out = run_rl(&["controller", "--id", "1", "--config", path.to_str().unwrap()]);
+        let out = run_rl(&[
+            "controller",
+            "--id",
+            "1",
+            "--config",
+            path.to_str().unwrap(),
+        ]);
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(2), "{text:?}: {stderr}");
-        assert!(stderr.contains(field), "{text:?}: message names {field}: {stderr}");
+        assert!(
+            stderr.contains(field),
+            "{text:?}: message names {field}: {stderr}"
+        );
         assert!(!stderr.contains("panicked"), "{stderr}");
     }
-    let missing = run_rl(&["controller", "--id", "1", "--config", "/nonexistent/rl.toml"]);
+    let missing = run_rl(&[
+        "controller",
+        "--id",
+        "1",
+        "--config",
+        "/nonexistent/rl.toml",
+    ]);
     assert_eq!(missing.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&missing.stderr).contains("/nonexistent/rl.toml"));
     let bad_id = run_rl(&["controller", "--id", "0"]);
     assert_eq!(bad_id.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&bad_id.stderr).contains("--id"));
     let bad_domain = run_rl(&["controller", "--id", "1", "--domain", "300"]);
-    assert_eq!(bad_domain.status.code(), Some(2), "{}", String::from_utf8_lossy(&bad_domain.stderr));
+    assert_eq!(
+        bad_domain.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&bad_domain.stderr)
+    );
 }
 
 #[test]
@@ -246,7 +310,12 @@ fn status_once_json_lists_the_controllers_and_exits() {
     let mut cluster = Cluster::new("status", 210, "");
     formed_three(&mut cluster);
     let out = run_rl(&["status", "--json", "--once", "--domain", "210"]);
-    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let text = String::from_utf8_lossy(&out.stdout);
     let view: serde_json::Value = serde_json::from_str(text.trim()).expect("one JSON object");
     let controllers = view["controllers"].as_array().expect("controllers");

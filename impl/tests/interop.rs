@@ -116,9 +116,12 @@ fn run_peer(script: &str, domain: u16, switch_within_ms: f64) {
         })
         .collect();
     let who = |r: &Received| controllers.get(&r.participant).copied();
+    // A reader that joins a running system takes the first writer it matches until the
+    // stronger one's samples arrive (DDS semantics); judge it once it has settled.
+    let settled_reader_ms = received.first().map_or(0.0, |r| r.t_ms + 1000.0);
     let before: Vec<Option<u8>> = received
         .iter()
-        .filter(|r| r.t_ms < killed_at_ms)
+        .filter(|r| r.t_ms > settled_reader_ms && r.t_ms < killed_at_ms)
         .map(who)
         .collect();
     let after: Vec<Option<u8>> = received

@@ -16,11 +16,7 @@ pub const RL: &str = env!("CARGO_BIN_EXE_rl");
 /// formations with fewer than three controllers don't wait 10 s.
 pub fn test_config(dir: &std::path::Path, extra: &str) -> PathBuf {
     let path = dir.join("rl.toml");
-    std::fs::write(
-        &path,
-        format!("[timing]\ninit_window_ms = 1000\n{extra}\n"),
-    )
-    .unwrap();
+    std::fs::write(&path, format!("[timing]\ninit_window_ms = 1000\n{extra}\n")).unwrap();
     path
 }
 
@@ -172,9 +168,9 @@ impl Cluster {
     }
 
     pub fn steady_with(&self, id: u8, role: Option<Role>) -> bool {
-        self.status
-            .get(&id)
-            .is_some_and(|s| s.phase == Phase::Steady && s.role == role && s.strength == role.map(Role::strength))
+        self.status.get(&id).is_some_and(|s| {
+            s.phase == Phase::Steady && s.role == role && s.strength == role.map(Role::strength)
+        })
     }
 
     /// The controller the servo follows now (its last owner change).

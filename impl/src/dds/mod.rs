@@ -1,0 +1,385 @@
+//! Everything that knows DDS: the participant, the topics, their QoS, typed readers and
+//! writers, and the ROS 2 node that shares the participant.
+//!
+//! A [`Session`] is one DDS participant on the configured domain, created through a ros2-client
+//! `Context` so a ROS 2 node ([`Session::ros_node`]) lives on the same participant. All of a
+//! controller's endpoints come from one session; the constructors name the paper's topics:
+//!
+//! | endpoint | topic (config) | key | QoS ([`qos`]) |
+//! |---|---|---|---|
+//! | heartbeat reader/writer | `heartbeat_topic` | controller id | best effort, keep last 1, deadline 2 x period |
+//! | vote reader/writer | `vote_topic` | controller id | reliable, transient local, keep last 1 |
+//! | alarm reader/writer | `controller_alarm_topic` | - | reliable, keep last 32 |
+//! | network alarm reader/writer | `network_alarm_topic` | - | reliable, keep last 32 |
+//! | [`CommandWriter`], command reader | `command_topic` | - | reliable, EXCLUSIVE, strength by role, deadline = command deadline |
+//! | camera reader/writer | `camera_topic` | colour | best effort reader, reliable writer, keep last 1 |
+//!
+//! Readers are non-blocking ([`Reader::take`]) and mio 0.6 `Evented` (use `rustdds::mio`,
+//! re-exported here as [`mio`]), so one thread can wait on all of them with a `mio::Poll`.
+//!
+//! **Who wrote a command.** A command sample does not name its controller. Every RTPS entity's
+//! GUID starts with its participant's 12-byte GUID prefix, and a controller's heartbeat writer
+//! and command writer come from the same session, hence the same participant. So a reader of
+//! both topics maps the heartbeat's writer GUID prefix to the heartbeat's `from` id
+//! ([`ControllerDirectory`]) and then any command's writer GUID to that controller, with no
+//! extra field on the wire. The writer's ownership strength comes from discovery
+//! ([`Session::command_writer_strengths`], RustDDS `discovered_writers()`).
+
+mod endpoint;
+pub mod qos;
+mod ros;
+
+pub use endpoint::{guid_hex, CommandWriter, Reader, Received, Writer};
+pub use ros::StatusPublisher;
+pub use rustdds::{mio, GUID};
+
+use crate::config::{Dds, Timing};
+use crate::core::types::{ControllerId, Heartbeat};
+use crate::wire::{
+    AlarmSample, HeartbeatSample, NetworkAlarmSample, ServoControl, ShapeTypeExtended, VoteSample,
+    WireError, WireSample,
+};
+use ros2_client::{Context, ContextOptions};
+use rustdds::{
+    serialization::CDRSerializerAdapter, CDRDeserializerAdapter, DomainParticipant, Publisher,
+    QosPolicies, QosPolicyBuilder, RTPSEntity, Subscriber, Topic, TopicDescription, TopicKind,
+};
+use std::collections::{BTreeMap, HashMap};
+
+/// A DDS failure, with the entity and topic it concerns.
+#[derive(Debug, thiserror::Error)]
+pub enum DdsError {
+    #[error("cannot join DDS domain {domain}: {reason}")]
+    Participant { domain: u16, reason: String },
+    #[error("cannot create the {what} of topic {topic}: {reason}")]
+    Create {
+        what: &'static str,
+        topic: String,
+        reason: String,
+    },
+    #[error("cannot write on topic {topic}: {reason}")]
+    Write { topic: String, reason: String },
+    #[error("refusing to write an invalid sample on topic {topic}: {source}")]
+    Invalid { topic: String, source: WireError },
+    #[error("ROS 2 {what}: {reason}")]
+    Ros { what: &'static str, reason: String },
+}
+
+/// The 12-byte GUID prefix that identifies a participant (and prefixes all its entities).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct ParticipantKey(pub [u8; 12]);
+
+impl ParticipantKey {
+    pub fn of(guid: GUID) -> ParticipantKey {
+        let bytes = guid.to_bytes();
+        let mut prefix = [0; 12];
+        prefix.copy_from_slice(&bytes[..12]);
+        ParticipantKey(prefix)
+    }
+}
+
+struct Topics {
+    heartbeat: Topic,
+    vote: Topic,
+    alarm: Topic,
+    network_alarm: Topic,
+    command: Topic,
+    camera: Topic,
+}
+
+/// One DDS participant and the RL topics on it.
+pub struct Session {
+    context: Context,
+    participant: DomainParticipant,
+    publisher: Publisher,
+    subscriber: Subscriber,
+    topics: Topics,
+    config: Dds,
+    timing: Timing,
+}
+
+fn create_topic(
+    participant: &DomainParticipant,
+    name: &str,
+    type_name: &str,
+    kind: TopicKind,
+) -> Result<Topic, DdsError> {
+    // Endpoints set their QoS in full; the topic adds nothing.
+    participant
+        .create_topic(
+            name.to_string(),
+            type_name.to_string(),
+            &QosPolicies::qos_none(),
+            kind,
+        )
+        .map_err(|e| DdsError::Create {
+            what: "topic",
+            topic: name.to_string(),
+            reason: e.to_string(),
+        })
+}
+
+impl Session {
+    /// Joins `dds.domain` and creates the RL topics. `timing` sets the deadlines.
+    pub fn new(dds: &Dds, timing: &Timing) -> Result<Session, DdsError> {
+        let participant_error = |reason: String| DdsError::Participant {
+            domain: dds.domain,
+            reason,
+        };
+        let context = Context::with_options(ContextOptions::new().domain_id(dds.domain))
+            .map_err(|e| participant_error(e.to_string()))?;
+        let participant = context.domain_participant();
+        let default_qos = QosPolicyBuilder::new().build();
+        let publisher = participant
+            .create_publisher(&default_qos)
+            .map_err(|e| participant_error(format!("publisher: {e}")))?;
+        let subscriber = participant
+            .create_subscriber(&default_qos)
+            .map_err(|e| participant_error(format!("subscriber: {e}")))?;
+        let topics = Topics {
+            heartbeat: create_topic(
+                &participant,
+                &dds.heartbeat_topic,
+                HeartbeatSample::TYPE_NAME,
+                TopicKind::WithKey,
+            )?,
+            vote: create_topic(
+                &participant,
+                &dds.vote_topic,
+                VoteSample::TYPE_NAME,
+                TopicKind::WithKey,
+            )?,
+            alarm: create_topic(
+                &participant,
+                &dds.controller_alarm_topic,
+                AlarmSample::TYPE_NAME,
+                TopicKind::NoKey,
+            )?,
+            network_alarm: create_topic(
+                &participant,
+                &dds.network_alarm_topic,
+                NetworkAlarmSample::TYPE_NAME,
+                TopicKind::NoKey,
+            )?,
+            command: create_topic(
+                &participant,
+                &dds.command_topic,
+                ServoControl::TYPE_NAME,
+                TopicKind::NoKey,
+            )?,
+            camera: create_topic(
+                &participant,
+                &dds.camera_topic,
+                ShapeTypeExtended::TYPE_NAME,
+                TopicKind::WithKey,
+            )?,
+        };
+        Ok(Session {
+            context,
+            participant,
+            publisher,
+            subscriber,
+            topics,
+            config: dds.clone(),
+            timing: timing.clone(),
+        })
+    }
+
+    pub fn domain_id(&self) -> u16 {
+        self.participant.domain_id()
+    }
+
+    pub fn config(&self) -> &Dds {
+        &self.config
+    }
+
+    pub fn timing(&self) -> &Timing {
+        &self.timing
+    }
+
+    /// The RustDDS participant, for anything not wrapped here.
+    pub fn participant(&self) -> &DomainParticipant {
+        &self.participant
+    }
+
+    /// The ros2-client context that owns the participant.
+    pub fn ros_context(&self) -> &Context {
+        &self.context
+    }
+
+    pub fn participant_guid(&self) -> GUID {
+        self.participant.guid()
+    }
+
+    /// The prefix of every GUID of this session's entities.
+    pub fn participant_key(&self) -> ParticipantKey {
+        ParticipantKey::of(self.participant.guid())
+    }
+
+    fn keyed_reader<S>(&self, topic: &Topic, qos: QosPolicies) -> Result<Reader<S>, DdsError>
+    where
+        S: WireSample + rustdds::Keyed + serde::de::DeserializeOwned + Send + 'static,
+        S::K: serde::de::DeserializeOwned + Send,
+    {
+        let raw = self
+            .subscriber
+            .create_datareader::<S, CDRDeserializerAdapter<S>>(topic, Some(qos))
+            .map_err(|e| create_error("reader", topic, e))?;
+        Ok(Reader::keyed(raw, topic))
+    }
+
+    fn unkeyed_reader<S>(&self, topic: &Topic, qos: QosPolicies) -> Result<Reader<S>, DdsError>
+    where
+        S: WireSample + serde::de::DeserializeOwned + Send + 'static,
+    {
+        let raw = self
+            .subscriber
+            .create_datareader_no_key::<S, CDRDeserializerAdapter<S>>(topic, Some(qos))
+            .map_err(|e| create_error("reader", topic, e))?;
+        Ok(Reader::unkeyed(raw, topic))
+    }
+
+    fn keyed_writer<S>(&self, topic: &Topic, qos: QosPolicies) -> Result<Writer<S>, DdsError>
+    where
+        S: WireSample + rustdds::Keyed + serde::Serialize + Clone + Send + 'static,
+        S::K: serde::Serialize,
+    {
+        let raw = self
+            .publisher
+            .create_datawriter::<S, CDRSerializerAdapter<S>>(topic, Some(qos))
+            .map_err(|e| create_error("writer", topic, e))?;
+        Ok(Writer::keyed(raw, topic))
+    }
+
+    fn unkeyed_writer<S>(&self, topic: &Topic, qos: QosPolicies) -> Result<Writer<S>, DdsError>
+    where
+        S: WireSample + serde::Serialize + Clone + Send + 'static,
+    {
+        let raw = self
+            .publisher
+            .create_datawriter_no_key::<S, CDRSerializerAdapter<S>>(topic, Some(qos))
+            .map_err(|e| create_error("writer", topic, e))?;
+        Ok(Writer::unkeyed(raw, topic))
+    }
+
+    pub fn heartbeat_reader(&self) -> Result<Reader<HeartbeatSample>, DdsError> {
+        self.keyed_reader(&self.topics.heartbeat, qos::heartbeat(&self.timing))
+    }
+
+    pub fn heartbeat_writer(&self) -> Result<Writer<HeartbeatSample>, DdsError> {
+        self.keyed_writer(&self.topics.heartbeat, qos::heartbeat(&self.timing))
+    }
+
+    pub fn vote_reader(&self) -> Result<Reader<VoteSample>, DdsError> {
+        self.keyed_reader(&self.topics.vote, qos::vote())
+    }
+
+    pub fn vote_writer(&self) -> Result<Writer<VoteSample>, DdsError> {
+        self.keyed_writer(&self.topics.vote, qos::vote())
+    }
+
+    pub fn alarm_reader(&self) -> Result<Reader<AlarmSample>, DdsError> {
+        self.unkeyed_reader(&self.topics.alarm, qos::alarm())
+    }
+
+    pub fn alarm_writer(&self) -> Result<Writer<AlarmSample>, DdsError> {
+        self.unkeyed_writer(&self.topics.alarm, qos::alarm())
+    }
+
+    pub fn network_alarm_reader(&self) -> Result<Reader<NetworkAlarmSample>, DdsError> {
+        self.unkeyed_reader(&self.topics.network_alarm, qos::alarm())
+    }
+
+    pub fn network_alarm_writer(&self) -> Result<Writer<NetworkAlarmSample>, DdsError> {
+        self.unkeyed_writer(&self.topics.network_alarm, qos::alarm())
+    }
+
+    /// A reader of every command writer's samples. RustDDS does not enforce exclusive
+    /// ownership: pass the samples through [`crate::arbiter::Arbiter`].
+    pub fn command_reader(&self) -> Result<Reader<ServoControl>, DdsError> {
+        self.unkeyed_reader(&self.topics.command, qos::command_reader(&self.timing))
+    }
+
+    /// The command writer at `strength` (`None` = no writer until a strength is set).
+    pub fn command_writer(&self, strength: Option<i32>) -> Result<CommandWriter, DdsError> {
+        CommandWriter::new(
+            self.publisher.clone(),
+            self.topics.command.clone(),
+            self.timing.clone(),
+            strength,
+        )
+    }
+
+    /// A camera reader: all colours (filter by `color` yourself: RustDDS has no content
+    /// filter).
+    pub fn camera_reader(&self) -> Result<Reader<ShapeTypeExtended>, DdsError> {
+        self.keyed_reader(&self.topics.camera, qos::camera_reader())
+    }
+
+    pub fn camera_writer(&self) -> Result<Writer<ShapeTypeExtended>, DdsError> {
+        self.keyed_writer(&self.topics.camera, qos::camera_writer())
+    }
+
+    /// Ownership strengths of the remote EXCLUSIVE writers of the command topic, by writer
+    /// GUID, from discovery. Writers of this session are not included (RustDDS lists only
+    /// remote ones); a deleted writer disappears once its removal is discovered.
+    pub fn command_writer_strengths(&self) -> BTreeMap<GUID, i32> {
+        self.writer_strengths(&self.config.command_topic)
+    }
+
+    /// Ownership strengths of the remote EXCLUSIVE writers of any topic.
+    pub fn writer_strengths(&self, topic_name: &str) -> BTreeMap<GUID, i32> {
+        self.participant
+            .discovered_writers()
+            .into_iter()
+            .filter(|w| w.publication_topic_data.topic_name == topic_name)
+            .filter_map(|w| {
+                qos::exclusive_strength(w.publication_topic_data.ownership)
+                    .map(|strength| (w.publication_topic_data.key, strength))
+            })
+            .collect()
+    }
+}
+
+fn create_error(what: &'static str, topic: &Topic, error: rustdds::dds::CreateError) -> DdsError {
+    DdsError::Create {
+        what,
+        topic: topic.name(),
+        reason: error.to_string(),
+    }
+}
+
+/// Which controller each participant belongs to, learned from heartbeats (see the module
+/// header): turns a command's writer GUID into a controller id.
+#[derive(Clone, Debug, Default)]
+pub struct ControllerDirectory {
+    by_participant: HashMap<ParticipantKey, ControllerId>,
+}
+
+impl ControllerDirectory {
+    pub fn new() -> ControllerDirectory {
+        ControllerDirectory::default()
+    }
+
+    /// Records the sender of a heartbeat. A restarted controller is a new participant: its
+    /// old entry stays, harmless, as nothing writes from that participant any more.
+    pub fn note_heartbeat(&mut self, heartbeat: &Received<Heartbeat>) {
+        self.by_participant
+            .insert(ParticipantKey::of(heartbeat.writer), heartbeat.value.from);
+    }
+
+    /// The controller whose participant wrote through `writer`.
+    pub fn controller_of(&self, writer: GUID) -> Option<ControllerId> {
+        self.by_participant
+            .get(&ParticipantKey::of(writer))
+            .copied()
+    }
+
+    pub fn len(&self) -> usize {
+        self.by_participant.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.by_participant.is_empty()
+    }
+}

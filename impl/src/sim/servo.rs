@@ -1,0 +1,419 @@
+//! `rl servo`: the actuator simulator. It reads the command topic (`pixy/servo_control`) the
+//! way the camera's gimbal does, as an EXCLUSIVE-ownership reader: a RustDDS reader (which
+//! delivers every writer) plus [`Arbiter`] (which keeps only the owner's samples, with the
+//! command deadline from the configuration).
+//!
+//! Each writer's strength comes from discovery (the QoS it announced). Discovery normally
+//! precedes a writer's data; a sample from a writer not yet discovered triggers an immediate
+//! re-read of discovery and, if still unknown, is offered at strength 0 (the DDS default), so
+//! it can only win when no other writer is live. Writers that disappear from discovery
+//! (deleted, e.g. re-created at a new strength) are reported lost to the arbiter. The
+//! controller behind each writer is learned from heartbeats ([`ControllerDirectory`]).
+//!
+//! Output: by default one human line per ownership change and a summary every few seconds.
+//! With `--json`, exactly one JSON object per line on stdout, flushed per line; fields may be
+//! added later, never removed or renamed:
+//! ```text
+//! {"event":"command","t_ms":1234,"writer_guid":"<32 hex>","controller_id":1,"strength":30,
+//!  "pan":500,"tilt":480,"frequency":60}
+//! {"event":"owner_changed","t_ms":1300,"from_controller_id":1,"to_controller_id":2,
+//!  "gap_ms":108,"from_writer_guid":"<32 hex>","to_writer_guid":"<32 hex>","strength":20}
+//! ```
+//! `t_ms` is milliseconds since the servo started. A `command` line is printed per accepted
+//! command; an `owner_changed` line comes just before the first command of a new owner.
+//! `controller_id` is `null` while the writer's controller is unknown (no heartbeat heard
+//! from its participant yet). At the first owner `from_*` and `gap_ms` are `null`; otherwise
+//! `gap_ms` is the time since the previous owner's last accepted command.
+
+use crate::arbiter::Arbiter;
+use crate::config::Config;
+use crate::core::types::ControllerId;
+use crate::dds::{guid_hex, mio, ControllerDirectory, Session, GUID};
+use crate::Error;
+use serde::Serialize;
+use std::collections::{BTreeMap, BTreeSet};
+use std::io::{self, Write};
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// The actuator simulator: an exclusive-ownership reader of the command topic.
+#[derive(Clone, Debug, clap::Args)]
+pub struct ServoArgs {
+    /// Print one JSON object per line (events `command` and `owner_changed`) instead of
+    /// human-readable lines.
+    #[arg(long)]
+    pub json: bool,
+    /// Configuration file (rl.toml) for the domain, topic names and command deadline.
+    #[arg(long, value_name = "PATH")]
+    pub config: Option<PathBuf>,
+    /// DDS domain id (overrides the configuration).
+    #[arg(long, value_name = "D")]
+    pub domain: Option<u16>,
+    /// Exit after this many milliseconds (default: run until SIGINT/SIGTERM).
+    #[arg(long, value_name = "MS")]
+    pub duration_ms: Option<u64>,
+}
+
+/// One line of `--json` output.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "event", rename_all = "snake_case")]
+pub enum ServoEvent {
+    Command {
+        t_ms: u64,
+        writer_guid: String,
+        controller_id: Option<ControllerId>,
+        strength: i32,
+        pan: u16,
+        tilt: u16,
+        frequency: u16,
+    },
+    OwnerChanged {
+        t_ms: u64,
+        from_controller_id: Option<ControllerId>,
+        to_controller_id: Option<ControllerId>,
+        gap_ms: Option<u64>,
+        from_writer_guid: Option<String>,
+        to_writer_guid: String,
+        strength: i32,
+    },
+}
+
+/// How often discovery is re-read for strengths and removed writers.
+const DISCOVERY_REFRESH_MS: u64 = 100;
+/// The soonest discovery is re-read again for a writer of unknown strength.
+const UNKNOWN_WRITER_REFRESH_MS: u64 = 10;
+/// Poll timeout: bounds how late a stop request or the end of `--duration-ms` is noticed.
+const POLL_TIMEOUT_MS: u64 = 20;
+/// Period of the human-readable summary line.
+const SUMMARY_PERIOD_MS: u64 = 5_000;
+
+const COMMANDS: mio::Token = mio::Token(0);
+const HEARTBEATS: mio::Token = mio::Token(1);
+
+/// Loads the configuration (file or defaults) and applies a `--domain` override.
+pub(crate) fn load_config(path: Option<&PathBuf>, domain: Option<u16>) -> Result<Config, Error> {
+    let mut config = match path {
+        Some(path) => Config::load(path)?,
+        None => Config::default(),
+    };
+    if let Some(domain) = domain {
+        config.dds.domain = domain;
+    }
+    Ok(config)
+}
+
+/// Sets the returned flag on SIGINT or SIGTERM.
+pub(crate) fn stop_flag() -> Result<Arc<AtomicBool>, Error> {
+    let stop = Arc::new(AtomicBool::new(false));
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        signal_hook::flag::register(signal, Arc::clone(&stop))
+            .map_err(|e| Error::io("installing a signal handler", e))?;
+    }
+    Ok(stop)
+}
+
+fn dds_error(error: crate::dds::DdsError) -> Error {
+    Error::Dds(error.to_string())
+}
+
+/// Writes lines to stdout, flushing each; a closed pipe ends the run quietly.
+struct Output {
+    json: bool,
+}
+
+impl Output {
+    /// `Ok(false)` when stdout is gone (the consumer exited).
+    fn line(&self, text: &str) -> Result<bool, Error> {
+        let mut stdout = io::stdout().lock();
+        match writeln!(stdout, "{text}").and_then(|()| stdout.flush()) {
+            Ok(()) => Ok(true),
+            Err(e) if e.kind() == io::ErrorKind::BrokenPipe => Ok(false),
+            Err(e) => Err(Error::io("writing to stdout", e)),
+        }
+    }
+
+    fn event(&self, event: &ServoEvent) -> Result<bool, Error> {
+        let text = serde_json::to_string(event)
+            .map_err(|e| Error::Runtime(format!("encoding a servo event: {e}")))?;
+        self.line(&text)
+    }
+}
+
+/// The servo's view of the writers: strengths from discovery, controllers from heartbeats.
+struct Writers {
+    strengths: BTreeMap<GUID, i32>,
+    /// Writers already reported as of unknown strength (warned once each).
+    unknown_warned: BTreeSet<GUID>,
+    directory: ControllerDirectory,
+    last_refresh_ms: Option<u64>,
+}
+
+impl Writers {
+    fn controller(&self, writer: GUID) -> Option<ControllerId> {
+        self.directory.controller_of(writer)
+    }
+
+    /// Re-reads discovery; returns the writers that disappeared.
+    fn refresh(&mut self, session: &Session, now_ms: u64) -> Vec<GUID> {
+        let current = session.command_writer_strengths();
+        let gone = self
+            .strengths
+            .keys()
+            .filter(|guid| !current.contains_key(guid))
+            .copied()
+            .collect();
+        self.strengths = current;
+        self.last_refresh_ms = Some(now_ms);
+        gone
+    }
+
+    fn refresh_due(&self, now_ms: u64, period_ms: u64) -> bool {
+        match self.last_refresh_ms {
+            Some(last) => now_ms.saturating_sub(last) >= period_ms,
+            None => true,
+        }
+    }
+}
+
+/// Runs the servo simulator until SIGINT/SIGTERM or `--duration-ms`.
+pub fn run(args: ServoArgs) -> Result<(), Error> {
+    let config = load_config(args.config.as_ref(), args.domain)?;
+    let stop = stop_flag()?;
+    let session = Session::new(&config.dds, &config.timing).map_err(dds_error)?;
+    let mut commands = session.command_reader().map_err(dds_error)?;
+    let mut heartbeats = session.heartbeat_reader().map_err(dds_error)?;
+    let poll = mio::Poll::new().map_err(|e| Error::io("creating a poll", e))?;
+    for (reader, token) in [
+        (&commands as &dyn mio::Evented, COMMANDS),
+        (&heartbeats as &dyn mio::Evented, HEARTBEATS),
+    ] {
+        poll.register(reader, token, mio::Ready::readable(), mio::PollOpt::edge())
+            .map_err(|e| Error::io("registering a DDS reader", e))?;
+    }
+
+    let output = Output { json: args.json };
+    let deadline_ms = config.timing.command_deadline_ms;
+    if !output.json {
+        output.line(&format!(
+            "servo: reading {} on domain {} (exclusive ownership, deadline {deadline_ms} ms)",
+            config.dds.command_topic, config.dds.domain
+        ))?;
+    }
+
+    let start = Instant::now();
+    let now_ms = || u64::try_from(start.elapsed().as_millis()).unwrap_or(u64::MAX);
+    let mut arbiter: Arbiter<GUID> = Arbiter::new(deadline_ms);
+    let mut writers = Writers {
+        strengths: BTreeMap::new(),
+        unknown_warned: BTreeSet::new(),
+        directory: ControllerDirectory::new(),
+        last_refresh_ms: None,
+    };
+    let mut accepted_count: u64 = 0;
+    let mut rejected_count: u64 = 0;
+    let mut last_summary_ms = 0;
+    let mut last_command = None;
+    let mut events = mio::Events::with_capacity(16);
+
+    while !stop.load(Ordering::Relaxed) {
+        if args.duration_ms.is_some_and(|limit| now_ms() >= limit) {
+            break;
+        }
+        match poll.poll(&mut events, Some(Duration::from_millis(POLL_TIMEOUT_MS))) {
+            Ok(_) => {}
+            Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(Error::io("waiting for DDS", e)),
+        }
+
+        // Heartbeats first: they name the controllers of the commands that follow.
+        for heartbeat in heartbeats.take() {
+            writers.directory.note_heartbeat(&heartbeat);
+        }
+        let now = now_ms();
+        if writers.refresh_due(now, DISCOVERY_REFRESH_MS) {
+            for lost in writers.refresh(&session, now) {
+                arbiter.writer_lost(lost);
+            }
+        }
+
+        for command in commands.take() {
+            let now = now_ms();
+            let writer = command.writer;
+            if !writers.strengths.contains_key(&writer)
+                && writers.refresh_due(now, UNKNOWN_WRITER_REFRESH_MS)
+            {
+                for lost in writers.refresh(&session, now) {
+                    arbiter.writer_lost(lost);
+                }
+            }
+            let strength = match writers.strengths.get(&writer) {
+                Some(strength) => *strength,
+                None => {
+                    if writers.unknown_warned.insert(writer) {
+                        tracing::warn!(
+                            writer = %guid_hex(writer),
+                            "command from a writer not yet discovered: strength 0 until it is"
+                        );
+                    }
+                    0
+                }
+            };
+            let decision = arbiter.offer(writer, strength, now);
+            if let Some(change) = decision.owner_changed {
+                let event = ServoEvent::OwnerChanged {
+                    t_ms: now,
+                    from_controller_id: change.from.and_then(|w| writers.controller(w)),
+                    to_controller_id: writers.controller(change.to),
+                    gap_ms: change.gap_ms,
+                    from_writer_guid: change.from.map(guid_hex),
+                    to_writer_guid: guid_hex(change.to),
+                    strength,
+                };
+                let printed = if output.json {
+                    output.event(&event)?
+                } else {
+                    output.line(&describe_change(&event))?
+                };
+                if !printed {
+                    return Ok(());
+                }
+            }
+            if !decision.accepted {
+                rejected_count += 1;
+                continue;
+            }
+            accepted_count += 1;
+            last_command = Some(command.value);
+            if output.json {
+                let event = ServoEvent::Command {
+                    t_ms: now,
+                    writer_guid: guid_hex(writer),
+                    controller_id: writers.controller(writer),
+                    strength,
+                    pan: command.value.pan,
+                    tilt: command.value.tilt,
+                    frequency: command.value.frequency,
+                };
+                if !output.event(&event)? {
+                    return Ok(());
+                }
+            }
+        }
+
+        let now = now_ms();
+        if !output.json && now.saturating_sub(last_summary_ms) >= SUMMARY_PERIOD_MS {
+            last_summary_ms = now;
+            let owner = match arbiter.owner(now) {
+                Some(writer) => format!(
+                    "{} at strength {}",
+                    controller_name(writers.controller(writer), writer),
+                    arbiter.strength_of(writer).unwrap_or(0)
+                ),
+                None => "none".to_string(),
+            };
+            let position = match last_command {
+                Some(c) => format!("pan {} tilt {}", c.pan, c.tilt),
+                None => "no command yet".to_string(),
+            };
+            let line = format!(
+                "servo: owner {owner}; {position}; {accepted_count} commands accepted, \
+                 {rejected_count} ignored (weaker writers)"
+            );
+            if !output.line(&line)? {
+                return Ok(());
+            }
+        }
+    }
+    Ok(())
+}
+
+fn controller_name(controller: Option<ControllerId>, writer: GUID) -> String {
+    match controller {
+        Some(id) => format!("controller {id}"),
+        None => format!("writer {}", guid_hex(writer)),
+    }
+}
+
+fn describe_change(event: &ServoEvent) -> String {
+    let ServoEvent::OwnerChanged {
+        t_ms,
+        from_controller_id,
+        to_controller_id,
+        gap_ms,
+        from_writer_guid,
+        to_writer_guid,
+        strength,
+    } = event
+    else {
+        return String::new();
+    };
+    let name = |id: &Option<ControllerId>, guid: &str| match id {
+        Some(id) => format!("controller {id}"),
+        None => format!("writer {guid}"),
+    };
+    let to = name(to_controller_id, to_writer_guid);
+    match (from_writer_guid, gap_ms) {
+        (Some(from_guid), Some(gap_ms)) => format!(
+            "servo: {t_ms} ms: owner {} -> {to} (strength {strength}), {gap_ms} ms without commands",
+            name(from_controller_id, from_guid)
+        ),
+        _ => format!("servo: {t_ms} ms: first owner {to} (strength {strength})"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn json_lines_have_the_documented_shape() {
+        let command = ServoEvent::Command {
+            t_ms: 12,
+            writer_guid: "00".repeat(16),
+            controller_id: Some(1),
+            strength: 30,
+            pan: 500,
+            tilt: 400,
+            frequency: 60,
+        };
+        assert_eq!(
+            serde_json::to_string(&command).unwrap(),
+            format!(
+                r#"{{"event":"command","t_ms":12,"writer_guid":"{}","controller_id":1,"strength":30,"pan":500,"tilt":400,"frequency":60}}"#,
+                "00".repeat(16)
+            )
+        );
+        let first = ServoEvent::OwnerChanged {
+            t_ms: 5,
+            from_controller_id: None,
+            to_controller_id: None,
+            gap_ms: None,
+            from_writer_guid: None,
+            to_writer_guid: "ab".into(),
+            strength: 20,
+        };
+        assert_eq!(
+            serde_json::to_string(&first).unwrap(),
+            r#"{"event":"owner_changed","t_ms":5,"from_controller_id":null,"to_controller_id":null,"gap_ms":null,"from_writer_guid":null,"to_writer_guid":"ab","strength":20}"#
+        );
+    }
+
+    #[test]
+    fn human_line_names_controllers_and_gap() {
+        let change = ServoEvent::OwnerChanged {
+            t_ms: 900,
+            from_controller_id: Some(1),
+            to_controller_id: Some(2),
+            gap_ms: Some(108),
+            from_writer_guid: Some("aa".into()),
+            to_writer_guid: "bb".into(),
+            strength: 20,
+        };
+        assert_eq!(
+            describe_change(&change),
+            "servo: 900 ms: owner controller 1 -> controller 2 (strength 20), 108 ms without commands"
+        );
+    }
+}

@@ -1,0 +1,163 @@
+//! `rl shapes`: the camera simulator. It publishes `Circle` samples (`ShapeTypeExtended`, as
+//! the original PixyShapes camera application and the RTI Shapes Demo do): a YELLOW circle on
+//! a Lissajous path, the one the trackers follow, plus RED and BLUE circles on other paths so
+//! the colour filter has something to reject.
+//!
+//! Positions stay inside the shapes application's range, x 0..222 and y 0..252, and every
+//! path is a pure function of time, so runs are reproducible.
+
+use super::servo::{load_config, stop_flag};
+use crate::dds::Session;
+use crate::wire::{ShapeFillKind, ShapeTypeExtended};
+use crate::Error;
+use std::f64::consts::TAU;
+use std::path::PathBuf;
+use std::sync::atomic::Ordering;
+use std::time::{Duration, Instant};
+
+/// The camera simulator: publishes a YELLOW circle moving on a path, plus RED and BLUE ones.
+#[derive(Clone, Debug, clap::Args)]
+pub struct ShapesArgs {
+    /// Configuration file (rl.toml) for the domain and the camera topic name.
+    #[arg(long, value_name = "PATH")]
+    pub config: Option<PathBuf>,
+    /// DDS domain id (overrides the configuration).
+    #[arg(long, value_name = "D")]
+    pub domain: Option<u16>,
+    /// Samples per second of each circle.
+    #[arg(long, value_name = "HZ", default_value_t = 30.0)]
+    pub rate_hz: f64,
+    /// Exit after this many milliseconds (default: run until SIGINT/SIGTERM).
+    #[arg(long, value_name = "MS")]
+    pub duration_ms: Option<u64>,
+}
+
+/// The shapes application's drawing area.
+pub const X_MAX: i32 = 222;
+pub const Y_MAX: i32 = 252;
+/// Circle diameter.
+pub const SHAPE_SIZE: i32 = 30;
+
+/// The circles published: colour and path.
+pub const COLORS: [&str; 3] = ["YELLOW", "RED", "BLUE"];
+
+/// Where the circle of `color` is at `t_s` seconds. The YELLOW path is a 3:2 Lissajous curve
+/// (one full figure every 12 s) around the centre (111, 126) that the tracker aims at; RED
+/// circles the centre; BLUE sweeps left and right across the bottom.
+pub fn position(color: &str, t_s: f64) -> (i32, i32) {
+    let (cx, cy) = (f64::from(X_MAX) / 2.0, f64::from(Y_MAX) / 2.0);
+    let (x, y) = match color {
+        "YELLOW" => (
+            cx + 90.0 * (TAU * t_s / 4.0).sin(),
+            cy + 100.0 * (TAU * t_s / 6.0 + 0.5).sin(),
+        ),
+        "RED" => (
+            cx + 60.0 * (TAU * t_s / 5.0).cos(),
+            cy + 60.0 * (TAU * t_s / 5.0).sin(),
+        ),
+        _ => (
+            cx + 100.0 * (TAU * t_s / 8.0).sin(),
+            f64::from(Y_MAX) - 20.0,
+        ),
+    };
+    // `as` saturates; the clamp keeps rounding from leaving the area.
+    (
+        (x.round() as i32).clamp(0, X_MAX),
+        (y.round() as i32).clamp(0, Y_MAX),
+    )
+}
+
+/// The sample of `color` at `t_s`.
+pub fn shape(color: &str, t_s: f64) -> ShapeTypeExtended {
+    let (x, y) = position(color, t_s);
+    ShapeTypeExtended {
+        color: color.to_string(),
+        x,
+        y,
+        shapesize: SHAPE_SIZE,
+        fill_kind: ShapeFillKind::SolidFill,
+        angle: 0.0,
+    }
+}
+
+/// Publishes the circles until SIGINT/SIGTERM or `--duration-ms`.
+pub fn run(args: ShapesArgs) -> Result<(), Error> {
+    if !(args.rate_hz.is_finite() && args.rate_hz > 0.0 && args.rate_hz <= 1000.0) {
+        return Err(Error::Usage(format!(
+            "--rate-hz: {} is not in (0, 1000]",
+            args.rate_hz
+        )));
+    }
+    let config = load_config(args.config.as_ref(), args.domain)?;
+    let stop = stop_flag()?;
+    let session =
+        Session::new(&config.dds, &config.timing).map_err(|e| Error::Dds(e.to_string()))?;
+    let writer = session
+        .camera_writer()
+        .map_err(|e| Error::Dds(e.to_string()))?;
+    println!(
+        "shapes: publishing {} circles on {} (domain {}) at {} Hz",
+        COLORS.join(", "),
+        config.dds.camera_topic,
+        config.dds.domain,
+        args.rate_hz
+    );
+
+    let period = Duration::from_secs_f64(1.0 / args.rate_hz);
+    let start = Instant::now();
+    let mut next = start;
+    let mut published: u64 = 0;
+    while !stop.load(Ordering::Relaxed) {
+        let elapsed = start.elapsed();
+        if args
+            .duration_ms
+            .is_some_and(|limit| elapsed >= Duration::from_millis(limit))
+        {
+            break;
+        }
+        let t_s = elapsed.as_secs_f64();
+        for color in COLORS {
+            writer
+                .write(&shape(color, t_s))
+                .map_err(|e| Error::Dds(e.to_string()))?;
+        }
+        published += 1;
+        // Fixed-rate schedule; after a stall, resume from now rather than bursting.
+        next += period;
+        let now = Instant::now();
+        if next > now {
+            std::thread::sleep(next - now);
+        } else {
+            next = now;
+        }
+    }
+    println!("shapes: stopped after {published} rounds");
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_path_stays_inside_the_drawing_area() {
+        for color in COLORS {
+            for step in 0..2400 {
+                let (x, y) = position(color, f64::from(step) * 0.01);
+                assert!(
+                    (0..=X_MAX).contains(&x) && (0..=Y_MAX).contains(&y),
+                    "{color} {x},{y}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn yellow_moves_and_repeats() {
+        assert_ne!(position("YELLOW", 0.0), position("YELLOW", 1.0));
+        assert_eq!(position("YELLOW", 0.3), position("YELLOW", 12.3));
+        let sample = shape("YELLOW", 2.0);
+        assert_eq!(sample.color, "YELLOW");
+        assert_eq!(sample.shapesize, SHAPE_SIZE);
+    }
+}
