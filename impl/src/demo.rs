@@ -96,9 +96,20 @@ pub fn run(args: DemoArgs) -> Result<(), crate::Error> {
                         from_controller_id,
                         to_controller_id,
                         gap_ms,
+                        strength,
                         ..
                     }) => {
                         owner = to_controller_id;
+                        if from_controller_id.is_some() && from_controller_id == to_controller_id {
+                            // The same controller with a new writer: its strength changed.
+                            let strength = strength.map(|s| s.to_string()).unwrap_or("?".into());
+                            println!(
+                                "{} servo: C{} now commands at strength {strength}",
+                                stamp(line.at),
+                                to_controller_id.unwrap_or(0)
+                            );
+                            continue;
+                        }
                         let name =
                             |id: Option<u8>| id.map(|i| format!("C{i}")).unwrap_or("-".into());
                         let gap = gap_ms

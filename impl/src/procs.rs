@@ -27,6 +27,9 @@ pub enum ServoEvent {
         from_controller_id: Option<ControllerId>,
         to_controller_id: Option<ControllerId>,
         gap_ms: Option<u64>,
+        /// The new owner's ownership strength.
+        #[serde(default)]
+        strength: Option<i32>,
     },
 }
 
