@@ -47,7 +47,7 @@ impl RoundClock {
 }
 
 /// The longest the thread sleeps without looking at its flags (stop, fault).
-const FLAG_CHECK_MS: u64 = 50;
+const FLAG_CHECK_MS: u64 = 100;
 
 const HEARTBEATS: Token = Token(0);
 const VOTES: Token = Token(1);
@@ -164,6 +164,9 @@ impl Voting {
         #[cfg(feature = "fault-injection")]
         fault_injection::listen_on_stdin();
         while !self.shared.stop.load(Ordering::SeqCst) {
+            // Samples first: a heartbeat that arrived before a round boundary belongs to the
+            // round that ends there.
+            self.take_samples();
             if self.shared.fault.swap(false, Ordering::SeqCst) {
                 self.step(Input::LocalFault);
             }
@@ -181,20 +184,23 @@ impl Voting {
                 Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
                 Err(e) => return Err(crate::Error::io("waiting for DDS samples", e)),
             }
-            // Edge-triggered: drain both readers whatever woke us.
-            for heartbeat in self.endpoints.heartbeats_in.take() {
-                #[cfg(feature = "fault-injection")]
-                if fault_injection::dropped(heartbeat.value.from) {
-                    continue;
-                }
-                self.step(Input::Heartbeat(heartbeat.value));
-            }
-            for vote in self.endpoints.votes_in.take() {
-                self.step(Input::Vote(vote.value));
-            }
         }
         self.event("stopped", json!({}));
         Ok(())
+    }
+
+    /// Drains both readers (edge-triggered: whatever woke the poll).
+    fn take_samples(&mut self) {
+        for heartbeat in self.endpoints.heartbeats_in.take() {
+            #[cfg(feature = "fault-injection")]
+            if fault_injection::dropped(heartbeat.value.from) {
+                continue;
+            }
+            self.step(Input::Heartbeat(heartbeat.value));
+        }
+        for vote in self.endpoints.votes_in.take() {
+            self.step(Input::Vote(vote.value));
+        }
     }
 
     fn step(&mut self, input: Input) {

@@ -84,8 +84,11 @@ pub enum ServoEvent {
 const DISCOVERY_REFRESH_MS: u64 = 100;
 /// The soonest discovery is re-read again for a writer of unknown strength.
 const UNKNOWN_WRITER_REFRESH_MS: u64 = 10;
-/// Poll timeout: bounds how late a stop request or the end of `--duration-ms` is noticed.
-const POLL_TIMEOUT_MS: u64 = 20;
+/// Poll timeout: bounds how late a sample, a stop request or the end of `--duration-ms` is
+/// noticed. RustDDS's readiness events for unkeyed readers do not reliably wake the poll
+/// (measured: command times quantized to this timeout), so the servo also wakes every
+/// millisecond; its times, and the gaps it reports, are then accurate to about 1 ms.
+const POLL_TIMEOUT_MS: u64 = 1;
 /// Period of the human-readable summary line.
 const SUMMARY_PERIOD_MS: u64 = 5_000;
 
