@@ -3,12 +3,17 @@
 //! vote and alarms, update the shared status the application reads, LEDs, console, ROS 2
 //! status, JSON events).
 //!
+//! The LEDs go to the bank `leds.backend` names: GPIO lines on a Pi (after a lamp test), or a
+//! console line. GPIO that cannot be opened (no chip, a busy line, no permission) is one
+//! warning, and the controller goes on with console LEDs: the LEDs help an operator, and a
+//! controller without them still votes and commands.
+//!
 //! The core's clock: milliseconds of the wall clock read once at start, advanced by the
 //! monotonic clock. Controllers whose wall clocks agree (NTP) share round boundaries, and a
 //! wall-clock step while running cannot stall or rush the rounds.
 
 use crate::api::{Options, Shared};
-use crate::config::Config;
+use crate::config::{Config, LedBackend};
 use crate::core::{Command, ControllerId, Core, CoreConfig, Input, Rounds, Status, VoteRecord};
 use crate::dds::{Reader, Session, Writer};
 use crate::leds::{ConsoleLeds, LedBank};
@@ -95,6 +100,9 @@ pub(crate) fn spawn(
         ros_status,
         _ros_node: ros_node,
     };
+    // Before the clock starts: the lamp test takes a moment, and the first round must not
+    // begin late.
+    let leds = led_bank(&config);
     let clock = RoundClock::start();
     // A new incarnation at every start: the start time, with the pid to separate two starts
     // in the same millisecond.
@@ -127,7 +135,7 @@ pub(crate) fn spawn(
                 endpoints,
                 shared: thread_shared,
                 options,
-                leds: ConsoleLeds::new(std::io::stderr()),
+                leds,
             };
             voting.run()
         })
@@ -141,13 +149,42 @@ pub(crate) fn spawn(
     Ok((shared, thread))
 }
 
+/// The LED bank the configuration names.
+enum Leds {
+    Console(ConsoleLeds<std::io::Stderr>),
+    Gpio(crate::leds::gpio::GpioLeds<crate::leds::gpio::CdevLines>),
+}
+
+/// Opens the configured LED bank; GPIO that cannot be had falls back to the console with one
+/// warning naming the chip, the lines and the cause.
+fn led_bank(config: &Config) -> Leds {
+    let console = || Leds::Console(ConsoleLeds::new(std::io::stderr()));
+    match config.leds.backend {
+        LedBackend::Console => console(),
+        LedBackend::Gpio => match crate::leds::gpio::start(&config.leds) {
+            Ok(bank) => {
+                info!(
+                    chip = config.leds.chip,
+                    pins = crate::leds::gpio::describe_pins(&config.leds.pins),
+                    "status LEDs on GPIO"
+                );
+                Leds::Gpio(bank)
+            }
+            Err(error) => {
+                warn!("status LEDs: {error}; showing them on the console instead");
+                console()
+            }
+        },
+    }
+}
+
 struct Voting {
     core: Core,
     clock: RoundClock,
     endpoints: Endpoints,
     shared: Arc<Shared>,
     options: Options,
-    leds: ConsoleLeds<std::io::Stderr>,
+    leds: Leds,
 }
 
 impl Voting {
@@ -163,7 +200,13 @@ impl Voting {
         self.event("started", json!({}));
         #[cfg(feature = "fault-injection")]
         fault_injection::listen_on_stdin();
+        let progress = self.options.voting_progress.clone();
         while !self.shared.stop.load(Ordering::SeqCst) {
+            if let Some(progress) = &progress {
+                progress.mark();
+            }
+            #[cfg(feature = "fault-injection")]
+            fault_injection::stall();
             // Samples first: a heartbeat that arrived before a round boundary belongs to the
             // round that ends there.
             self.take_samples();
@@ -218,6 +261,10 @@ impl Voting {
                 if let Err(error) = self.endpoints.heartbeats_out.write(&heartbeat) {
                     warn!("heartbeat not sent: {error}");
                 }
+                // The ROS 2 status goes out with every heartbeat too, so a ROS 2 tool that
+                // starts late sees it within a period.
+                let status = self.core.status();
+                self.publish_ros_status(&status);
             }
             Command::PublishVote(record) => {
                 self.event("vote", json!({ "vote": record.vote }));
@@ -257,10 +304,17 @@ impl Voting {
             }
             Command::Status(status) => self.status(status),
             Command::Leds(pattern) => {
-                if self.options.console_leds && !self.options.json_events {
-                    if let Err(error) = self.leds.show(pattern) {
-                        warn!("LEDs: {error}");
+                let shown = match &mut self.leds {
+                    Leds::Gpio(bank) => Some(bank.show(pattern)),
+                    Leds::Console(console)
+                        if self.options.console_leds && !self.options.json_events =>
+                    {
+                        Some(console.show(pattern))
                     }
+                    Leds::Console(_) => None,
+                };
+                if let Some(Err(error)) = shown {
+                    warn!("LEDs: {error}");
                 }
                 self.event("leds", json!({ "leds": pattern.to_string() }));
             }
@@ -307,14 +361,18 @@ impl Voting {
         }
     }
 
-    fn status(&mut self, status: Status) {
+    fn publish_ros_status(&self, status: &Status) {
         if let Some(ros) = &self.endpoints.ros_status {
-            if let Ok(text) = serde_json::to_string(&status) {
+            if let Ok(text) = serde_json::to_string(status) {
                 if let Err(error) = ros.publish(&text) {
                     warn!("ROS 2 status not published: {error}");
                 }
             }
         }
+    }
+
+    fn status(&mut self, status: Status) {
+        self.publish_ros_status(&status);
         self.event("status", json!({ "status": status }));
         *self.shared.status() = status;
     }
@@ -341,14 +399,26 @@ impl Voting {
 }
 
 /// Test-only fault injection (feature `fault-injection`): heartbeats from the peers named on
-/// stdin are dropped on arrival, as if the network lost them one way.
+/// stdin are dropped on arrival, as if the network lost them one way; `stall-voting-loop <ms>`
+/// blocks the voting loop once for that long, as a hung loop would (the watchdog test).
 #[cfg(feature = "fault-injection")]
 mod fault_injection {
     use std::collections::BTreeSet;
     use std::io::BufRead;
     use std::sync::Mutex;
+    use std::time::Duration;
 
     static DROPPED: Mutex<BTreeSet<u8>> = Mutex::new(BTreeSet::new());
+    static STALL: Mutex<Option<Duration>> = Mutex::new(None);
+
+    /// Blocks the calling (voting) thread if a stall was asked for.
+    pub fn stall() {
+        let stall = STALL.lock().unwrap_or_else(|e| e.into_inner()).take();
+        if let Some(duration) = stall {
+            tracing::warn!("fault injection: voting loop stalled for {duration:?}");
+            std::thread::sleep(duration);
+        }
+    }
 
     pub fn dropped(from: u8) -> bool {
         DROPPED
@@ -357,7 +427,8 @@ mod fault_injection {
             .contains(&from)
     }
 
-    /// Reads `drop-heartbeats-from <id>` and `accept-heartbeats-from <id>` lines.
+    /// Reads `drop-heartbeats-from <id>`, `accept-heartbeats-from <id>` and
+    /// `stall-voting-loop <ms>` lines.
     pub fn listen_on_stdin() {
         let _ = std::thread::Builder::new()
             .name("rl-fault-injection".into())
@@ -367,6 +438,16 @@ mod fault_injection {
                     let (Some(verb), Some(id)) = (words.next(), words.next()) else {
                         continue;
                     };
+                    if verb == "stall-voting-loop" {
+                        match id.parse::<u64>() {
+                            Ok(ms) => {
+                                *STALL.lock().unwrap_or_else(|e| e.into_inner()) =
+                                    Some(Duration::from_millis(ms));
+                            }
+                            Err(_) => tracing::warn!("fault injection: bad duration in {line:?}"),
+                        }
+                        continue;
+                    }
                     let Ok(id) = id.parse::<u8>() else {
                         tracing::warn!("fault injection: bad id in {line:?}");
                         continue;
