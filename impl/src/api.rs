@@ -38,8 +38,12 @@ pub struct Options {
     /// Print one JSON event per line on stdout (status, outputs, alarms) instead of console
     /// lines: the record that tools and the conformance suite read.
     pub json_events: bool,
-    /// Show LEDs on the console (the default LED bank).
+    /// Show LEDs on the console (the default LED bank). LEDs on GPIO (`leds.backend =
+    /// "gpio"`) are driven either way.
     pub console_leds: bool,
+    /// Marked at every iteration of the voting loop, for a watchdog that must stop when the
+    /// loop is stuck (crate::service).
+    pub voting_progress: Option<Arc<crate::service::LoopProgress>>,
 }
 
 /// What the voting thread shares with the application.

@@ -50,7 +50,9 @@ pub struct Timing {
     /// writer when the owner is silent this long.
     pub command_deadline_ms: u64,
     /// How often the tracker re-publishes its last command when the camera is quiet, so an
-    /// aperiodic command topic never misses its deadline (less than the deadline).
+    /// aperiodic command topic never misses its deadline (less than the deadline). The
+    /// actuator's gap after the owner dies is at most the deadline plus this period: the
+    /// default (a tenth of the deadline) keeps it within 1.1 x the deadline.
     pub command_republish_ms: u64,
 }
 
@@ -61,7 +63,7 @@ impl Default for Timing {
             peer_deadline_ms: 500,
             init_window_ms: 10_000,
             command_deadline_ms: 100,
-            command_republish_ms: 50,
+            command_republish_ms: 10,
         }
     }
 }
@@ -834,9 +836,9 @@ mod tests {
             "less than timing.command_deadline_ms (100 ms)",
         ),
         (
-            "[timing]\ncommand_deadline_ms = 40",
+            "[timing]\ncommand_deadline_ms = 10",
             "timing.command_republish_ms",
-            "less than timing.command_deadline_ms (40 ms)",
+            "less than timing.command_deadline_ms (10 ms)",
         ),
         ("[dds]\ndomain = 233", "dds.domain", "at most 232"),
         (

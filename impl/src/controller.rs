@@ -2,10 +2,14 @@
 //! Pixytracker): it reads the camera's `Circle` samples of the configured colour, computes
 //! pan/tilt with the original PD law, and writes `pixy/servo_control` through the RL API,
 //! which lets the commands out only while the controller holds a role, at its role's strength.
+//!
+//! Under systemd it reports readiness once DDS is joined and the voting thread runs, and its
+//! loop pings the watchdog while the voting loop also goes round (crate::service).
 
 use crate::api::{Options, Redundancy};
 use crate::config::Config;
 use crate::core::types::ControllerId;
+use crate::service::{LoopProgress, Notifier};
 use crate::tracker::PanTiltController;
 use crate::wire::ServoControl;
 use rustdds::mio::{Events, Poll, PollOpt, Ready, Token};
@@ -69,17 +73,37 @@ const CAMERA: Token = Token(0);
 pub fn run(args: ControllerArgs) -> Result<(), crate::Error> {
     let config = load_config(args.config.as_deref(), args.domain)?;
     let stop = stop_on_signals()?;
+    let voting_progress = Arc::new(LoopProgress::new());
+    let mut notifier = Notifier::new(
+        crate::service::watchdog_from_env(),
+        Arc::clone(&voting_progress),
+    );
     let rl = Redundancy::start(
         &config,
         args.id,
         Options {
             json_events: args.json_events,
             console_leds: true,
+            voting_progress: Some(voting_progress),
         },
     )?;
-    let result = track(&rl, &config, &stop, args.duration_ms);
+    let result = track(&rl, &config, &stop, args.duration_ms, &mut notifier);
+    notifier.stopping();
     let stopped = rl.stop();
     result.and(stopped)
+}
+
+/// The `systemctl status` line: `C2 steady primary (strength 30)`.
+fn service_status(rl: &Redundancy) -> String {
+    let status = rl.status();
+    let role = status.role.map_or("no role", |role| role.name());
+    match status.strength {
+        Some(strength) => format!(
+            "C{} {} {role} (strength {strength})",
+            status.id, status.phase
+        ),
+        None => format!("C{} {} {role}", status.id, status.phase),
+    }
 }
 
 /// The tracker application: camera in, commands out through the RL API.
@@ -88,6 +112,7 @@ fn track(
     config: &Config,
     stop: &AtomicBool,
     duration_ms: Option<u64>,
+    notifier: &mut Notifier,
 ) -> Result<(), crate::Error> {
     let dds = |e: crate::dds::DdsError| crate::Error::Dds(e.to_string());
     let mut camera = rl.session().camera_reader().map_err(dds)?;
@@ -103,10 +128,13 @@ fn track(
     // the actuator never falls to a weaker writer while this one lives.
     let mut last_written = started - republish;
     let mut write_errors = 0u64;
+    notifier.ready();
     loop {
         if stop.load(Ordering::SeqCst) || rl.is_finished() {
             return Ok(());
         }
+        notifier.tick(Instant::now());
+        notifier.status(&service_status(rl));
         if duration_ms.is_some_and(|limit| started.elapsed() >= Duration::from_millis(limit)) {
             return Ok(());
         }

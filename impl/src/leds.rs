@@ -1,5 +1,5 @@
 //! The status LEDs: what the four red/green LEDs show (a pure function of what a controller
-//! knows) and the banks that show it (a console line now; GPIO lines on a Pi later).
+//! knows) and the banks that show it: a console line, or eight GPIO lines on a Pi ([`gpio`]).
 //!
 //! The paper's demo wires four two-lead LEDs to each controller: LED1 Primary, LED2 Secondary,
 //! LED3 Tertiary (the role LEDs) and LED4 the controller's own status. "A working tracker
@@ -30,6 +30,8 @@
 //! on the failed unit's role, then, after promotion, on the vacated Tertiary.
 //!
 //! Each LED is two GPIO lines: [`line_values`] maps a colour to them (first pin high = green).
+
+pub mod gpio;
 
 use crate::core::types::{Assignment, ControllerId, Phase, Role, ROLE_COUNT};
 use std::fmt;

@@ -15,6 +15,7 @@
 //! - [`tracker`]: the paper's application (pan/tilt from the camera's circle).
 //! - [`leds`], [`config`], [`sim`], [`status`], [`demo`], [`bench`]: status LEDs, configuration,
 //!   camera and actuator simulators, the live status view, the demo and the benchmarks.
+//! - [`service`], [`logging`]: running under systemd (readiness, watchdog, journald).
 //!
 //! docs/architecture.md draws the layout and the RL API on one page.
 
@@ -31,6 +32,7 @@ pub mod leds;
 pub mod logging;
 pub mod procs;
 pub mod runtime;
+pub mod service;
 pub mod sim;
 pub mod status;
 pub mod tracker;

@@ -295,3 +295,29 @@ pub fn wall_ms() -> u64 {
         .map(|d| d.as_millis() as u64)
         .unwrap_or(0)
 }
+
+impl Fleet {
+    /// Starts `rl controller --id <id> <extra>` with its stdin piped (the `fault-injection`
+    /// build reads `drop-heartbeats-from <id>` / `accept-heartbeats-from <id>` lines there)
+    /// and its output tagged `source` (e.g. `C3#1` for a restarted controller, so each life's
+    /// lines stay apart); returns its pid and stdin.
+    pub fn start_controller_piped(
+        &mut self,
+        id: ControllerId,
+        source: &str,
+        extra: &[&str],
+    ) -> std::io::Result<(u32, std::process::ChildStdin)> {
+        let id_text = id.to_string();
+        let mut args = vec!["controller", "--id", &id_text];
+        args.extend_from_slice(extra);
+        let mut child = self.command(&args).stdin(Stdio::piped()).spawn()?;
+        let stdin = child
+            .stdin
+            .take()
+            .ok_or_else(|| std::io::Error::other("the child's stdin was not piped"))?;
+        forward_lines(&mut child, source, self.lines.clone());
+        let pid = child.id();
+        self.controllers.insert(id, child);
+        Ok((pid, stdin))
+    }
+}

@@ -163,10 +163,11 @@ fn led_bank(config: &Config) -> Leds {
         LedBackend::Console => console(),
         LedBackend::Gpio => match crate::leds::gpio::start(&config.leds) {
             Ok(bank) => {
+                // In the message, not as fields: `journalctl` shows only the message.
                 info!(
-                    chip = config.leds.chip,
-                    pins = crate::leds::gpio::describe_pins(&config.leds.pins),
-                    "status LEDs on GPIO"
+                    "status LEDs on GPIO {} lines {} (green,red per LED)",
+                    config.leds.chip,
+                    crate::leds::gpio::describe_pins(&config.leds.pins)
                 );
                 Leds::Gpio(bank)
             }
