@@ -102,7 +102,6 @@ pub fn run(args: DemoArgs) -> Result<(), crate::Error> {
                         owner = to_controller_id;
                         if from_controller_id.is_some() && from_controller_id == to_controller_id {
                             // The same controller with a new writer: its strength changed.
-                            let strength = strength.map(|s| s.to_string()).unwrap_or("?".into());
                             println!(
                                 "{} servo: C{} now commands at strength {strength}",
                                 stamp(line.at),

@@ -40,3 +40,9 @@ impl Error {
         }
     }
 }
+
+impl From<crate::dds::DdsError> for Error {
+    fn from(error: crate::dds::DdsError) -> Error {
+        Error::Dds(error.to_string())
+    }
+}

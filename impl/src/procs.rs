@@ -10,28 +10,7 @@ use std::process::{Child, Command, Stdio};
 use std::sync::mpsc::{self, Receiver};
 use std::time::Instant;
 
-/// One line of `rl servo --json` (the documented interface).
-#[derive(Clone, Debug, PartialEq, Deserialize)]
-#[serde(tag = "event", rename_all = "snake_case")]
-pub enum ServoEvent {
-    Command {
-        t_ms: u64,
-        writer_guid: String,
-        controller_id: Option<ControllerId>,
-        strength: Option<i32>,
-        pan: u16,
-        tilt: u16,
-    },
-    OwnerChanged {
-        t_ms: u64,
-        from_controller_id: Option<ControllerId>,
-        to_controller_id: Option<ControllerId>,
-        gap_ms: Option<u64>,
-        /// The new owner's ownership strength.
-        #[serde(default)]
-        strength: Option<i32>,
-    },
-}
+pub use crate::sim::servo::ServoEvent;
 
 /// A line a child printed, with the time it was read.
 #[derive(Clone, Debug)]
@@ -41,39 +20,35 @@ pub struct Line {
     pub text: String,
 }
 
-/// Sends every line of a child's stdout (and stderr) to a channel, tagged with `source`.
+/// Sends every line of a child's stdout (and stderr, tagged `source!`) to a channel.
 fn forward_lines(child: &mut Child, source: &str, to: mpsc::Sender<Line>) {
     if let Some(stdout) = child.stdout.take() {
-        let to = to.clone();
-        let source = source.to_string();
-        std::thread::spawn(move || {
-            for text in BufReader::new(stdout).lines().map_while(Result::ok) {
-                let line = Line {
-                    at: Instant::now(),
-                    source: source.clone(),
-                    text,
-                };
-                if to.send(line).is_err() {
-                    break;
-                }
-            }
-        });
+        spawn_line_reader(stdout, source.to_string(), to.clone());
     }
     if let Some(stderr) = child.stderr.take() {
-        let source = format!("{source}!");
-        std::thread::spawn(move || {
-            for text in BufReader::new(stderr).lines().map_while(Result::ok) {
-                let line = Line {
-                    at: Instant::now(),
-                    source: source.clone(),
-                    text,
-                };
-                if to.send(line).is_err() {
-                    break;
-                }
-            }
-        });
+        spawn_line_reader(stderr, format!("{source}!"), to);
     }
+}
+
+/// A thread that sends each line read from `input` as a [`Line`] until the input or the
+/// channel closes.
+fn spawn_line_reader(
+    input: impl std::io::Read + Send + 'static,
+    source: String,
+    to: mpsc::Sender<Line>,
+) {
+    std::thread::spawn(move || {
+        for text in BufReader::new(input).lines().map_while(Result::ok) {
+            let line = Line {
+                at: Instant::now(),
+                source: source.clone(),
+                text,
+            };
+            if to.send(line).is_err() {
+                break;
+            }
+        }
+    });
 }
 
 /// Sends a signal to a process.
@@ -236,19 +211,20 @@ mod tests {
 
     #[test]
     fn servo_lines_parse_by_their_event_field() {
-        let command = r#"{"event":"command","t_ms":12,"writer_guid":"01.02","controller_id":null,"strength":30,"pan":500,"tilt":400}"#;
+        let command = r#"{"event":"command","t_ms":12,"writer_guid":"01.02","controller_id":null,"strength":30,"pan":500,"tilt":400,"frequency":60}"#;
         assert_eq!(
             parse_servo_event(command),
             Some(ServoEvent::Command {
                 t_ms: 12,
                 writer_guid: "01.02".into(),
                 controller_id: None,
-                strength: Some(30),
+                strength: 30,
                 pan: 500,
-                tilt: 400
+                tilt: 400,
+                frequency: 60
             })
         );
-        let change = r#"{"event":"owner_changed","t_ms":99,"from_controller_id":1,"to_controller_id":2,"gap_ms":104}"#;
+        let change = r#"{"event":"owner_changed","t_ms":99,"from_controller_id":1,"to_controller_id":2,"gap_ms":104,"from_writer_guid":"01","to_writer_guid":"02","strength":20}"#;
         assert!(matches!(
             parse_servo_event(change),
             Some(ServoEvent::OwnerChanged {

@@ -255,8 +255,6 @@ impl Voting {
     }
 
     fn perform(&mut self, command: Command) {
-        let id = self.core.config().id;
-        let incarnation = self.core.config().incarnation;
         match command {
             Command::PublishHeartbeat(heartbeat) => {
                 if let Err(error) = self.endpoints.heartbeats_out.write(&heartbeat) {
@@ -274,17 +272,9 @@ impl Voting {
             Command::SetOutput { role, strength } => {
                 self.event("output", json!({ "role": role, "strength": strength }));
             }
-            Command::RaiseAlarm { about, reason } => {
-                self.alarm(ControllerAlarm {
-                    reporter: id,
-                    reporter_incarnation: incarnation,
-                    about,
-                    about_incarnation: None,
-                    reason,
-                    raised: true,
-                });
-            }
+            Command::RaiseAlarm { about, reason } => self.alarm(about, reason, true),
             Command::ClearAlarm { about } => {
+                // The clear names the reason it was raised for.
                 let reason = self
                     .shared
                     .alarms
@@ -294,14 +284,7 @@ impl Voting {
                     .find(|(who, _)| *who == about)
                     .map(|(_, reason)| *reason)
                     .unwrap_or(crate::core::AlarmReason::Lost);
-                self.alarm(ControllerAlarm {
-                    reporter: id,
-                    reporter_incarnation: incarnation,
-                    about,
-                    about_incarnation: None,
-                    reason,
-                    raised: false,
-                });
+                self.alarm(about, reason, false);
             }
             Command::Status(status) => self.status(status),
             Command::Leds(pattern) => {
@@ -335,7 +318,15 @@ impl Voting {
         }
     }
 
-    fn alarm(&mut self, alarm: ControllerAlarm) {
+    fn alarm(&mut self, about: ControllerId, reason: crate::core::AlarmReason, raised: bool) {
+        let alarm = ControllerAlarm {
+            reporter: self.core.config().id,
+            reporter_incarnation: self.core.config().incarnation,
+            about,
+            about_incarnation: None,
+            reason,
+            raised,
+        };
         {
             let mut alarms = self.shared.alarms.lock().unwrap_or_else(|e| e.into_inner());
             alarms.retain(|(about, _)| *about != alarm.about);

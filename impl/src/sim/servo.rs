@@ -56,8 +56,8 @@ pub struct ServoArgs {
     pub duration_ms: Option<u64>,
 }
 
-/// One line of `--json` output.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+/// One line of `--json` output (the documented interface; tools parse it with this type).
+#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
 #[serde(tag = "event", rename_all = "snake_case")]
 pub enum ServoEvent {
     Command {
