@@ -11,10 +11,22 @@
 //! - [`replay`]: the core-level replay: real `rl::core::Core`s on a simulated clock and
 //!   network, one model action at a time, with a readable diff on a mismatch;
 //! - [`transcript`]: the readable per-trace transcripts kept as golden snapshots;
-//! - [`coverage`]: which (action kind x phase) pairs the replayed traces exercised.
+//! - [`coverage`]: which (action kind x phase) pairs the replayed traces exercised;
+//! - [`record`]: recorded runs (the controllers' JSON events) and what each controller
+//!   reported at every round boundary;
+//! - [`validate`]: trace validation, the other direction: a recorded run checked to be a
+//!   behaviour the model allows;
+//! - [`dds_plan`]: which traces the DDS-level replay takes and how each is timed on real
+//!   processes (pure, from the model);
+//! - [`dds_replay`]: the DDS-level replay: real `rl controller` processes over DDS, faults
+//!   applied for real.
 
 pub mod abstraction;
 pub mod coverage;
+pub mod dds_plan;
+pub mod dds_replay;
+pub mod record;
 pub mod replay;
 pub mod trace;
 pub mod transcript;
+pub mod validate;

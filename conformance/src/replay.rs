@@ -663,8 +663,18 @@ pub const VALUE_WIDTH: usize = 24;
 ///      strength      20                      20
 /// ```
 pub fn state_diff(expected: &AbstractState, observed: &AbstractState) -> String {
-    let mut out =
-        String::from("  the core's state differs from the model's (>> marks a difference):\n");
+    state_diff_of("core", "the core's", expected, observed)
+}
+
+/// [`state_diff`] with another name for the observed side (`processes` for the DDS-level
+/// replay): `column` heads its column, `whose` opens the first line.
+pub fn state_diff_of(
+    column: &str,
+    whose: &str,
+    expected: &AbstractState,
+    observed: &AbstractState,
+) -> String {
+    let mut out = format!("  {whose} state differs from the model's (>> marks a difference):\n");
     let mut matching = Vec::new();
     let count = expected.controllers.len().max(observed.controllers.len());
     for index in 0..count {
@@ -679,7 +689,7 @@ pub fn state_diff(expected: &AbstractState, observed: &AbstractState) -> String 
         let id = model_side.or(core_side).map_or(0, |c| c.id);
         let _ = writeln!(
             out,
-            "  {:<width$}{:<VALUE_WIDTH$}core",
+            "  {:<width$}{:<VALUE_WIDTH$}{column}",
             format!("C{id}"),
             "model",
             width = 3 + NAME_WIDTH
@@ -715,7 +725,7 @@ pub fn state_diff(expected: &AbstractState, observed: &AbstractState) -> String 
     };
     let _ = writeln!(
         out,
-        "  {mark} actuator owner: model {}, core {}",
+        "  {mark} actuator owner: model {}, {column} {}",
         owner(expected.actuator_owner),
         owner(observed.actuator_owner)
     );

@@ -216,25 +216,31 @@ pub fn read_dir(dir: &Path) -> Result<Vec<Trace>, TraceError> {
     paths.iter().map(|path| read_trace(path)).collect()
 }
 
-/// The part of an `index.json` entry this suite reads (it also holds the purpose and length,
-/// which the trace files carry themselves).
-#[derive(Deserialize)]
-struct IndexEntry {
-    file: String,
-    covers: Vec<String>,
+/// One `index.json` entry: a trace file, what it is for, its length and the coverage classes
+/// the model says it covers.
+#[derive(Clone, Debug, Deserialize)]
+pub struct IndexEntry {
+    pub file: String,
+    pub purpose: String,
+    pub steps: usize,
+    pub covers: Vec<String>,
 }
 
-/// `index.json`: for each trace file, the coverage classes the model says it covers
-/// (`tick@steady`, `join@notstarted`, ...).
-pub fn read_index(path: &Path) -> Result<BTreeMap<String, BTreeSet<String>>, TraceError> {
+/// Every entry of `index.json`, in file order.
+pub fn read_index_entries(path: &Path) -> Result<Vec<IndexEntry>, TraceError> {
     let error = |message: String| TraceError {
         path: path.to_path_buf(),
         line: None,
         message,
     };
     let text = std::fs::read_to_string(path).map_err(|e| error(e.to_string()))?;
-    let entries: Vec<IndexEntry> = serde_json::from_str(&text).map_err(|e| error(e.to_string()))?;
-    Ok(entries
+    serde_json::from_str(&text).map_err(|e| error(e.to_string()))
+}
+
+/// `index.json`: for each trace file, the coverage classes the model says it covers
+/// (`tick@steady`, `join@notstarted`, ...).
+pub fn read_index(path: &Path) -> Result<BTreeMap<String, BTreeSet<String>>, TraceError> {
+    Ok(read_index_entries(path)?
         .into_iter()
         .map(|entry| (entry.file, entry.covers.into_iter().collect()))
         .collect())

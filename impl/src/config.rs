@@ -391,15 +391,16 @@ impl Timing {
                 )
             },
         )?;
-        // A window no longer than the deadline could close before a slow peer is even missed.
+        // A window shorter than the deadline could close before a slow peer is even missed;
+        // the checked model uses a window as long as the deadline (2 rounds each).
         check(
             whole_periods(self.init_window_ms, period_ms)
-                && self.init_window_ms > self.peer_deadline_ms,
+                && self.init_window_ms >= self.peer_deadline_ms,
             "timing.init_window_ms",
             self.init_window_ms,
             || {
                 format!(
-                    "must be a whole number of heartbeat periods ({period_ms} ms) and longer than \
+                    "must be a whole number of heartbeat periods ({period_ms} ms) and at least \
                      timing.peer_deadline_ms ({} ms)",
                     self.peer_deadline_ms
                 )
@@ -811,9 +812,9 @@ mod tests {
             "whole number",
         ),
         (
-            "[timing]\ninit_window_ms = 500",
+            "[timing]\ninit_window_ms = 250",
             "timing.init_window_ms",
-            "longer than timing.peer_deadline_ms (500 ms)",
+            "at least timing.peer_deadline_ms (500 ms)",
         ),
         (
             "[timing]\ninit_window_ms = 250",

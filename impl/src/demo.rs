@@ -43,6 +43,18 @@ struct Seen {
     strength: Option<u8>,
 }
 
+/// The next line printed by a child, or `None` once `until` has passed.
+fn next_line(
+    lines: &std::sync::mpsc::Receiver<crate::procs::Line>,
+    until: Instant,
+) -> Option<crate::procs::Line> {
+    let left = until.saturating_duration_since(Instant::now());
+    if left.is_zero() {
+        return None;
+    }
+    lines.recv_timeout(left).ok()
+}
+
 pub fn run(args: DemoArgs) -> Result<(), crate::Error> {
     let stop = crate::controller::stop_on_signals()?;
     let exe = std::env::current_exe().map_err(|e| crate::Error::io("locating rl", e))?;
@@ -76,7 +88,10 @@ pub fn run(args: DemoArgs) -> Result<(), crate::Error> {
     let mut cycles = 0u32;
     let mut next_summary = started + Duration::from_secs(2);
     while !stop.load(Ordering::SeqCst) {
-        while let Ok(line) = lines.recv_timeout(Duration::from_millis(20)) {
+        // Drain for 20 ms at most: the servo prints a line every few milliseconds, so waiting
+        // for a quiet gap would never reach the kill schedule below.
+        let drain_until = Instant::now() + Duration::from_millis(20);
+        while let Some(line) = next_line(&lines, drain_until) {
             if let Some(dir) = &args.record {
                 let file = match recordings.get_mut(&line.source) {
                     Some(file) => file,

@@ -320,7 +320,14 @@ impl Core {
             commands.push(Command::Leds(leds));
         }
         let shown = |c: &ControllerState| (c.phase, c.role, c.output, c.agreed, c.vote);
-        if shown(before) != shown(after) || before.members() != after.members() {
+        // The view as `Status` reports it: who is heard, who is FAILED, who is alarmed.
+        let view = |c: &ControllerState| -> Vec<(ControllerId, bool, bool, bool)> {
+            c.peers
+                .iter()
+                .map(|(&id, p)| (id, p.alive.is_some(), p.failed, p.alarm.is_some()))
+                .collect()
+        };
+        if shown(before) != shown(after) || view(before) != view(after) {
             let status = self.status();
             commands.push(Command::Console(console_line(&status)));
             commands.push(Command::Status(status));
