@@ -25,8 +25,8 @@
 //!
 //! A trace is replayable only if this timing cannot change its outcome, which the plan checks
 //! against the model: its states are the same under the run's round lengths (the
-//! implementation's window is at least one round longer than the model's, config
-//! validation requires a window longer than the peer deadline), a controller heard one
+//! run's window is one round longer than the model's, see `dds_replay::CONFIG_TOML`), a
+//! controller heard one
 //! round later at start changes nothing, a process started after round 0 ends in the same
 //! settled state if discovery takes one or two rounds more, and faults after a late start
 //! wait for a quiescent boundary.
@@ -718,7 +718,7 @@ pub fn select(traces_dir: &Path, curated: &Curated, timing: &Timing) -> Result<S
 }
 
 /// The run's timing as the DDS-level replay configures `rl` (the model's period and
-/// dead-man deadline; the shortest window `rl` accepts).
+/// dead-man deadline; a window one round longer, see `dds_replay::CONFIG_TOML`).
 pub fn replay_timing() -> Timing {
     Timing {
         period_ms: 250,

@@ -65,8 +65,10 @@ pub const ATTEMPTS: usize = 3;
 const TAIL_LINES: usize = 50;
 
 /// The `rl` configuration the replay runs with: the model's heartbeat period and dead-man
-/// deadline, and the shortest initialization window `rl` accepts (it must be longer than the
-/// peer deadline, so 3 rounds where the model's traces use 2).
+/// deadline, and an initialization window one round longer than the model's (3 rounds, not
+/// 2): with 2, DDS discovery of a late process decides in which round its window expires,
+/// which the late-join and fourth-controller traces depend on. The plan checks against the
+/// model that every replayed trace reaches the same states with the 3-round window.
 pub const CONFIG_TOML: &str = "\
 # The DDS-level replay's timing (conformance/src/dds_replay.rs): one round = 250 ms.
 [timing]

@@ -817,11 +817,6 @@ mod tests {
             "at least timing.peer_deadline_ms (500 ms)",
         ),
         (
-            "[timing]\ninit_window_ms = 250",
-            "timing.init_window_ms",
-            "longer than",
-        ),
-        (
             "[timing]\ncommand_deadline_ms = 0\ncommand_republish_ms = 0",
             "timing.command_deadline_ms",
             "at least 1",
