@@ -34,10 +34,19 @@ fn the_controller_is_a_ros2_node_publishing_its_status() {
             TopicKind::NoKey,
         )
         .unwrap();
+    // Every participant (this test's own ROS 2 context too) writes its entities on this
+    // unkeyed topic: keep them all, not just the last one.
+    let graph_qos = QosPolicyBuilder::new()
+        .reliability(Reliability::Reliable {
+            max_blocking_time: rustdds::Duration::ZERO,
+        })
+        .durability(Durability::TransientLocal)
+        .history(History::KeepLast { depth: 64 })
+        .build();
     let mut graph = subscriber
         .create_datareader_no_key::<ros2_client::entities_info::ParticipantEntitiesInfo, CDRDeserializerAdapter<_>>(
             &graph_topic,
-            None,
+            Some(graph_qos),
         )
         .unwrap();
     // A ROS 2 node of our own subscribes to the status topic, as `ros2 topic echo` would.
