@@ -19,8 +19,7 @@
 use rl::core::{ControllerId, Incarnation, Phase, Status};
 use rl::procs::ControllerEvent;
 use std::collections::BTreeMap;
-use std::fmt;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// The round a controller-clock time falls in: round `r` spans `[r * period, (r + 1) * period)`.
 pub fn round_of(t_ms: u64, period_ms: u64) -> u64 {
@@ -124,23 +123,7 @@ pub struct Recording {
 }
 
 /// A recording that cannot be read.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct RecordError {
-    pub path: PathBuf,
-    pub line: Option<usize>,
-    pub message: String,
-}
-
-impl fmt::Display for RecordError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self.line {
-            Some(line) => write!(f, "{}:{line}: {}", self.path.display(), self.message),
-            None => write!(f, "{}: {}", self.path.display(), self.message),
-        }
-    }
-}
-
-impl std::error::Error for RecordError {}
+pub type RecordError = crate::trace::FileError;
 
 impl Recording {
     /// Reads every file of a recording directory (`*.log`, `*.jsonl`), in name order.

@@ -52,16 +52,19 @@ impl Trace {
     }
 }
 
-/// A trace file that cannot be read.
+/// A file (a trace, or a recording of a run) that cannot be read: where, and why.
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub struct TraceError {
+pub struct FileError {
     pub path: PathBuf,
     /// 1-based line, when the problem is on one line.
     pub line: Option<usize>,
     pub message: String,
 }
 
-impl fmt::Display for TraceError {
+/// A trace file that cannot be read.
+pub type TraceError = FileError;
+
+impl fmt::Display for FileError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self.line {
             Some(line) => write!(f, "{}:{line}: {}", self.path.display(), self.message),
@@ -70,7 +73,7 @@ impl fmt::Display for TraceError {
     }
 }
 
-impl std::error::Error for TraceError {}
+impl std::error::Error for FileError {}
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
