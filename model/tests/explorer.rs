@@ -43,19 +43,32 @@ fn start(port: u16) -> Explorer {
     explorer
 }
 
+/// One HTTP GET. stateright's explorer server sometimes resets a connection while its
+/// checker thread is busy on a loaded machine: retry a few times before failing.
 fn get(port: u16, path: &str) -> String {
-    let mut stream = TcpStream::connect(("127.0.0.1", port)).expect("connect");
-    stream
-        .set_read_timeout(Some(Duration::from_secs(20)))
-        .expect("timeout");
+    let mut last_error = None;
+    for _ in 0..5 {
+        match try_get(port, path) {
+            Ok(response) => return response,
+            Err(error) => {
+                last_error = Some(error);
+                std::thread::sleep(Duration::from_millis(300));
+            }
+        }
+    }
+    panic!("GET {path}: {last_error:?}");
+}
+
+fn try_get(port: u16, path: &str) -> std::io::Result<String> {
+    let mut stream = TcpStream::connect(("127.0.0.1", port))?;
+    stream.set_read_timeout(Some(Duration::from_secs(20)))?;
     write!(
         stream,
         "GET {path} HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n"
-    )
-    .expect("request");
+    )?;
     let mut response = String::new();
-    stream.read_to_string(&mut response).expect("response");
-    response
+    stream.read_to_string(&mut response)?;
+    Ok(response)
 }
 
 #[test]
