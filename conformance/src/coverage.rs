@@ -15,15 +15,7 @@ use model::{Action, ActionKind, Life, Phase};
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write;
 
-/// The stages in the order the model's coverage table shows them.
-pub const STAGES: [Stage; 6] = [
-    Stage::NotStarted,
-    Stage::Down,
-    Stage::Initializing,
-    Stage::Voting,
-    Stage::Steady,
-    Stage::Failed,
-];
+pub use model::traces::STAGES;
 
 /// Where a controller stands, from its abstract state.
 pub fn stage(c: &AbstractController) -> Stage {
@@ -104,29 +96,7 @@ impl Coverage {
 
     /// The table the model's `traces` command prints, for the replayed traces.
     pub fn report(&self) -> String {
-        let mut out = String::new();
-        let _ = write!(out, "{:<16}", "action \\ stage");
-        for stage in STAGES {
-            let _ = write!(out, "{:>13}", format!("{stage:?}").to_lowercase());
-        }
-        out.push('\n');
-        for kind in ActionKind::ALL {
-            let _ = write!(out, "{:<16}", kind.name());
-            for stage in STAGES {
-                let class = (kind, stage);
-                let cell = match (
-                    self.reachable.contains(&class),
-                    self.covered.contains(&class),
-                ) {
-                    (true, true) => "covered",
-                    (true, false) => "MISSED",
-                    (false, true) => "extra",
-                    (false, false) => "-",
-                };
-                let _ = write!(out, "{cell:>13}");
-            }
-            out.push('\n');
-        }
+        let mut out = model::traces::coverage_table(&self.reachable, &self.covered, "extra");
         let _ = write!(
             out,
             "core-level transition coverage: {} of {} reachable (action kind x phase) pairs = \

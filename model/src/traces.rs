@@ -69,6 +69,48 @@ fn assignment(a: Option<Assignment>) -> Option<String> {
     a.map(|a| a.to_string())
 }
 
+/// The stages in the order the coverage table shows them.
+pub const STAGES: [Stage; 6] = [
+    Stage::NotStarted,
+    Stage::Down,
+    Stage::Initializing,
+    Stage::Voting,
+    Stage::Steady,
+    Stage::Failed,
+];
+
+/// The coverage table, one line per action kind, one column per stage: `covered`, `MISSED`
+/// (reachable, not covered), `unreachable_covered` (covered, not reachable in the scope the
+/// reachable set comes from) or `-`. Shared with the conformance suite, which prints the same
+/// table for the replayed traces.
+pub fn coverage_table(
+    reachable: &BTreeSet<CoverageClass>,
+    covered: &BTreeSet<CoverageClass>,
+    unreachable_covered: &str,
+) -> String {
+    let mut out = String::new();
+    let _ = write!(out, "{:<16}", "action \\ stage");
+    for stage in STAGES {
+        let _ = write!(out, "{:>13}", format!("{stage:?}").to_lowercase());
+    }
+    out.push('\n');
+    for kind in ActionKind::ALL {
+        let _ = write!(out, "{:<16}", kind.name());
+        for stage in STAGES {
+            let class = (kind, stage);
+            let cell = match (reachable.contains(&class), covered.contains(&class)) {
+                (true, true) => "covered",
+                (true, false) => "MISSED",
+                (false, true) => unreachable_covered,
+                (false, false) => "-",
+            };
+            let _ = write!(out, "{cell:>13}");
+        }
+        out.push('\n');
+    }
+    out
+}
+
 /// The abstract state a trace step records.
 pub fn abstract_state(state: &State) -> AbstractState {
     let ids = |c: &crate::Controller, pred: &dyn Fn(&crate::state::Peer) -> bool| -> Vec<u8> {
@@ -154,36 +196,9 @@ impl TraceSet {
 
     /// The transition coverage table: action kind x stage of the acting controller.
     pub fn coverage_report(&self) -> String {
-        let mut out = String::new();
-        let stages = [
-            Stage::NotStarted,
-            Stage::Down,
-            Stage::Initializing,
-            Stage::Voting,
-            Stage::Steady,
-            Stage::Failed,
-        ];
-        let _ = write!(out, "{:<16}", "action \\ stage");
-        for stage in stages {
-            let _ = write!(out, "{:>13}", format!("{stage:?}").to_lowercase());
-        }
-        out.push('\n');
-        for kind in ActionKind::ALL {
-            let _ = write!(out, "{:<16}", kind.name());
-            for stage in stages {
-                let class = (kind, stage);
-                let cell = match (
-                    self.reachable.contains(&class),
-                    self.covered.contains(&class),
-                ) {
-                    (true, true) => "covered",
-                    (true, false) => "MISSED",
-                    (false, _) => "-",
-                };
-                let _ = write!(out, "{cell:>13}");
-            }
-            out.push('\n');
-        }
+        // The set's paper-variant counterexamples cover classes the default scope cannot reach;
+        // the table is about the default scope.
+        let mut out = coverage_table(&self.reachable, &self.covered, "-");
         let _ = write!(
             out,
             "transition coverage: {} of {} reachable (action kind x phase) pairs = {:.1}% \
