@@ -174,15 +174,15 @@ pub fn abstract_controller(
     Ok(AbstractController {
         id,
         life: Life::Up,
-        incarnation: number(id, status.incarnation)?,
-        phase: Some(phase(status.phase)),
-        role: status.role.map(role),
-        strength: status.strength,
+        incarnation: number(id, status.report.incarnation)?,
+        phase: Some(phase(status.report.phase)),
+        role: status.report.role.map(role),
+        strength: status.report.strength,
         sees,
         failed,
         alarms,
-        agreed: assignment(status.agreed)?,
-        vote: assignment(status.vote)?,
+        agreed: assignment(status.report.agreed)?,
+        vote: assignment(status.report.vote)?,
     })
 }
 
@@ -250,18 +250,13 @@ mod tests {
     use rl::core::{AlarmReason, Holder};
 
     fn status(id: ControllerId, incarnation: Incarnation) -> Status {
-        Status {
-            id,
-            incarnation,
-            phase: core::Phase::Steady,
-            role: Some(core::Role::Secondary),
-            strength: Some(20),
-            agreed: None,
-            vote: None,
-            sees: vec![3, 1],
-            failed: vec![],
-            alarms: vec![(3, AlarmReason::Lost), (1, AlarmReason::Failed)],
-        }
+        let mut status = Status::initial(id, incarnation);
+        status.report.phase = core::Phase::Steady;
+        status.report.role = Some(core::Role::Secondary);
+        status.report.strength = Some(20);
+        status.sees = vec![3, 1];
+        status.alarms = vec![(3, AlarmReason::Lost), (1, AlarmReason::Failed)];
+        status
     }
 
     #[test]
@@ -288,7 +283,7 @@ mod tests {
         let holder = |id, incarnation| Holder { id, incarnation };
         let vote = core::Assignment::from_ranked([holder(1, 100), holder(2, 900), holder(3, 300)]);
         let mut reported = status(2, 900);
-        reported.vote = Some(vote);
+        reported.report.vote = Some(vote);
         let c = abstract_controller(2, &Observed::Up(Box::new(reported)), &numbers)
             .expect("every life is known");
         assert_eq!(c.incarnation, 1);
@@ -317,7 +312,7 @@ mod tests {
         }
         let up = |id, strength| {
             let mut s = status(id, 0);
-            s.strength = strength;
+            s.report.strength = strength;
             Observed::Up(Box::new(s))
         };
         let state = abstract_state(

@@ -16,7 +16,7 @@
 //! marked FAILED that is then lost leaves the membership unchanged, so `sees` and `failed`
 //! of the last status may still name it (trace validation allows exactly that).
 
-use rl::core::{ControllerId, Incarnation, Phase, Status};
+use rl::core::{ControllerId, Incarnation, Status};
 use rl::procs::ControllerEvent;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -29,18 +29,7 @@ pub fn round_of(t_ms: u64, period_ms: u64) -> u64 {
 /// What a controller reports before its first status event: it starts initializing, knowing
 /// nobody (the core's initial state).
 pub fn initial_status(id: ControllerId, incarnation: Incarnation) -> Status {
-    Status {
-        id,
-        incarnation,
-        phase: Phase::Initializing,
-        role: None,
-        strength: None,
-        agreed: None,
-        vote: None,
-        sees: Vec::new(),
-        failed: Vec::new(),
-        alarms: Vec::new(),
-    }
+    Status::initial(id, incarnation)
 }
 
 /// One process's events, in the order it printed them.
@@ -290,11 +279,13 @@ pub fn describe_event(event: &ControllerEvent, number: Option<u8>) -> String {
             };
             format!(
                 "{} {} {} agreed[{}] vote[{}] sees{:?} failed{:?}",
-                s.phase.name(),
-                s.role.map_or("no-role", |r| r.name()),
-                s.strength.map_or("silent".to_string(), |v| v.to_string()),
-                holders(s.agreed),
-                holders(s.vote),
+                s.report.phase.name(),
+                s.report.role.map_or("no-role", |r| r.name()),
+                s.report
+                    .strength
+                    .map_or("silent".to_string(), |v| v.to_string()),
+                holders(s.report.agreed),
+                holders(s.report.vote),
                 s.sees,
                 s.failed
             )
@@ -350,7 +341,7 @@ mod tests {
         assert_eq!(numbers.number(2, 77), Some(1));
         let status = lives[1].status_at_boundary(5, 250);
         assert_eq!(status.alarms, vec![(1, rl::core::AlarmReason::Lost)]);
-        assert_eq!(status.phase, Phase::Initializing);
+        assert_eq!(status.report.phase, rl::core::Phase::Initializing);
         assert!(lives[1].status_at_boundary(4, 250).alarms.is_empty());
     }
 

@@ -33,7 +33,7 @@ use crate::trace::Trace;
 use crate::transcript;
 use model::traces::{AbstractController, AbstractState};
 use model::{Action, Life, Variant};
-use rl::core::{rules, Command, ControllerId, Core, CoreConfig, Heartbeat, Input, Rounds};
+use rl::core::{Command, ControllerId, Core, CoreConfig, Heartbeat, Input, Rounds, Timer};
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::{self, Write};
 
@@ -72,11 +72,18 @@ pub struct Replayed {
 
 /// Replays one default-variant trace against real cores.
 pub fn replay(trace: &Trace) -> Result<Replayed, Failure> {
+    replay_with(trace, &|config| config)
+}
+
+/// Replays one default-variant trace against cores whose configuration `configure` adjusts
+/// (the mutation check configures a deliberately broken rule).
+pub fn replay_with(trace: &Trace, configure: &Configure) -> Result<Replayed, Failure> {
     let fail = |step: usize, problem: Problem| Failure::new(trace, step, problem);
     if let Some(reason) = skip_reason(trace) {
         return Err(fail(0, Problem::Unsupported(reason)));
     }
-    let mut network = CoreNetwork::start(&trace.config, &trace.initial).map_err(|p| fail(0, p))?;
+    let mut network =
+        CoreNetwork::start(&trace.config, &trace.initial, configure).map_err(|p| fail(0, p))?;
     let observed = network.observe().map_err(|p| fail(0, p))?;
     if observed != trace.initial {
         return Err(fail(
@@ -137,9 +144,9 @@ struct Slot {
 }
 
 /// Real cores on a simulated clock and network, stepped by model actions.
-#[derive(Clone, Debug)]
-pub struct CoreNetwork {
+pub struct CoreNetwork<'a> {
     rounds: Rounds,
+    configure: &'a Configure,
     /// The current round: the model's rounds ended so far.
     round: u64,
     slots: Vec<Slot>,
@@ -151,16 +158,22 @@ pub struct CoreNetwork {
 /// Commands each core returned during one step, by controller id.
 pub type StepCommands = BTreeMap<ControllerId, Vec<Command>>;
 
-impl CoreNetwork {
+/// Adjusts each core's configuration before it starts.
+pub type Configure = dyn Fn(CoreConfig) -> CoreConfig;
+
+impl<'a> CoreNetwork<'a> {
     /// The cores of a trace's initial state, started together inside round 0.
-    pub fn start(config: &model::Config, initial: &AbstractState) -> Result<CoreNetwork, Problem> {
-        let dead_after = u32::from(config.dead_after_rounds);
+    pub fn start(
+        config: &model::Config,
+        initial: &AbstractState,
+        configure: &'a Configure,
+    ) -> Result<CoreNetwork<'a>, Problem> {
         let mut network = CoreNetwork {
             rounds: Rounds {
-                dead_after,
-                window: u32::from(config.window_rounds),
-                minority_grace: dead_after + 1,
+                dead_after_rounds: u32::from(config.dead_after_rounds),
+                window_rounds: u32::from(config.window_rounds),
             },
+            configure,
             round: 0,
             slots: Vec::new(),
             lost: BTreeSet::new(),
@@ -221,18 +234,11 @@ impl CoreNetwork {
                 "C{id} starts its life #{incarnation}, but it is its start number {number}"
             )));
         }
+        let config = (self.configure)(CoreConfig::new(id, stamp, PERIOD_MS, rounds));
         let slot = self.slot_mut(id)?;
         slot.life = Life::Up;
         slot.incarnation = incarnation;
-        slot.core = Some(Core::new(
-            CoreConfig {
-                id,
-                incarnation: stamp,
-                heartbeat_period_ms: PERIOD_MS,
-                rounds,
-            },
-            start_ms,
-        ));
+        slot.core = Some(Core::new(config, start_ms));
         self.lost.retain(|&(from, to)| from != id && to != id);
         Ok(())
     }
@@ -266,16 +272,16 @@ impl CoreNetwork {
             }
             Action::ExpireWindow { controller } => {
                 let boundary = self.boundary_ms();
-                let rounds = self.rounds;
                 let core = self.live_core(controller)?;
-                let due = core.next_deadline_ms();
-                if !rules::window_can_expire(&rounds, core.state()) || due > boundary {
+                let due = core.next_deadline();
+                if due.timer != Timer::WindowExpiry || due.at_ms > boundary {
                     return Err(Problem::Timing(format!(
                         "C{controller}'s initialization window is not due at the round \
-                         boundary ({boundary} ms; its next timer is at {due} ms)"
+                         boundary ({boundary} ms; its next timer is {:?} at {} ms)",
+                        due.timer, due.at_ms
                     )));
                 }
-                commands.insert(controller, core.step(Input::Timer, due));
+                commands.insert(controller, core.step(Input::Timer(due.timer), due.at_ms));
             }
             Action::Crash { controller } => {
                 let slot = self.slot_mut(controller)?;
@@ -307,14 +313,13 @@ impl CoreNetwork {
     fn tick(&mut self, commands: &mut StepCommands) -> Result<(), Problem> {
         let boundary = self.boundary_ms();
         let round_end = boundary + PERIOD_MS;
-        let rounds = self.rounds;
         let mut heartbeats: BTreeMap<ControllerId, Heartbeat> = BTreeMap::new();
         for slot in &mut self.slots {
             let Some(core) = slot.core.as_mut() else {
                 continue;
             };
             let id = slot.id;
-            if rules::window_can_expire(&rounds, core.state()) {
+            if core.next_deadline().timer == Timer::WindowExpiry {
                 return Err(Problem::Timing(format!(
                     "C{id}'s initialization window is due, but the model ends the round \
                      without it expiring"
@@ -322,9 +327,9 @@ impl CoreNetwork {
             }
             let send_slot = boundary + core.config().heartbeat_offset_ms();
             let emitted = commands.entry(id).or_default();
-            while core.next_deadline_ms() <= send_slot {
-                let due = core.next_deadline_ms();
-                for command in core.step(Input::Timer, due) {
+            while core.next_deadline().at_ms <= send_slot {
+                let due = core.next_deadline();
+                for command in core.step(Input::Timer(due.timer), due.at_ms) {
                     if let Command::PublishHeartbeat(heartbeat) = &command {
                         heartbeats.insert(id, *heartbeat);
                     }
@@ -356,17 +361,17 @@ impl CoreNetwork {
             let Some(core) = slot.core.as_mut() else {
                 continue;
             };
-            let due = core.next_deadline_ms();
-            if due != round_end {
+            let due = core.next_deadline();
+            if due.at_ms != round_end || due.timer != Timer::RoundEnd {
                 return Err(Problem::Timing(format!(
-                    "C{}'s next timer is at {due} ms, but the round ends at {round_end} ms",
-                    slot.id
+                    "C{}'s next timer is {:?} at {} ms, but the round ends at {round_end} ms",
+                    slot.id, due.timer, due.at_ms
                 )));
             }
             commands
                 .entry(slot.id)
                 .or_default()
-                .extend(core.step(Input::Timer, round_end));
+                .extend(core.step(Input::Timer(Timer::RoundEnd), round_end));
         }
         self.lost.clear();
         self.round += 1;
@@ -524,7 +529,7 @@ fn check_alarms(
     let cleared: BTreeSet<u8> = emitted
         .iter()
         .filter_map(|c| match c {
-            Command::ClearAlarm { about } => Some(*about),
+            Command::ClearAlarm { about, .. } => Some(*about),
             _ => None,
         })
         .collect();
@@ -816,7 +821,10 @@ mod tests {
             about: 1,
             reason: AlarmReason::Lost,
         };
-        let clear = Command::ClearAlarm { about: 3 };
+        let clear = Command::ClearAlarm {
+            about: 3,
+            reason: AlarmReason::Lost,
+        };
         assert!(problems(before.clone(), after.clone(), vec![raise.clone(), clear]).is_empty());
         assert_eq!(
             problems(before, after, vec![raise]),
@@ -837,7 +845,7 @@ mod tests {
             }],
             actuator_owner: None,
         };
-        let mut network = CoreNetwork::start(&config, &initial).expect("one controller");
+        let mut network = CoreNetwork::start(&config, &initial, &|c| c).expect("one controller");
         assert_eq!(network.observe().expect("known lives"), initial);
         match network.apply(Action::ExpireWindow { controller: 1 }) {
             Err(Problem::Timing(message)) => {

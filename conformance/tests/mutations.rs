@@ -3,12 +3,13 @@
 //! replays every default-variant trace, and asserts that the replay fails with a readable
 //! diff showing the broken field, model value against core value.
 //!
-//! The selection is per thread, so these tests run in parallel with each other and with the
-//! conformance suite without affecting it.
+//! The mutation is a field of each core's configuration, so these tests run in parallel with
+//! each other and with the conformance suite without affecting it.
 
 use conformance::replay::{self, Failure, NAME_WIDTH, VALUE_WIDTH};
 use conformance::trace::{self, Trace};
-use rl::core::mutation::{self, Mutation};
+use rl::core::mutation::Mutation;
+use rl::core::CoreConfig;
 
 fn traces() -> Vec<Trace> {
     trace::read_dir(&trace::default_dir()).expect("the trace set is readable")
@@ -20,10 +21,10 @@ fn failures_under(mutation: Mutation) -> Vec<Failure> {
         .into_iter()
         .filter(|trace| replay::skip_reason(trace).is_none())
         .collect();
-    let _selected = mutation::select_scoped(mutation);
+    let configure = move |config: CoreConfig| config.with_mutation(Some(mutation));
     let failures: Vec<Failure> = traces
         .iter()
-        .filter_map(|trace| replay::replay(trace).err())
+        .filter_map(|trace| replay::replay_with(trace, &configure).err())
         .collect();
     println!(
         "{mutation:?}: {} of {} replayed traces fail",
@@ -69,11 +70,6 @@ fn assert_some_diff_shows(mutation: Mutation, field: &str, shows: impl Fn(&str, 
             failures[0]
         ),
     }
-    assert_eq!(
-        mutation::selected(),
-        None,
-        "the selection ends with the test"
-    );
 }
 
 #[test]
@@ -110,8 +106,7 @@ fn admit_fourth_is_caught() {
 }
 
 #[test]
-fn without_a_selected_mutation_the_hooks_are_inert() {
-    assert_eq!(mutation::selected(), None);
+fn without_a_configured_mutation_the_hooks_are_inert() {
     let traces = traces();
     for trace in traces.iter().filter(|t| replay::skip_reason(t).is_none()) {
         if let Err(failure) = replay::replay(trace) {

@@ -98,12 +98,12 @@ impl Redundancy {
 
     /// The role this controller holds now.
     pub fn role(&self) -> Option<Role> {
-        self.shared.status().role
+        self.shared.status().report.role
     }
 
     /// The ownership strength its commands carry now (`None`: it must not command).
     pub fn strength(&self) -> Option<u8> {
-        self.shared.status().strength
+        self.shared.status().report.strength
     }
 
     /// Controller alarms this controller has raised and not cleared.
@@ -179,7 +179,7 @@ impl CommandWriter {
     pub fn write(&mut self, command: ServoControl) -> Result<bool, DdsError> {
         let (role, strength) = {
             let status = self.shared.status();
-            (status.role, status.strength)
+            (status.report.role, status.report.strength)
         };
         let allowed = match self.policy {
             AperiodicPolicy::Republish => strength,

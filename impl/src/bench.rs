@@ -188,15 +188,15 @@ impl Watch {
     fn holder(&self, role: Role) -> Option<u8> {
         self.status
             .values()
-            .find(|s| s.phase == Phase::Steady && s.role == Some(role))
-            .map(|s| s.id)
+            .find(|s| s.report.phase == Phase::Steady && s.report.role == Some(role))
+            .map(|s| s.report.id)
     }
 
     fn all_steady(&self, ids: &[u8]) -> bool {
         ids.iter().all(|id| {
             self.status
                 .get(id)
-                .is_some_and(|s| s.phase == Phase::Steady && s.strength.is_some())
+                .is_some_and(|s| s.report.phase == Phase::Steady && s.report.strength.is_some())
         })
     }
 }
@@ -349,7 +349,7 @@ fn formation(
             .map_err(spawn_error)?;
         let mut first_heard: Option<u64> = None;
         let formed = watch.wait(Duration::from_secs(15), |w| {
-            if first_heard.is_none() && heartbeats.take().iter().any(|h| h.value.from == 3) {
+            if first_heard.is_none() && heartbeats.take().iter().any(|h| h.value.id == 3) {
                 first_heard = Some(wall_ms());
             }
             w.all_steady(&[1, 2, 3])

@@ -96,13 +96,13 @@ pub fn run(args: ControllerArgs) -> Result<(), crate::Error> {
 /// The `systemctl status` line: `C2 steady primary (strength 30)`.
 fn service_status(rl: &Redundancy) -> String {
     let status = rl.status();
-    let role = status.role.map_or("no role", |role| role.name());
-    match status.strength {
+    let role = status.report.role.map_or("no role", |role| role.name());
+    match status.report.strength {
         Some(strength) => format!(
             "C{} {} {role} (strength {strength})",
-            status.id, status.phase
+            status.report.id, status.report.phase
         ),
-        None => format!("C{} {} {role}", status.id, status.phase),
+        None => format!("C{} {} {role}", status.report.id, status.report.phase),
     }
 }
 

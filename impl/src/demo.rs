@@ -148,21 +148,22 @@ pub fn run(args: DemoArgs) -> Result<(), crate::Error> {
             match event.event.as_str() {
                 "status" => {
                     if let Some(status) = &event.status {
-                        let changed =
-                            entry.phase != Some(status.phase) || entry.role != status.role;
-                        entry.phase = Some(status.phase);
-                        entry.role = status.role;
-                        entry.strength = status.strength;
+                        let changed = entry.phase != Some(status.report.phase)
+                            || entry.role != status.report.role;
+                        entry.phase = Some(status.report.phase);
+                        entry.role = status.report.role;
+                        entry.strength = status.report.strength;
                         if changed {
                             let role = status
+                                .report
                                 .role
-                                .map(|r| format!("{r} ({})", status.strength.unwrap_or(0)))
+                                .map(|r| format!("{r} ({})", status.report.strength.unwrap_or(0)))
                                 .unwrap_or_else(|| "no role".into());
                             println!(
                                 "{} C{}: {} {}",
                                 stamp(line.at),
                                 event.id,
-                                status.phase,
+                                status.report.phase,
                                 role
                             );
                         }

@@ -19,6 +19,9 @@ pub enum Error {
         #[source]
         source: std::io::Error,
     },
+    /// `RL_MUTATION` names no mutation (a `mutation` build only).
+    #[error("RL_MUTATION={name} is not a mutation; known: {known}")]
+    Mutation { name: String, known: String },
     /// Anything else that ends a command.
     #[error("{0}")]
     Runtime(String),
@@ -28,7 +31,7 @@ impl Error {
     /// 2 for bad input (configuration, flags), 1 for everything else.
     pub fn exit_code(&self) -> u8 {
         match self {
-            Error::Config(_) | Error::Usage(_) => 2,
+            Error::Config(_) | Error::Usage(_) | Error::Mutation { .. } => 2,
             _ => 1,
         }
     }

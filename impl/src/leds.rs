@@ -34,6 +34,7 @@
 pub mod gpio;
 
 use crate::core::types::{Assignment, ControllerId, Phase, Role, ROLE_COUNT};
+use crate::core::Status;
 use std::fmt;
 use std::io::Write;
 
@@ -160,6 +161,17 @@ pub fn pattern(inputs: &LedInputs) -> LedPattern {
     }
     colors[OWN_STATUS_LED] = health_color;
     LedPattern(colors)
+}
+
+/// The LEDs for what a controller reports of itself and its peers ([`Status`]).
+pub fn pattern_of(status: &Status) -> LedPattern {
+    let alarmed: Vec<ControllerId> = status.alarms.iter().map(|(id, _)| *id).collect();
+    pattern(&LedInputs {
+        phase: status.report.phase,
+        own_role: status.report.role,
+        failed_roles: failed_roles(status.report.agreed.as_ref(), &alarmed),
+        own_fault: false,
+    })
 }
 
 /// Which roles show a failed unit, from the last agreed assignment and the controllers with a

@@ -14,9 +14,11 @@
 
 use crate::api::{Options, Shared};
 use crate::config::{Config, LedBackend};
-use crate::core::{Command, ControllerId, Core, CoreConfig, Input, Rounds, Status, VoteRecord};
+use crate::core::{
+    AlarmReason, Command, ControllerId, Core, CoreConfig, Input, Rounds, Status, VoteRecord,
+};
 use crate::dds::{Reader, Session, Writer};
-use crate::leds::{ConsoleLeds, LedBank};
+use crate::leds::{ConsoleLeds, LedBank, LedPattern};
 use crate::wire::{AlarmSample, ControllerAlarm, HeartbeatSample, VoteSample};
 use rustdds::mio::{Events, Poll, PollOpt, Ready, Token};
 use serde_json::json;
@@ -108,16 +110,13 @@ pub(crate) fn spawn(
     // in the same millisecond.
     let incarnation = clock.now_ms() << 16 | u64::from(std::process::id() & 0xffff);
     let timing = &config.timing;
-    let core_config = CoreConfig {
-        id,
-        incarnation,
-        heartbeat_period_ms: timing.heartbeat_period_ms,
-        rounds: Rounds {
-            dead_after: timing.dead_after_rounds(),
-            window: timing.window_rounds(),
-            minority_grace: timing.minority_grace_rounds(),
-        },
+    let rounds = Rounds {
+        dead_after_rounds: timing.dead_after_rounds(),
+        window_rounds: timing.window_rounds(),
     };
+    let core_config = CoreConfig::new(id, incarnation, timing.heartbeat_period_ms, rounds);
+    #[cfg(feature = "mutation")]
+    let core_config = core_config.with_mutation(mutation_from_environment()?);
     let core = Core::new(core_config, clock.now_ms());
     let shared = Arc::new(Shared {
         status: Mutex::new(core.status()),
@@ -129,6 +128,7 @@ pub(crate) fn spawn(
     let thread = std::thread::Builder::new()
         .name(format!("rl-voting-{id}"))
         .spawn(move || {
+            let shown_status = core.status();
             let mut voting = Voting {
                 core,
                 clock,
@@ -136,6 +136,8 @@ pub(crate) fn spawn(
                 shared: thread_shared,
                 options,
                 leds,
+                shown_status,
+                shown_leds: LedPattern::ALL_OFF,
             };
             voting.run()
         })
@@ -147,6 +149,26 @@ pub(crate) fn spawn(
         "controller started"
     );
     Ok((shared, thread))
+}
+
+/// The deliberately broken rule named by `RL_MUTATION` (a build with the `mutation` feature
+/// only: the conformance suite's DDS-level mutation check runs real controllers with it).
+#[cfg(feature = "mutation")]
+fn mutation_from_environment() -> Result<Option<crate::core::mutation::Mutation>, crate::Error> {
+    use crate::core::mutation::Mutation;
+    let Ok(name) = std::env::var("RL_MUTATION") else {
+        return Ok(None);
+    };
+    match Mutation::from_name(&name) {
+        Some(mutation) => {
+            warn!("running with the deliberately broken rule {name} (RL_MUTATION)");
+            Ok(Some(mutation))
+        }
+        None => Err(crate::Error::Mutation {
+            name,
+            known: Mutation::ALL.map(Mutation::name).join(", "),
+        }),
+    }
 }
 
 /// The LED bank the configuration names.
@@ -186,6 +208,10 @@ struct Voting {
     shared: Arc<Shared>,
     options: Options,
     leds: Leds,
+    /// The status last shown (status event, console line, shared status).
+    shown_status: Status,
+    /// The LEDs last shown.
+    shown_leds: LedPattern,
 }
 
 impl Voting {
@@ -214,12 +240,13 @@ impl Voting {
             if self.shared.fault.swap(false, Ordering::SeqCst) {
                 self.step(Input::LocalFault);
             }
-            while self.core.next_deadline_ms() <= self.clock.now_ms() {
-                self.step(Input::Timer);
+            while let Some(timer) = self.core.due_timer(self.clock.now_ms()) {
+                self.step(Input::Timer(timer));
             }
             let wait_ms = self
                 .core
-                .next_deadline_ms()
+                .next_deadline()
+                .at_ms
                 .saturating_sub(self.clock.now_ms())
                 .min(FLAG_CHECK_MS);
             match poll.poll(&mut events, Some(Duration::from_millis(wait_ms))) {
@@ -237,7 +264,7 @@ impl Voting {
     fn take_samples(&mut self) {
         for heartbeat in self.endpoints.heartbeats_in.take() {
             #[cfg(feature = "fault-injection")]
-            if fault_injection::dropped(heartbeat.value.from) {
+            if fault_injection::dropped(heartbeat.value.id) {
                 continue;
             }
             self.step(Input::Heartbeat(heartbeat.value));
@@ -251,6 +278,52 @@ impl Voting {
         let now = self.clock.now_ms();
         for command in self.core.step(input, now) {
             self.perform(command);
+        }
+        self.show(self.core.status());
+    }
+
+    /// What a person sees follows the status: the status event and console line when it
+    /// changed, the LEDs when their pattern did.
+    fn show(&mut self, status: Status) {
+        let leds = crate::leds::pattern_of(&status);
+        if leds != self.shown_leds {
+            self.shown_leds = leds;
+            self.show_leds(leds);
+        }
+        if status == self.shown_status {
+            return;
+        }
+        if status.duplicate_id_heartbeats > self.shown_status.duplicate_id_heartbeats {
+            warn!(
+                "another controller is using id {} (its heartbeats are ignored; check --id)",
+                status.report.id
+            );
+        }
+        self.console(&crate::console::console_line(&status));
+        self.status(status.clone());
+        self.shown_status = status;
+    }
+
+    fn show_leds(&mut self, pattern: LedPattern) {
+        let shown = match &mut self.leds {
+            Leds::Gpio(bank) => Some(bank.show(pattern)),
+            Leds::Console(console) if self.options.console_leds && !self.options.json_events => {
+                Some(console.show(pattern))
+            }
+            Leds::Console(_) => None,
+        };
+        if let Some(Err(error)) = shown {
+            warn!("LEDs: {error}");
+        }
+        self.event("leds", json!({ "leds": pattern.to_string() }));
+    }
+
+    /// A line for the operator: on stdout, or in the log when stdout carries JSON events.
+    fn console(&self, line: &str) {
+        if self.options.json_events {
+            info!("{line}");
+        } else {
+            println!("{line}");
         }
     }
 
@@ -273,42 +346,7 @@ impl Voting {
                 self.event("output", json!({ "role": role, "strength": strength }));
             }
             Command::RaiseAlarm { about, reason } => self.alarm(about, reason, true),
-            Command::ClearAlarm { about } => {
-                // The clear names the reason it was raised for.
-                let reason = self
-                    .shared
-                    .alarms
-                    .lock()
-                    .unwrap_or_else(|e| e.into_inner())
-                    .iter()
-                    .find(|(who, _)| *who == about)
-                    .map(|(_, reason)| *reason)
-                    .unwrap_or(crate::core::AlarmReason::Lost);
-                self.alarm(about, reason, false);
-            }
-            Command::Status(status) => self.status(status),
-            Command::Leds(pattern) => {
-                let shown = match &mut self.leds {
-                    Leds::Gpio(bank) => Some(bank.show(pattern)),
-                    Leds::Console(console)
-                        if self.options.console_leds && !self.options.json_events =>
-                    {
-                        Some(console.show(pattern))
-                    }
-                    Leds::Console(_) => None,
-                };
-                if let Some(Err(error)) = shown {
-                    warn!("LEDs: {error}");
-                }
-                self.event("leds", json!({ "leds": pattern.to_string() }));
-            }
-            Command::Console(line) => {
-                if self.options.json_events {
-                    info!("{line}");
-                } else {
-                    println!("{line}");
-                }
-            }
+            Command::ClearAlarm { about, reason } => self.alarm(about, reason, false),
         }
     }
 
@@ -318,7 +356,7 @@ impl Voting {
         }
     }
 
-    fn alarm(&mut self, about: ControllerId, reason: crate::core::AlarmReason, raised: bool) {
+    fn alarm(&mut self, about: ControllerId, reason: AlarmReason, raised: bool) {
         let alarm = ControllerAlarm {
             reporter: self.core.config().id,
             reporter_incarnation: self.core.config().incarnation,
@@ -339,11 +377,7 @@ impl Voting {
             "C{}: alarm {verb}: controller C{} {:?}",
             alarm.reporter, alarm.about, alarm.reason
         );
-        if self.options.json_events {
-            info!("{line}");
-        } else {
-            println!("{line}");
-        }
+        self.console(&line);
         self.event(
             "alarm",
             json!({ "about": alarm.about, "reason": alarm.reason, "raised": alarm.raised }),

@@ -4,7 +4,8 @@
 //! The board is pure (samples and times in, a view out) so the demo and the benchmarks use it
 //! too; only [`run`] touches DDS.
 
-use crate::core::types::{AlarmReason, ControllerId, Heartbeat, Incarnation, Phase, Role};
+use crate::core::types::{AlarmReason, ControllerId, Incarnation, Phase, Role};
+use crate::core::Heartbeat;
 use crate::wire::ControllerAlarm;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -68,7 +69,7 @@ pub struct Board {
 
 impl Board {
     pub fn heartbeat(&mut self, heartbeat: Heartbeat, now_ms: u64) {
-        self.heartbeats.insert(heartbeat.from, (heartbeat, now_ms));
+        self.heartbeats.insert(heartbeat.id, (heartbeat, now_ms));
     }
 
     pub fn alarm(&mut self, alarm: &ControllerAlarm) {
@@ -97,7 +98,7 @@ impl Board {
     pub fn commander(&self, now_ms: u64, alive_within_ms: u64) -> Option<&Heartbeat> {
         self.alive(now_ms, alive_within_ms)
             .filter(|h| h.strength.is_some())
-            .min_by_key(|h| (std::cmp::Reverse(h.strength), h.from))
+            .min_by_key(|h| (std::cmp::Reverse(h.strength), h.id))
     }
 
     pub fn view(&self, now_ms: u64, alive_within_ms: u64) -> StatusView {
@@ -107,7 +108,7 @@ impl Board {
             .map(|(h, at)| {
                 let since = now_ms.saturating_sub(*at);
                 ControllerView {
-                    id: h.from,
+                    id: h.id,
                     incarnation: h.incarnation,
                     phase: h.phase,
                     role: h.role,
@@ -271,7 +272,7 @@ mod tests {
     fn hb(from: ControllerId, role: Option<Role>) -> Heartbeat {
         let agreed = Assignment::from_ranked([1, 2, 3].map(|id| Holder { id, incarnation: 0 }));
         Heartbeat {
-            from,
+            id: from,
             incarnation: 0,
             phase: Phase::Steady,
             role,
@@ -290,7 +291,7 @@ mod tests {
         assert_eq!(view.controllers.len(), 2);
         assert!(!view.controllers[0].alive, "700 ms silent > 500 ms");
         assert!(view.controllers[1].alive);
-        assert_eq!(board.commander(1700, 500).map(|h| h.from), Some(2));
+        assert_eq!(board.commander(1700, 500).map(|h| h.id), Some(2));
         let json = serde_json::to_value(&view).unwrap();
         assert_eq!(json["controllers"][1]["role"], "secondary");
         assert_eq!(json["controllers"][1]["strength"], 20);

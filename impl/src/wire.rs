@@ -29,9 +29,9 @@
 //! ```
 
 use crate::core::types::{
-    AlarmReason, Assignment, ControllerId, Heartbeat, Holder, Incarnation, Phase, Role, VoteRecord,
-    ROLE_COUNT,
+    AlarmReason, Assignment, ControllerId, Holder, Incarnation, Phase, Role, VoteRecord, ROLE_COUNT,
 };
+use crate::core::Heartbeat;
 use rustdds::Keyed;
 use serde::{Deserialize, Serialize};
 
@@ -390,7 +390,7 @@ impl WireSample for HeartbeatSample {
         let agreed = decode_optional("heartbeat.agreed", self.agreed_valid, &self.agreed)?;
         let vote = decode_optional("heartbeat.vote", self.vote_valid, &self.vote)?;
         Ok(Heartbeat {
-            from,
+            id: from,
             incarnation: self.incarnation,
             phase,
             role,
@@ -404,7 +404,7 @@ impl WireSample for HeartbeatSample {
         let (agreed_valid, agreed) = encode_optional(&heartbeat.agreed);
         let (vote_valid, vote) = encode_optional(&heartbeat.vote);
         HeartbeatSample {
-            from_id: heartbeat.from,
+            from_id: heartbeat.id,
             incarnation: heartbeat.incarnation,
             phase: phase_code(heartbeat.phase),
             role: role_code(heartbeat.role),
@@ -635,7 +635,7 @@ mod tests {
 
     fn heartbeat() -> Heartbeat {
         Heartbeat {
-            from: 2,
+            id: 2,
             incarnation: 1_723_000_000_123,
             phase: Phase::Steady,
             role: Some(Role::Primary),
@@ -714,7 +714,7 @@ mod tests {
             heartbeat()
         );
         let quiet = Heartbeat {
-            from: 1,
+            id: 1,
             incarnation: 0,
             phase: Phase::Initializing,
             role: None,

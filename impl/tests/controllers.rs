@@ -30,7 +30,7 @@ fn three_controllers_form_with_roles_by_id_and_the_servo_follows_the_primary() {
     cluster.start_servo();
     formed_three(&mut cluster);
     cluster.wait_for("servo follows C1", FORM, |c| c.servo_commander() == Some(1));
-    let agreed = cluster.status[&2].agreed.map(|a| a.to_string());
+    let agreed = cluster.status[&2].report.agreed.map(|a| a.to_string());
     assert_eq!(agreed.as_deref(), Some("P=1 S=2 T=3"));
 }
 
@@ -127,14 +127,14 @@ fn sigstop_sigcont_primary_resumes_commanding() {
         let steady = c
             .status
             .values()
-            .filter(|s| s.phase == Phase::Steady)
+            .filter(|s| s.report.phase == Phase::Steady)
             .count()
             == 3;
         let primaries: Vec<u8> = c
             .status
             .values()
-            .filter(|s| s.role == P && s.strength == Some(30))
-            .map(|s| s.id)
+            .filter(|s| s.report.role == P && s.report.strength == Some(30))
+            .map(|s| s.report.id)
             .collect();
         steady && primaries.len() == 1 && c.servo_commander() == primaries.first().copied()
     });

@@ -8,7 +8,8 @@
 
 use rl::arbiter::Arbiter;
 use rl::config::{Dds, Timing};
-use rl::core::types::{Assignment, Heartbeat, Holder, Phase, Role, VoteRecord};
+use rl::core::types::{Assignment, Holder, Phase, Role, VoteRecord};
+use rl::core::Heartbeat;
 use rl::dds::{mio, ControllerDirectory, ParticipantKey, Session, GUID};
 use rl::wire::{HeartbeatSample, RosString, ServoControl, WireSample, HEARTBEAT_TYPE_NAME};
 use rustdds::{
@@ -57,7 +58,7 @@ fn holder(id: u8, incarnation: u64) -> Holder {
 fn heartbeat(from: u8, role: Role) -> Heartbeat {
     let agreed = Assignment::from_ranked([holder(1, 11), holder(2, 22), holder(3, 33)]);
     Heartbeat {
-        from,
+        id: from,
         incarnation: u64::from(from) * 11,
         phase: Phase::Steady,
         role: Some(role),
@@ -539,7 +540,7 @@ fn heartbeats_of_three_controllers_written_together_all_arrive() {
     let mut heard = std::collections::BTreeSet::new();
     wait_for(DISCOVERY_TIMEOUT, "heartbeats of all three", || {
         write_all();
-        heard.extend(reader.take().into_iter().map(|s| s.value.from));
+        heard.extend(reader.take().into_iter().map(|s| s.value.id));
         (heard.len() == 3).then_some(())
     });
     thread::sleep(Duration::from_millis(100));
@@ -549,7 +550,7 @@ fn heartbeats_of_three_controllers_written_together_all_arrive() {
     for _ in 0..ROUNDS {
         write_all();
         thread::sleep(Duration::from_millis(50));
-        let mut ids: Vec<_> = reader.take().into_iter().map(|s| s.value.from).collect();
+        let mut ids: Vec<_> = reader.take().into_iter().map(|s| s.value.id).collect();
         ids.sort();
         if ids == [1, 2, 3] {
             complete_rounds += 1;

@@ -147,9 +147,8 @@ impl Bench {
             units: BTreeMap::new(),
             now_ms: 1_000_000,
             rounds: Rounds {
-                dead_after: timing.dead_after_rounds(),
-                window: timing.window_rounds(),
-                minority_grace: timing.minority_grace_rounds(),
+                dead_after_rounds: timing.dead_after_rounds(),
+                window_rounds: timing.window_rounds(),
             },
             period_ms: timing.heartbeat_period_ms,
             next_incarnation: 1,
@@ -161,12 +160,7 @@ impl Bench {
         let leds = GpioLeds::open(&chip, "/dev/gpiochip0", PINS)
             .unwrap()
             .with_lamp_test_step(Duration::ZERO);
-        let config = CoreConfig {
-            id,
-            incarnation: self.next_incarnation,
-            heartbeat_period_ms: self.period_ms,
-            rounds: self.rounds,
-        };
+        let config = CoreConfig::new(id, self.next_incarnation, self.period_ms, self.rounds);
         self.next_incarnation += 1;
         let mut unit = Unit {
             core: Core::new(config, self.now_ms),
@@ -191,13 +185,14 @@ impl Bench {
                 .units
                 .iter()
                 .filter(|(_, u)| u.alive)
-                .map(|(&id, u)| (u.core.next_deadline_ms(), id))
+                .map(|(&id, u)| (u.core.next_deadline(), id))
+                .map(|(deadline, id)| (deadline.at_ms, deadline.timer, id))
                 .min();
-            let Some((due, id)) = next.filter(|(due, _)| *due <= until) else {
+            let Some((due, timer, id)) = next.filter(|(due, _, _)| *due <= until) else {
                 break;
             };
             self.now_ms = due.max(self.now_ms);
-            self.input(id, Input::Timer);
+            self.input(id, Input::Timer(timer));
         }
         self.now_ms = until;
     }
@@ -206,14 +201,18 @@ impl Bench {
         let now = self.now_ms;
         let unit = self.units.get_mut(&id).unwrap();
         let commands = unit.core.step(input, now);
-        let mut heartbeats = Vec::new();
-        for command in commands {
-            match command {
-                Command::Leds(pattern) => unit.leds.show(pattern).unwrap(),
-                Command::PublishHeartbeat(heartbeat) => heartbeats.push(heartbeat),
-                _ => {}
-            }
+        // The adapter's rule: the LEDs follow the status.
+        let pattern = rl::leds::pattern_of(&unit.core.status());
+        if unit.leds.shown() != Some(pattern) {
+            unit.leds.show(pattern).unwrap();
         }
+        let heartbeats: Vec<_> = commands
+            .into_iter()
+            .filter_map(|command| match command {
+                Command::PublishHeartbeat(heartbeat) => Some(heartbeat),
+                _ => None,
+            })
+            .collect();
         for heartbeat in heartbeats {
             let peers: Vec<ControllerId> = self
                 .units

@@ -189,7 +189,9 @@ impl Formation {
 
     fn steady_with(&self, id: u8, role: Role) -> bool {
         self.status.get(&id).is_some_and(|s| {
-            s.phase == Phase::Steady && s.role == Some(role) && s.strength == Some(role.strength())
+            s.report.phase == Phase::Steady
+                && s.report.role == Some(role)
+                && s.report.strength == Some(role.strength())
         })
     }
 
@@ -249,7 +251,7 @@ fn the_emulated_pi_binary_takes_the_primary_role_among_two_native_controllers() 
             .any(|line| line.contains("C1(arm)") && line.contains("\"event\":\"status\"")),
         "the Primary's events came from the emulated process"
     );
-    let agreed = formation.status[&3].agreed.map(|a| a.to_string());
+    let agreed = formation.status[&3].report.agreed.map(|a| a.to_string());
     assert_eq!(agreed.as_deref(), Some("P=1 S=2 T=3"));
     // The native servo takes the emulated Primary's commands.
     formation.wait_for("servo follows C1", Duration::from_secs(10), |f| {

@@ -7,7 +7,8 @@
 //! 120 failover on silence and return, 121 failover on writer deletion, 122 shapes.
 
 use rl::config::{Dds, Timing};
-use rl::core::types::{Assignment, Heartbeat, Holder, Phase, Role};
+use rl::core::types::{Assignment, Holder, Phase, Role};
+use rl::core::Heartbeat;
 use rl::dds::{guid_hex, Session};
 use rl::sim::shapes::{X_MAX, Y_MAX};
 use rl::wire::ServoControl;
@@ -177,7 +178,7 @@ impl Controller {
             };
             let agreed = Assignment::from_ranked([holder(1), holder(2)]);
             let beat = Heartbeat {
-                from: id,
+                id,
                 incarnation: u64::from(id),
                 phase: Phase::Steady,
                 role: Some(role),

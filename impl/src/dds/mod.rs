@@ -34,7 +34,7 @@ pub use ros::StatusPublisher;
 pub use rustdds::{mio, GUID};
 
 use crate::config::{Dds, Timing};
-use crate::core::types::{ControllerId, Heartbeat};
+use crate::core::{types::ControllerId, Heartbeat};
 use crate::wire::{
     AlarmSample, HeartbeatSample, NetworkAlarmSample, ServoControl, ShapeTypeExtended, VoteSample,
     WireError, WireSample,
@@ -365,7 +365,7 @@ impl ControllerDirectory {
     /// old entry stays, harmless, as nothing writes from that participant any more.
     pub fn note_heartbeat(&mut self, heartbeat: &Received<Heartbeat>) {
         self.by_participant
-            .insert(ParticipantKey::of(heartbeat.writer), heartbeat.value.from);
+            .insert(ParticipantKey::of(heartbeat.writer), heartbeat.value.id);
     }
 
     /// The controller whose participant wrote through `writer`.

@@ -153,10 +153,10 @@ impl Cluster {
             .map(|s| {
                 format!(
                     "C{} {} {:?} {:?}",
-                    s.id,
-                    s.phase,
-                    s.role.map(|r| r.name()),
-                    s.strength
+                    s.report.id,
+                    s.report.phase,
+                    s.report.role.map(|r| r.name()),
+                    s.report.strength
                 )
             })
             .collect::<Vec<_>>()
@@ -164,12 +164,14 @@ impl Cluster {
     }
 
     pub fn role_of(&self, id: u8) -> Option<Role> {
-        self.status.get(&id).and_then(|s| s.role)
+        self.status.get(&id).and_then(|s| s.report.role)
     }
 
     pub fn steady_with(&self, id: u8, role: Option<Role>) -> bool {
         self.status.get(&id).is_some_and(|s| {
-            s.phase == Phase::Steady && s.role == role && s.strength == role.map(Role::strength)
+            s.report.phase == Phase::Steady
+                && s.report.role == role
+                && s.report.strength == role.map(Role::strength)
         })
     }
 

@@ -2,7 +2,7 @@
 //! peer (the paper's RedundancyInfo). Field for field the model's `Controller` and `Peer`
 //! (`model/src/state.rs`), so the conformance abstraction is a plain mapping.
 
-use super::types::{AlarmReason, Assignment, ControllerId, Holder, Incarnation, Phase, Role};
+use crate::types::{AlarmReason, Assignment, ControllerId, Holder, Incarnation, Phase, Role};
 use std::collections::BTreeMap;
 
 /// What a controller knows of one peer.
@@ -37,9 +37,13 @@ impl Peer {
 /// One controller's protocol state.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct ControllerState {
+    /// The controller's id.
     pub id: ControllerId,
+    /// Its process life.
     pub incarnation: Incarnation,
+    /// Where it is in the protocol.
     pub phase: Phase,
+    /// The role it holds.
     pub role: Option<Role>,
     /// The ownership strength it commands with; `None` = silent.
     pub output: Option<u8>,
@@ -58,6 +62,7 @@ pub struct ControllerState {
 }
 
 impl ControllerState {
+    /// A controller that has just started: initializing, heard nobody.
     pub fn new(id: ControllerId, incarnation: Incarnation) -> ControllerState {
         ControllerState {
             id,
@@ -79,6 +84,7 @@ impl ControllerState {
         self.phase != Phase::Failed
     }
 
+    /// This incarnation as a vote names it.
     pub fn holder(&self) -> Holder {
         Holder {
             id: self.id,

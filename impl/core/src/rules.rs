@@ -5,35 +5,25 @@
 //! read only what this round's heartbeats carried (finding F5): nothing is decided as
 //! messages arrive.
 
-use super::state::{ControllerState, Peer};
-use super::types::{AlarmReason, Assignment, ControllerId, Heartbeat, Holder, Phase, Role};
-use super::ROLE_COUNT;
-
-/// Round-based lengths the rules use, derived from the configured timing.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Rounds {
-    /// A peer silent for this many rounds is lost (the dead-man deadline / period).
-    pub dead_after: u32,
-    /// The initialization window closes after this many rounds without a new peer.
-    pub window: u32,
-    /// A minority voter is marked FAILED after dissenting this many rounds (dead_after + 1).
-    pub minority_grace: u32,
-}
+use crate::config::CoreConfig;
+use crate::report::Heartbeat;
+use crate::state::{ControllerState, Peer};
+use crate::types::{AlarmReason, Assignment, ControllerId, Holder, Phase, Role, ROLE_COUNT};
 
 /// The end of a round: every heartbeat heard this round (the latest per peer) is taken in,
 /// silent peers are counted down, then the controller decides.
-pub fn end_round(rounds: &Rounds, c: &mut ControllerState, heard: &[Heartbeat]) {
+pub(crate) fn end_round(config: &CoreConfig, c: &mut ControllerState, heard: &[Heartbeat]) {
     let mut membership_changed = false;
     let mut new_peer = false;
     let mut ids: Vec<ControllerId> = c.peers.keys().copied().collect();
-    ids.extend(heard.iter().map(|h| h.from));
+    ids.extend(heard.iter().map(|h| h.id));
     ids.sort_unstable();
     ids.dedup();
     for peer_id in ids {
         if peer_id == c.id {
             continue;
         }
-        match heard.iter().rev().find(|h| h.from == peer_id) {
+        match heard.iter().rev().find(|h| h.id == peer_id) {
             Some(heartbeat) => {
                 let outcome = receive_heartbeat(c, heartbeat);
                 membership_changed |= outcome.membership_changed;
@@ -41,7 +31,7 @@ pub fn end_round(rounds: &Rounds, c: &mut ControllerState, heard: &[Heartbeat]) 
             }
             None => {
                 if c.peers.get(&peer_id).is_some_and(|p| p.alive.is_some()) {
-                    membership_changed |= miss_heartbeat(rounds, c, peer_id);
+                    membership_changed |= miss_heartbeat(config, c, peer_id);
                 }
             }
         }
@@ -50,24 +40,25 @@ pub fn end_round(rounds: &Rounds, c: &mut ControllerState, heard: &[Heartbeat]) 
         Phase::Initializing => {
             c.late_joiner = c.peers.values().any(Peer::incumbent);
             if !new_peer {
-                c.window_quiet_rounds = (c.window_quiet_rounds + 1).min(rounds.window);
+                c.window_quiet_rounds =
+                    (c.window_quiet_rounds + 1).min(config.rounds.window_rounds);
             }
             if c.members_heard() >= ROLE_COUNT && ready_to_vote(c) {
-                close_window(c);
+                close_window(config, c);
             }
         }
         Phase::Voting | Phase::Steady => {
             // Re-vote whenever what it knows gives another vote: a peer lost or new, or
             // another incumbent's result, which comes with the heartbeats.
-            let knowledge_changed = Some(compute_vote(c)) != c.vote;
+            let knowledge_changed = Some(compute_vote(config, c)) != c.vote;
             if membership_changed || knowledge_changed {
-                revote(c);
+                revote(config, c);
             }
         }
         Phase::Failed => {}
     }
-    try_agree(c);
-    judge_minority(rounds, c);
+    try_agree(config, c);
+    judge_minority(config, c);
     if c.role == Some(Role::Primary) && c.is_active() {
         c.output = Some(Role::Primary.strength());
         hold_primary_strength(c);
@@ -76,14 +67,15 @@ pub fn end_round(rounds: &Rounds, c: &mut ControllerState, heard: &[Heartbeat]) 
 
 /// No heartbeat from a live peer this round; after `dead_after` silent rounds it is lost and
 /// an alarm is raised. Returns whether the membership changed.
-fn miss_heartbeat(rounds: &Rounds, c: &mut ControllerState, peer_id: ControllerId) -> bool {
+fn miss_heartbeat(config: &CoreConfig, c: &mut ControllerState, peer_id: ControllerId) -> bool {
     let Some(peer) = c.peers.get_mut(&peer_id) else {
         return false;
     };
-    peer.silent_rounds = (peer.silent_rounds + 1).min(rounds.dead_after);
-    if peer.silent_rounds < rounds.dead_after {
+    let dead_after_rounds = config.rounds.dead_after_rounds;
+    peer.silent_rounds = (peer.silent_rounds + 1).min(dead_after_rounds);
+    if peer.silent_rounds < dead_after_rounds {
         #[cfg(feature = "mutation")]
-        super::mutation::promote_without_failure(c, peer_id);
+        crate::mutation::promote_without_failure(config, c, peer_id);
         return false;
     }
     let was_member = !peer.failed;
@@ -103,7 +95,7 @@ struct HeartbeatOutcome {
 /// Takes in a peer's heartbeat. A new incarnation retires the old one at once: its FAILED
 /// mark and slot belonged to a process that no longer exists (finding F3).
 fn receive_heartbeat(c: &mut ControllerState, heartbeat: &Heartbeat) -> HeartbeatOutcome {
-    let peer = c.peers.entry(heartbeat.from).or_default();
+    let peer = c.peers.entry(heartbeat.id).or_default();
     let mut outcome = HeartbeatOutcome {
         membership_changed: false,
         new_peer: false,
@@ -142,30 +134,32 @@ fn ready_to_vote(c: &ControllerState) -> bool {
 }
 
 /// The initialization window may time out now (checked right after a round ends).
-pub fn window_can_expire(rounds: &Rounds, c: &ControllerState) -> bool {
-    c.phase == Phase::Initializing && c.window_quiet_rounds >= rounds.window && ready_to_vote(c)
+pub(crate) fn window_can_expire(config: &CoreConfig, c: &ControllerState) -> bool {
+    c.phase == Phase::Initializing
+        && c.window_quiet_rounds >= config.rounds.window_rounds
+        && ready_to_vote(c)
 }
 
 /// The initialization window closes: cast the first vote (paper, "Voting Algorithm").
-pub fn close_window(c: &mut ControllerState) {
+pub(crate) fn close_window(config: &CoreConfig, c: &mut ControllerState) {
     c.phase = Phase::Voting;
-    revote(c);
+    revote(config, c);
 }
 
 /// Computes and publishes its vote. Decided at the round boundary; only a controller alone
 /// agrees at once.
-fn revote(c: &mut ControllerState) {
+fn revote(config: &CoreConfig, c: &mut ControllerState) {
     if c.phase == Phase::Failed {
         return;
     }
-    let vote = compute_vote(c);
+    let vote = compute_vote(config, c);
     c.phase = Phase::Voting;
     if c.vote != Some(vote) {
         c.vote = Some(vote);
         c.self_dissent_rounds = 0;
     }
     if electorate(c).size == 1 {
-        try_agree(c);
+        try_agree(config, c);
     }
 }
 
@@ -176,7 +170,9 @@ fn revote(c: &mut ControllerState) {
 /// own and every incumbent's, from heartbeats), then by lowest id; three at most. Live holders
 /// keep their roles (no oscillation), a lost holder's juniors move up, newcomers come in
 /// below, and the results of a healed partition merge with the lower id first.
-pub fn compute_vote(c: &ControllerState) -> Assignment {
+// `config` selects a mutation (feature `mutation`); the correct rules need only the state.
+#[cfg_attr(not(feature = "mutation"), allow(unused_variables))]
+pub(crate) fn compute_vote(config: &CoreConfig, c: &ControllerState) -> Assignment {
     let mut known: Vec<Assignment> = c.agreed.into_iter().collect();
     known.extend(
         c.peers
@@ -186,7 +182,7 @@ pub fn compute_vote(c: &ControllerState) -> Assignment {
     );
     let rank = |member: &Holder| -> usize {
         #[cfg(feature = "mutation")]
-        if super::mutation::rank_by_id_only() {
+        if crate::mutation::rank_by_id_only(config) {
             return ROLE_COUNT;
         }
         known
@@ -199,13 +195,13 @@ pub fn compute_vote(c: &ControllerState) -> Assignment {
     let mut ranked = c.members();
     ranked.sort_by_key(|member| (rank(member), member.id));
     #[cfg(feature = "mutation")]
-    super::mutation::admit_fourth_vote(c, &mut ranked);
+    crate::mutation::admit_fourth_vote(config, c, &mut ranked);
     Assignment::from_ranked(ranked)
 }
 
 /// Who decides: while a running system exists only its incumbents' votes count, so a
 /// newcomer never completes a quorum (finding F4); otherwise everyone's.
-pub struct Electorate {
+pub(crate) struct Electorate {
     pub votes: Vec<(ControllerId, Assignment)>,
     /// How many controllers the quorum is a majority of.
     pub size: usize,
@@ -213,7 +209,7 @@ pub struct Electorate {
     pub counts_self: bool,
 }
 
-pub fn electorate(c: &ControllerState) -> Electorate {
+pub(crate) fn electorate(c: &ControllerState) -> Electorate {
     let running_system = c.agreed.is_some() || c.peers.values().any(Peer::incumbent);
     let counts_self = !running_system || c.agreed.is_some();
     let mut votes = Vec::new();
@@ -244,7 +240,7 @@ pub fn electorate(c: &ControllerState) -> Electorate {
 
 /// Takes the voted result once a majority of the electorate cast the same vote (paper:
 /// "using its own vote and achieving two votes in agreement for a role").
-fn try_agree(c: &mut ControllerState) {
+fn try_agree(config: &CoreConfig, c: &mut ControllerState) {
     if c.phase != Phase::Voting {
         return;
     }
@@ -254,14 +250,16 @@ fn try_agree(c: &mut ControllerState) {
     let electorate = electorate(c);
     let agreeing = electorate.votes.iter().filter(|(_, v)| *v == own).count();
     if electorate.size > 0 && agreeing > electorate.size / 2 {
-        adopt(c, own);
+        adopt(config, c, own);
     }
 }
 
-fn adopt(c: &mut ControllerState, agreed: Assignment) {
+// `config` selects a mutation (feature `mutation`); the correct rules need only the state.
+#[cfg_attr(not(feature = "mutation"), allow(unused_variables))]
+fn adopt(config: &CoreConfig, c: &mut ControllerState, agreed: Assignment) {
     let role = agreed.role_of_holder(c.holder());
     #[cfg(feature = "mutation")]
-    let role = super::mutation::admit_fourth_role(role);
+    let role = crate::mutation::admit_fourth_role(config, role);
     c.agreed = Some(agreed);
     c.phase = Phase::Steady;
     c.role = role;
@@ -295,13 +293,13 @@ fn hold_primary_strength(c: &mut ControllerState) {
 /// Marks minority voters FAILED; a controller that is itself the minority fails itself (paper:
 /// "Any unit that does not agree with the two votes of the other controllers will take itself
 /// offline").
-fn judge_minority(rounds: &Rounds, c: &mut ControllerState) {
+fn judge_minority(config: &CoreConfig, c: &mut ControllerState) {
     if !matches!(c.phase, Phase::Voting | Phase::Steady) {
         return;
     }
-    let grace = rounds.minority_grace;
+    let grace = config.rounds.minority_grace_rounds();
     #[cfg(feature = "mutation")]
-    let grace = super::mutation::minority_grace(grace);
+    let grace = crate::mutation::minority_grace_rounds(config, grace);
     let Electorate {
         votes, counts_self, ..
     } = electorate(c);
@@ -341,7 +339,7 @@ fn judge_minority(rounds: &Rounds, c: &mut ControllerState) {
         }
     }
     if marked {
-        revote(c);
+        revote(config, c);
     }
 }
 
@@ -375,7 +373,7 @@ fn judge_self(c: &mut ControllerState, outvoted: bool, grace: u32) -> bool {
 }
 
 /// Stops commanding and voting until restarted.
-pub fn fail_self(c: &mut ControllerState) {
+pub(crate) fn fail_self(c: &mut ControllerState) {
     c.phase = Phase::Failed;
     c.role = None;
     c.output = None;

@@ -21,12 +21,16 @@ pub const ROLE_COUNT: usize = 3;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Role {
+    /// Drives the actuator (strength 30).
     Primary,
+    /// First standby (strength 20).
     Secondary,
+    /// Second standby (strength 10): validates a majority vote.
     Tertiary,
 }
 
 impl Role {
+    /// Every role, in order of precedence.
     pub const ALL: [Role; ROLE_COUNT] = [Role::Primary, Role::Secondary, Role::Tertiary];
 
     /// The role at a position of an assignment (0 = Primary).
@@ -55,6 +59,7 @@ impl Role {
             .find(|role| role.strength() == strength)
     }
 
+    /// Its lower-case name.
     pub fn name(self) -> &'static str {
         match self {
             Role::Primary => "primary",
@@ -86,6 +91,7 @@ pub enum Phase {
 }
 
 impl Phase {
+    /// Every phase.
     pub const ALL: [Phase; 4] = [
         Phase::Initializing,
         Phase::Voting,
@@ -93,6 +99,7 @@ impl Phase {
         Phase::Failed,
     ];
 
+    /// Its lower-case name.
     pub fn name(self) -> &'static str {
         match self {
             Phase::Initializing => "initializing",
@@ -112,7 +119,9 @@ impl fmt::Display for Phase {
 /// One controller incarnation named in a vote: a restarted controller is a different holder.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
 pub struct Holder {
+    /// The controller's id.
     pub id: ControllerId,
+    /// Its process life.
     pub incarnation: Incarnation,
 }
 
@@ -154,6 +163,7 @@ impl Assignment {
         self.0[role.rank()].map(|h| h.id)
     }
 
+    /// Whether this controller id holds a role.
     pub fn contains(&self, id: ControllerId) -> bool {
         self.role_of(id).is_some()
     }
@@ -163,6 +173,7 @@ impl Assignment {
         self.0.iter().flatten().count()
     }
 
+    /// Whether no role is filled.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
@@ -195,27 +206,13 @@ impl fmt::Display for Assignment {
     }
 }
 
-/// The controller heartbeat (paper: RLCHB), sent once per round. It carries the sender's state
-/// as decided at its last round boundary, so every receiver decides from the same facts.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Heartbeat {
-    pub from: ControllerId,
-    pub incarnation: Incarnation,
-    pub phase: Phase,
-    pub role: Option<Role>,
-    /// The ownership strength it commands with; `None` = it does not command.
-    pub strength: Option<u8>,
-    /// Its last agreed result: `Some` makes it an incumbent of a running system.
-    pub agreed: Option<Assignment>,
-    /// Its current vote.
-    pub vote: Option<Assignment>,
-}
-
 /// The durable vote record (paper: the Vote topic): the latest vote of one controller
 /// incarnation, kept for late readers and tools. Decisions read the copy in heartbeats.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct VoteRecord {
+    /// The voter's id.
     pub from: ControllerId,
+    /// The voter's process life.
     pub incarnation: Incarnation,
     /// `None` = the vote is withdrawn (the controller failed itself).
     pub vote: Option<Assignment>,

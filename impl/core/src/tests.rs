@@ -7,20 +7,14 @@ const PERIOD_MS: u64 = 250;
 
 fn rounds() -> Rounds {
     Rounds {
-        dead_after: 2,
-        window: 2,
-        minority_grace: 3,
+        dead_after_rounds: 2,
+        window_rounds: 2,
     }
 }
 
 fn core(id: ControllerId, incarnation: Incarnation, now_ms: u64) -> Core {
     Core::new(
-        CoreConfig {
-            id,
-            incarnation,
-            heartbeat_period_ms: PERIOD_MS,
-            rounds: rounds(),
-        },
+        CoreConfig::new(id, incarnation, PERIOD_MS, rounds()),
         now_ms,
     )
 }
@@ -34,9 +28,9 @@ fn assignment(holders: &[(ControllerId, Incarnation)]) -> Assignment {
     Assignment::from_ranked(holders.iter().map(|&(id, inc)| holder(id, inc)))
 }
 
-fn heartbeat(from: ControllerId, phase: Phase) -> Heartbeat {
+fn heartbeat(id: ControllerId, phase: Phase) -> Heartbeat {
     Heartbeat {
-        from,
+        id,
         incarnation: 0,
         phase,
         role: None,
@@ -46,10 +40,10 @@ fn heartbeat(from: ControllerId, phase: Phase) -> Heartbeat {
     }
 }
 
-fn steady(from: ControllerId, agreed: Assignment) -> Heartbeat {
-    let role = agreed.role_of(from);
+fn steady(id: ControllerId, agreed: Assignment) -> Heartbeat {
+    let role = agreed.role_of(id);
     Heartbeat {
-        from,
+        id,
         incarnation: 0,
         phase: Phase::Steady,
         role,
@@ -62,24 +56,19 @@ fn steady(from: ControllerId, agreed: Assignment) -> Heartbeat {
 /// Runs every timer due up to `now_ms`, concatenating the commands.
 fn advance(core: &mut Core, now_ms: u64) -> Vec<Command> {
     let mut out = Vec::new();
-    while core.next_deadline_ms() <= now_ms {
-        let due = core.next_deadline_ms();
-        out.extend(core.step(Input::Timer, due));
+    while core.next_deadline().at_ms <= now_ms {
+        let due = core.next_deadline();
+        out.extend(core.step(Input::Timer(due.timer), due.at_ms));
     }
     out
 }
 
-/// Only the commands that are not console or status lines.
-fn actions(commands: Vec<Command>) -> Vec<Command> {
-    commands
-        .into_iter()
-        .filter(|c| {
-            !matches!(
-                c,
-                Command::Console(_) | Command::Status(_) | Command::Leds(_)
-            )
-        })
-        .collect()
+/// Fires the timer due at `now_ms` (none due: nothing happens).
+fn fire(core: &mut Core, now_ms: u64) -> Vec<Command> {
+    match core.due_timer(now_ms) {
+        Some(timer) => core.step(Input::Timer(timer), now_ms),
+        None => Vec::new(),
+    }
 }
 
 fn deliver(core: &mut Core, heartbeats: &[Heartbeat], now_ms: u64) {
@@ -120,33 +109,39 @@ fn formed_c(id: ControllerId) -> Core {
 #[test]
 fn the_first_heartbeat_goes_out_at_start_then_a_quarter_period_after_each_boundary() {
     let mut c = core(1, 7, 1010);
-    assert_eq!(c.next_deadline_ms(), 1010);
     assert_eq!(
-        c.step(Input::Timer, 1010),
-        vec![
-            Command::PublishHeartbeat(Heartbeat {
-                from: 1,
-                incarnation: 7,
-                phase: Phase::Initializing,
-                role: None,
-                strength: None,
-                agreed: None,
-                vote: None,
-            }),
-            // LED4 shows its own health before any role exists (paper, "LED Operation").
-            Command::Leds(crate::leds::LedPattern([
-                crate::leds::LedColor::Off,
-                crate::leds::LedColor::Off,
-                crate::leds::LedColor::Off,
-                crate::leds::LedColor::Green
-            ]))
-        ]
+        c.next_deadline(),
+        Deadline {
+            at_ms: 1010,
+            timer: Timer::Heartbeat
+        }
     );
-    assert_eq!(c.next_deadline_ms(), 1250, "round end");
-    assert_eq!(c.step(Input::Timer, 1250), vec![]);
     assert_eq!(
-        c.next_deadline_ms(),
-        1312,
+        fire(&mut c, 1010),
+        vec![Command::PublishHeartbeat(Heartbeat {
+            id: 1,
+            incarnation: 7,
+            phase: Phase::Initializing,
+            role: None,
+            strength: None,
+            agreed: None,
+            vote: None,
+        }),]
+    );
+    assert_eq!(
+        c.next_deadline(),
+        Deadline {
+            at_ms: 1250,
+            timer: Timer::RoundEnd
+        }
+    );
+    assert_eq!(fire(&mut c, 1250), vec![]);
+    assert_eq!(
+        c.next_deadline(),
+        Deadline {
+            at_ms: 1312,
+            timer: Timer::Heartbeat
+        },
         "heartbeat at boundary + period/4"
     );
 }
@@ -165,7 +160,7 @@ fn three_heads_close_the_window_and_the_vote_goes_by_lowest_id() {
     );
     let vote = assignment(&[(1, 0), (2, 0), (3, 0)]);
     assert_eq!(
-        actions(c.step(Input::Timer, 250)),
+        fire(&mut c, 250),
         vec![Command::PublishVote(VoteRecord {
             from: 2,
             incarnation: 0,
@@ -207,7 +202,7 @@ fn a_majority_of_identical_votes_gives_the_role_and_its_strength() {
         400,
     );
     assert_eq!(
-        actions(c.step(Input::Timer, 500)),
+        fire(&mut c, 500),
         vec![Command::SetOutput {
             role: Some(Role::Primary),
             strength: Some(30)
@@ -218,21 +213,20 @@ fn a_majority_of_identical_votes_gives_the_role_and_its_strength() {
 #[test]
 fn a_lone_controller_waits_for_the_window_then_takes_primary() {
     let mut c = core(1, 0, 0);
-    let commands = actions(advance(&mut c, 499));
-    assert_eq!(
-        actions(c.step(Input::Timer, 500)),
-        vec![],
-        "second quiet round"
-    );
+    let commands = advance(&mut c, 499);
+    assert_eq!(fire(&mut c, 500), vec![], "second quiet round");
     assert_eq!(c.state().phase, Phase::Initializing);
     assert_eq!(
-        c.next_deadline_ms(),
-        500,
+        c.next_deadline(),
+        Deadline {
+            at_ms: 500,
+            timer: Timer::WindowExpiry
+        },
         "the window times out right after the round end"
     );
     let vote = assignment(&[(1, 0)]);
     assert_eq!(
-        actions(c.step(Input::Timer, 500)),
+        fire(&mut c, 500),
         vec![
             Command::PublishVote(VoteRecord {
                 from: 1,
@@ -259,13 +253,13 @@ fn a_peer_silent_for_the_dead_man_deadline_is_lost_alarmed_and_re_voted() {
     // Round ending 750: C3 heard, C1 silent (1 of 2 rounds): nothing happens.
     advance(&mut c, 562);
     deliver(&mut c, &[steady(3, result)], 600);
-    assert_eq!(actions(advance(&mut c, 750)), vec![]);
+    assert_eq!(advance(&mut c, 750), vec![]);
     // Round ending 1000: C1 silent for the second round: lost.
     advance(&mut c, 812);
     deliver(&mut c, &[steady(3, result)], 850);
     let new_vote = assignment(&[(2, 0), (3, 0)]);
     assert_eq!(
-        actions(c.step(Input::Timer, 1000)),
+        fire(&mut c, 1000),
         vec![
             Command::PublishVote(VoteRecord {
                 from: 2,
@@ -296,7 +290,7 @@ fn a_peer_silent_for_the_dead_man_deadline_is_lost_alarmed_and_re_voted() {
         1100,
     );
     assert_eq!(
-        actions(c.step(Input::Timer, 1250)),
+        fire(&mut c, 1250),
         vec![Command::SetOutput {
             role: Some(Role::Primary),
             strength: Some(30)
@@ -313,7 +307,7 @@ fn a_late_joiner_takes_the_lowest_free_role() {
     deliver(&mut c, &[steady(1, running), steady(2, running)], 100);
     let vote = assignment(&[(1, 0), (2, 0), (3, 5)]);
     assert_eq!(
-        actions(c.step(Input::Timer, 250)),
+        fire(&mut c, 250),
         vec![Command::PublishVote(VoteRecord {
             from: 3,
             incarnation: 5,
@@ -334,7 +328,7 @@ fn a_late_joiner_takes_the_lowest_free_role() {
         350,
     );
     assert_eq!(
-        actions(c.step(Input::Timer, 500)),
+        fire(&mut c, 500),
         vec![Command::SetOutput {
             role: Some(Role::Tertiary),
             strength: Some(10)
@@ -360,7 +354,7 @@ fn a_fourth_controller_is_ignored() {
         &[steady(1, running), steady(2, running), steady(3, running)],
         350,
     );
-    assert_eq!(actions(c.step(Input::Timer, 500)), vec![]);
+    assert_eq!(fire(&mut c, 500), vec![]);
     assert_eq!(c.state().phase, Phase::Steady);
     assert_eq!((c.state().role, c.state().output), (None, None));
 }
@@ -386,7 +380,7 @@ fn a_minority_voter_is_marked_failed_after_the_grace() {
             t + 100,
         );
         t += PERIOD_MS;
-        let out = actions(advance(&mut c, t));
+        let out = advance(&mut c, t);
         if out.contains(&Command::RaiseAlarm {
             about: 3,
             reason: AlarmReason::Failed,
@@ -417,7 +411,7 @@ fn an_outvoted_controller_fails_itself_after_the_grace() {
     }
     assert_eq!(c.state().phase, Phase::Failed);
     assert_eq!(c.state().output, None);
-    assert_eq!(c.heartbeat().phase, Phase::Failed, "announces it");
+    assert_eq!(c.report().phase, Phase::Failed, "announces it");
 }
 
 #[test]
@@ -457,7 +451,7 @@ fn a_new_primary_holds_secondary_strength_while_the_old_one_claims_primary() {
 fn a_local_fault_stops_commanding_and_withdraws_the_vote() {
     let mut c = formed_c(1);
     assert_eq!(
-        actions(c.step(Input::LocalFault, 600)),
+        (c.step(Input::LocalFault, 600)),
         vec![
             Command::PublishVote(VoteRecord {
                 from: 1,
@@ -470,7 +464,7 @@ fn a_local_fault_stops_commanding_and_withdraws_the_vote() {
             }
         ]
     );
-    assert_eq!(c.heartbeat().phase, Phase::Failed);
+    assert_eq!(c.report().phase, Phase::Failed);
 }
 
 #[test]
@@ -497,8 +491,14 @@ fn a_restarted_peer_is_a_new_member_and_its_alarm_is_cleared() {
         ],
         t + 100,
     );
-    let out = actions(advance(&mut c, t + PERIOD_MS));
-    assert!(out.contains(&Command::ClearAlarm { about: 3 }), "{out:?}");
+    let out = advance(&mut c, t + PERIOD_MS);
+    assert!(
+        out.contains(&Command::ClearAlarm {
+            about: 3,
+            reason: AlarmReason::Lost
+        }),
+        "{out:?}"
+    );
     assert_eq!(
         c.state().vote,
         Some(assignment(&[(1, 0), (2, 0), (3, 9)])),
@@ -516,10 +516,8 @@ fn a_heartbeat_naming_our_own_id_is_reported_and_ignored() {
         }),
         10,
     );
-    assert!(
-        matches!(&out[..], [Command::Console(line), Command::Leds(_)] if line.contains("another controller"))
-    );
-    assert_eq!(c.duplicate_id_heartbeats, 1);
+    assert_eq!(out, vec![], "no protocol output; the status counts it");
+    assert_eq!(c.status().duplicate_id_heartbeats, 1);
     assert!(c.state().peers.is_empty());
 }
 
@@ -527,8 +525,15 @@ fn a_heartbeat_naming_our_own_id_is_reported_and_ignored() {
 fn a_caller_that_fell_behind_runs_one_round_end() {
     let mut c = formed_c(1);
     // Stopped for 10 s: one round end, peers counted silent once, nobody lost.
-    let out = c.step(Input::Timer, 10_700);
-    assert!(actions(out).is_empty());
+    let out = fire(&mut c, 10_700);
+    assert!((out).is_empty());
     assert!(c.state().peers.values().all(|p| p.alive.is_some()));
-    assert_eq!(c.next_deadline_ms(), 10_700, "heartbeat due at once");
+    assert_eq!(
+        c.next_deadline(),
+        Deadline {
+            at_ms: 10_700,
+            timer: Timer::Heartbeat
+        },
+        "heartbeat due at once"
+    );
 }

@@ -1,0 +1,280 @@
+//! # rl-core: RL's voting protocol as a pure state machine
+//!
+//! No I/O, no clock, no threads (this crate depends on serde only, so the compiler keeps it
+//! that way): the caller passes every input with the current time and performs the commands
+//! it gets back, like raft-rs's `RawNode` or openraft's `Engine`.
+//!
+//! ```text
+//!   Input::Heartbeat ─┐   ┌──────────────┐   ┌─▶ PublishHeartbeat, PublishVote
+//!   Input::Vote ──────┼──▶│  Core::step  │───┼─▶ SetOutput { role, strength }
+//!   Input::Timer(t) ──┤   └──────────────┘   └─▶ RaiseAlarm / ClearAlarm
+//!   Input::LocalFault ┘    Core::status() ─────▶ (adapter) LEDs, console line, status view
+//! ```
+//!
+//! Time is divided into rounds of one heartbeat period, aligned to multiples of the period on
+//! the caller's clock (controllers whose clocks agree then share round boundaries, which is
+//! the model's synchronous round). Heartbeats heard during a round are kept (the latest per
+//! peer); at the round's end ([`Timer::RoundEnd`]) the controller takes them in and decides,
+//! and a quarter period later ([`Timer::Heartbeat`]) it publishes its heartbeat carrying what
+//! it decided, so the heartbeat lands inside every peer's same round even with some clock skew.
+//!
+//! The adapter's loop:
+//!
+//! ```
+//! # use rl_core::{Core, CoreConfig, Input, Rounds};
+//! # let rounds = Rounds { dead_after_rounds: 2, window_rounds: 2 };
+//! # let mut core = Core::new(CoreConfig::new(1, 7, 250, rounds), 0);
+//! # let now_ms = 1_000;
+//! while let Some(timer) = core.due_timer(now_ms) {
+//!     for command in core.step(Input::Timer(timer), now_ms) {
+//!         // perform it: publish, change the command strength, raise an alarm ...
+//! #       let _ = command;
+//!     }
+//! }
+//! // ... and `core.step(Input::Heartbeat(heartbeat), now_ms)` for every heartbeat received;
+//! // sleep until `core.next_deadline().at_ms`.
+//! ```
+//!
+//! Modules: [`types`] (the vocabulary, shared with the model by meaning, never by code),
+//! [`state`] (what one controller knows), `rules` (the model's rules, one function each),
+//! [`report`] (the self-report sent as heartbeat and shown as status), [`io`] (inputs,
+//! timers, commands), [`config`], and `mutation` (deliberately broken rules, feature
+//! `mutation` only).
+
+#![deny(missing_docs)]
+
+pub mod config;
+mod invariants;
+pub mod io;
+#[cfg(feature = "mutation")]
+pub mod mutation;
+pub mod report;
+mod rules;
+pub mod state;
+pub mod types;
+
+pub use config::{CoreConfig, Rounds};
+pub use io::{Command, Deadline, Input, Timer};
+pub use report::{Heartbeat, SelfReport, Status};
+pub use state::{ControllerState, Peer};
+pub use types::*;
+
+use std::collections::{BTreeMap, BTreeSet};
+
+/// The voting core of one controller.
+#[derive(Clone, Debug)]
+pub struct Core {
+    config: CoreConfig,
+    state: ControllerState,
+    /// Heartbeats heard in the current round, the latest per peer id.
+    inbox: BTreeMap<ControllerId, Heartbeat>,
+    /// Latest durable vote record per peer (status only).
+    durable_votes: BTreeMap<ControllerId, VoteRecord>,
+    round_end_ms: u64,
+    heartbeat_due_ms: u64,
+    /// The window times out at this instant (right after the round end that made it due).
+    window_due_ms: Option<u64>,
+    /// Heartbeats that named this controller's id with another incarnation (misconfiguration).
+    duplicate_id_heartbeats: u64,
+}
+
+impl Core {
+    /// A controller starting at `now_ms`. Its first heartbeat is due at once.
+    pub fn new(config: CoreConfig, now_ms: u64) -> Core {
+        let period_ms = config.heartbeat_period_ms.max(1);
+        Core {
+            config,
+            state: ControllerState::new(config.id, config.incarnation),
+            inbox: BTreeMap::new(),
+            durable_votes: BTreeMap::new(),
+            round_end_ms: next_boundary(now_ms, period_ms),
+            heartbeat_due_ms: now_ms,
+            window_due_ms: None,
+            duplicate_id_heartbeats: 0,
+        }
+    }
+
+    /// Its identity and timing.
+    pub fn config(&self) -> &CoreConfig {
+        &self.config
+    }
+
+    /// The protocol state (read-only): what the conformance abstraction maps to the model.
+    pub fn state(&self) -> &ControllerState {
+        &self.state
+    }
+
+    /// Durable vote records received, by peer id.
+    pub fn durable_votes(&self) -> &BTreeMap<ControllerId, VoteRecord> {
+        &self.durable_votes
+    }
+
+    /// The timer that runs at `now_ms`, if any is due; when several are, the round end first,
+    /// then the window, then the heartbeat (a caller that fell behind decides before it
+    /// speaks).
+    pub fn due_timer(&self, now_ms: u64) -> Option<Timer> {
+        if now_ms >= self.round_end_ms {
+            Some(Timer::RoundEnd)
+        } else if self.window_due_ms.is_some_and(|due| now_ms >= due) {
+            Some(Timer::WindowExpiry)
+        } else if now_ms >= self.heartbeat_due_ms {
+            Some(Timer::Heartbeat)
+        } else {
+            None
+        }
+    }
+
+    /// When the core must next be stepped with a timer, and which.
+    pub fn next_deadline(&self) -> Deadline {
+        let at_ms = self
+            .window_due_ms
+            .into_iter()
+            .chain([self.round_end_ms, self.heartbeat_due_ms])
+            .min()
+            .unwrap_or(self.round_end_ms);
+        let timer = self.due_timer(at_ms).unwrap_or(Timer::RoundEnd);
+        Deadline { at_ms, timer }
+    }
+
+    /// What this controller says of itself now (the heartbeat it sends).
+    pub fn report(&self) -> SelfReport {
+        let c = &self.state;
+        SelfReport {
+            id: c.id,
+            incarnation: c.incarnation,
+            phase: c.phase,
+            role: c.role,
+            strength: c.output,
+            agreed: c.agreed,
+            vote: c.vote,
+        }
+    }
+
+    /// Its status: the self-report and its view of the peers.
+    pub fn status(&self) -> Status {
+        let c = &self.state;
+        Status {
+            report: self.report(),
+            sees: c.live_peers().map(|(id, _)| id).collect(),
+            failed: c
+                .peers
+                .iter()
+                .filter(|(_, p)| p.failed)
+                .map(|(&id, _)| id)
+                .collect(),
+            alarms: c
+                .peers
+                .iter()
+                .filter_map(|(&id, p)| p.alarm.map(|reason| (id, reason)))
+                .collect(),
+            duplicate_id_heartbeats: self.duplicate_id_heartbeats,
+        }
+    }
+
+    /// Feeds one input at time `now_ms`; returns the commands to perform, in order.
+    pub fn step(&mut self, input: Input, now_ms: u64) -> Vec<Command> {
+        let before = self.state.clone();
+        let mut commands = Vec::new();
+        match input {
+            Input::Heartbeat(heartbeat) => self.hear(heartbeat),
+            Input::Vote(record) => {
+                if record.from != self.state.id {
+                    self.durable_votes.insert(record.from, record);
+                }
+            }
+            Input::Timer(timer) => {
+                if self.due_timer(now_ms) == Some(timer) {
+                    self.fire(timer, now_ms, &mut commands);
+                }
+            }
+            Input::LocalFault => {
+                if self.state.phase != Phase::Failed {
+                    rules::fail_self(&mut self.state);
+                }
+            }
+        }
+        changes(&before, &self.state, &mut commands);
+        if !self.config.is_mutated() {
+            invariants::debug_check(&self.state);
+        }
+        commands
+    }
+
+    /// A heartbeat is kept for the round's end; one with this controller's own id and another
+    /// incarnation is counted (another process is configured with the same id).
+    fn hear(&mut self, heartbeat: Heartbeat) {
+        if heartbeat.id != self.state.id {
+            self.inbox.insert(heartbeat.id, heartbeat);
+        } else if heartbeat.incarnation != self.state.incarnation {
+            self.duplicate_id_heartbeats += 1;
+        }
+    }
+
+    fn fire(&mut self, timer: Timer, now_ms: u64, commands: &mut Vec<Command>) {
+        let period_ms = self.config.heartbeat_period_ms.max(1);
+        match timer {
+            Timer::RoundEnd => {
+                let heard: Vec<Heartbeat> = std::mem::take(&mut self.inbox).into_values().collect();
+                rules::end_round(&self.config, &mut self.state, &heard);
+                // A caller that fell behind (a stopped process) runs one round end, not every
+                // missed one: it cannot know what it did not hear.
+                self.round_end_ms = next_boundary(now_ms, period_ms);
+                self.heartbeat_due_ms =
+                    (self.round_end_ms - period_ms + self.config.heartbeat_offset_ms()).max(now_ms);
+                if rules::window_can_expire(&self.config, &self.state) {
+                    self.window_due_ms = Some(now_ms);
+                }
+            }
+            Timer::WindowExpiry => {
+                self.window_due_ms = None;
+                if rules::window_can_expire(&self.config, &self.state) {
+                    rules::close_window(&self.config, &mut self.state);
+                }
+            }
+            Timer::Heartbeat => {
+                commands.push(Command::PublishHeartbeat(self.report()));
+                self.heartbeat_due_ms = self.round_end_ms + self.config.heartbeat_offset_ms();
+            }
+        }
+    }
+}
+
+/// The commands that follow from a state change.
+fn changes(before: &ControllerState, after: &ControllerState, commands: &mut Vec<Command>) {
+    if before.vote != after.vote {
+        commands.push(Command::PublishVote(VoteRecord {
+            from: after.id,
+            incarnation: after.incarnation,
+            vote: after.vote,
+        }));
+    }
+    if before.output != after.output || before.role != after.role {
+        commands.push(Command::SetOutput {
+            role: after.role,
+            strength: after.output,
+        });
+    }
+    let ids: BTreeSet<ControllerId> = before
+        .peers
+        .keys()
+        .chain(after.peers.keys())
+        .copied()
+        .collect();
+    for id in ids {
+        let was = before.peers.get(&id).and_then(|p| p.alarm);
+        let is = after.peers.get(&id).and_then(|p| p.alarm);
+        match (was, is) {
+            (None, Some(reason)) => commands.push(Command::RaiseAlarm { about: id, reason }),
+            (Some(reason), None) => commands.push(Command::ClearAlarm { about: id, reason }),
+            _ => {}
+        }
+    }
+}
+
+/// The next multiple of `period_ms` strictly after `now_ms`.
+fn next_boundary(now_ms: u64, period_ms: u64) -> u64 {
+    (now_ms / period_ms + 1) * period_ms
+}
+
+#[cfg(test)]
+mod tests;
