@@ -28,8 +28,8 @@
 
 use crate::abstraction::{self, IncarnationNumbers, Observed};
 use crate::dds_plan::{Mode, Plan, RoundPlan, Selected};
+use crate::diff::state_diff;
 use crate::record::{round_of, LifeLog};
-use crate::replay::state_diff_of;
 use crate::validate::Timing;
 use model::traces::AbstractState;
 use model::Action;
@@ -419,7 +419,7 @@ impl<'a> Run<'a> {
                             } else {
                                 "quiescent, faults follow"
                             },
-                            state_diff_of("processes", "the processes'", &expected, &observed)
+                            state_diff("processes", "the processes'", &expected, &observed)
                         ),
                     ));
                 }
@@ -441,7 +441,7 @@ impl<'a> Run<'a> {
                 "at boundary {k} of {} ({how}; real round {real}, {} after the first reports):\n{}",
                 self.plan.last(),
                 real - first,
-                state_diff_of("processes", "the processes'", &expected, &observed)
+                state_diff("processes", "the processes'", &expected, &observed)
             ),
         ))
     }

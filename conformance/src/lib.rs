@@ -22,11 +22,10 @@
 //!   applied for real.
 
 pub mod abstraction;
-pub mod coverage;
+pub mod core_replay;
 pub mod dds_plan;
 pub mod dds_replay;
+pub mod diff;
 pub mod record;
-pub mod replay;
 pub mod trace;
-pub mod transcript;
 pub mod validate;

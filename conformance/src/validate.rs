@@ -40,8 +40,8 @@
 //! scheduled in time). The summary counts the reports only (2) explains.
 
 use crate::abstraction::{self, IncarnationNumbers, Observed};
+use crate::diff::{fields, NAME_WIDTH, VALUE_WIDTH};
 use crate::record::{round_of, LifeLog, Recording};
-use crate::replay::{fields, NAME_WIDTH, VALUE_WIDTH};
 use model::protocol;
 use model::state::History;
 use model::traces::AbstractController;
@@ -640,12 +640,12 @@ impl<'a> Search<'a> {
                 let _ = writeln!(
                     message,
                     "    reported one round earlier: {}",
-                    crate::transcript::controller_line(&dead.previous)
+                    crate::diff::controller_line(&dead.previous)
                 );
                 let _ = writeln!(
                     message,
                     "    reported now:               {}",
-                    crate::transcript::controller_line(&dead.observed)
+                    crate::diff::controller_line(&dead.observed)
                 );
                 // Loss choices that end in the same abstract state are shown once.
                 let mut distinct: Vec<(&AbstractController, Vec<String>)> = Vec::new();

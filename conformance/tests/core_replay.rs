@@ -6,8 +6,8 @@
 //! (docs/conformance.md, "Reading a failure"). Snapshots: `cargo insta review`, or
 //! `INSTA_UPDATE=always cargo test --release -p conformance` to accept every change.
 
-use conformance::coverage::{self, Coverage};
-use conformance::replay::{self, Replayed};
+use conformance::core_replay::coverage::{self, Coverage};
+use conformance::core_replay::{self as replay, transcript, Replayed};
 use conformance::trace::{self, Trace};
 use std::collections::BTreeSet;
 use std::time::Instant;
@@ -118,7 +118,7 @@ fn transcripts_match_the_snapshots() {
     let replayed = replay_all(&traces());
     let mut mismatched = Vec::new();
     for done in &replayed {
-        let name = format!("trace_{}", done.file.trim_end_matches(".jsonl"));
+        let name = transcript::snapshot_name(&done.file);
         // Check every transcript before failing, so one review sees every change.
         let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
             insta::assert_snapshot!(name.clone(), done.transcript);

@@ -1,12 +1,14 @@
-//! The mutation check: a suite that cannot fail proves nothing. Each test selects one
+//! The mutation check: a suite that cannot fail proves nothing. Each test configures one
 //! deliberate break of a voting rule in the core (`rl::core::mutation`, feature `mutation`),
 //! replays every default-variant trace, and asserts that the replay fails with a readable
-//! diff showing the broken field, model value against core value.
+//! diff showing the broken field, model value against core value, and that at least one
+//! committed transcript (the insta snapshots) differs from what the mutated core did.
 //!
 //! The mutation is a field of each core's configuration, so these tests run in parallel with
 //! each other and with the conformance suite without affecting it.
 
-use conformance::replay::{self, Failure, NAME_WIDTH, VALUE_WIDTH};
+use conformance::core_replay::{self as replay, transcript, Failure, Replayed};
+use conformance::diff::{NAME_WIDTH, VALUE_WIDTH};
 use conformance::trace::{self, Trace};
 use rl::core::mutation::Mutation;
 use rl::core::CoreConfig;
@@ -15,21 +17,39 @@ fn traces() -> Vec<Trace> {
     trace::read_dir(&trace::default_dir()).expect("the trace set is readable")
 }
 
-/// Replays every default-variant trace with `mutation` selected; returns the failures.
-fn failures_under(mutation: Mutation) -> Vec<Failure> {
-    let traces: Vec<Trace> = traces()
-        .into_iter()
-        .filter(|trace| replay::skip_reason(trace).is_none())
-        .collect();
+/// Replays every default-variant trace with `mutation` configured.
+fn replays_under(mutation: Mutation) -> Vec<Replayed> {
     let configure = move |config: CoreConfig| config.with_mutation(Some(mutation));
-    let failures: Vec<Failure> = traces
+    traces()
         .iter()
-        .filter_map(|trace| replay::replay_with(trace, &configure).err())
+        .filter(|trace| replay::skip_reason(trace).is_none())
+        .map(|trace| replay::replay_with(trace, &configure))
+        .collect()
+}
+
+/// The failures among the replays under `mutation`; also asserts that at least one
+/// transcript differs from its committed snapshot.
+fn failures_under(mutation: Mutation) -> Vec<Failure> {
+    let replays = replays_under(mutation);
+    let snapshots = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/snapshots");
+    let changed: Vec<&str> = replays
+        .iter()
+        .filter(|r| {
+            transcript::committed(&snapshots, &r.file).as_deref() != Some(r.transcript.trim_end())
+        })
+        .map(|r| r.file.as_str())
         .collect();
+    let failures: Vec<Failure> = replays.iter().filter_map(|r| r.failure.clone()).collect();
     println!(
-        "{mutation:?}: {} of {} replayed traces fail",
+        "{mutation:?}: {} of {} replayed traces fail; {} transcripts differ from their snapshots",
         failures.len(),
-        traces.len()
+        replays.len(),
+        changed.len()
+    );
+    assert!(
+        !changed.is_empty(),
+        "{mutation:?}: every transcript equals its committed snapshot; the snapshots cannot \
+         see this rule broken"
     );
     failures
 }
@@ -107,10 +127,18 @@ fn admit_fourth_is_caught() {
 
 #[test]
 fn without_a_configured_mutation_the_hooks_are_inert() {
+    let snapshots = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/snapshots");
     let traces = traces();
     for trace in traces.iter().filter(|t| replay::skip_reason(t).is_none()) {
-        if let Err(failure) = replay::replay(trace) {
-            panic!("with no mutation selected:\n{failure}");
+        let replayed = replay::replay_with(trace, &|config: CoreConfig| config.with_mutation(None));
+        if let Some(failure) = replayed.failure {
+            panic!("with no mutation configured:\n{failure}");
         }
+        assert_eq!(
+            transcript::committed(&snapshots, &trace.file).as_deref(),
+            Some(replayed.transcript.trim_end()),
+            "{}: the committed snapshot is what the correct core does",
+            trace.file
+        );
     }
 }

@@ -108,9 +108,3 @@ impl Coverage {
         out
     }
 }
-
-/// `{1,3}`: a set of controller ids as the model's renderings show them.
-pub fn id_set<'a>(ids: impl IntoIterator<Item = &'a u8>) -> String {
-    let list: Vec<String> = ids.into_iter().map(u8::to_string).collect();
-    format!("{{{}}}", list.join(","))
-}

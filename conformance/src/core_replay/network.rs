@@ -1,0 +1,307 @@
+//! Real cores on a simulated clock and network, stepped by model actions (the mapping is in
+//! the parent module's header). Every input that reaches a core is logged with the commands
+//! it returned, so a transcript shows what the core did, not what the trace says.
+
+use super::{Problem, DELIVERY_OFFSET_MS, PERIOD_MS, START_OFFSET_MS};
+use crate::abstraction::{self, IncarnationNumbers, Observed};
+use model::traces::AbstractState;
+use model::{Action, Life};
+use rl::core::{Command, ControllerId, Core, CoreConfig, Heartbeat, Input, Rounds, Timer};
+use std::collections::{BTreeMap, BTreeSet};
+
+/// Why a core was stepped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Cause {
+    /// One of its timers fired.
+    Timer(Timer),
+    /// A peer's heartbeat was delivered.
+    HeartbeatFrom(ControllerId),
+    /// It started (a new life).
+    Started,
+}
+
+/// One input to one core and the commands it returned.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Emitted {
+    pub cause: Cause,
+    pub commands: Vec<Command>,
+}
+
+/// What each core did during one step, by controller id, in order.
+pub type StepLog = BTreeMap<ControllerId, Vec<Emitted>>;
+
+/// Every command a core emitted during the step, in order.
+pub fn commands_of(log: &[Emitted]) -> Vec<Command> {
+    log.iter()
+        .flat_map(|e| e.commands.iter().cloned())
+        .collect()
+}
+
+/// Adjusts each core's configuration before it starts.
+pub type Configure = dyn Fn(CoreConfig) -> CoreConfig;
+
+/// One controller id's slot in the simulated system.
+#[derive(Clone, Debug)]
+struct Slot {
+    id: ControllerId,
+    life: Life,
+    /// The model's incarnation number of its current or last life.
+    incarnation: u8,
+    /// The running core, while `life` is up.
+    core: Option<Core>,
+}
+
+/// Real cores on a simulated clock and network, stepped by model actions.
+pub struct CoreNetwork<'a> {
+    rounds: Rounds,
+    configure: &'a Configure,
+    /// The current round: the model's rounds ended so far.
+    round: u64,
+    slots: Vec<Slot>,
+    /// Links whose heartbeat is lost this round, as (from, to).
+    lost: BTreeSet<(ControllerId, ControllerId)>,
+    pub(super) numbers: IncarnationNumbers,
+}
+
+impl<'a> CoreNetwork<'a> {
+    /// The cores of a trace's initial state, started together inside round 0.
+    pub fn start(
+        config: &model::Config,
+        initial: &AbstractState,
+        configure: &'a Configure,
+    ) -> Result<CoreNetwork<'a>, Problem> {
+        let mut network = CoreNetwork {
+            rounds: Rounds {
+                dead_after_rounds: u32::from(config.dead_after_rounds),
+                window_rounds: u32::from(config.window_rounds),
+            },
+            configure,
+            round: 0,
+            slots: Vec::new(),
+            lost: BTreeSet::new(),
+            numbers: IncarnationNumbers::new(),
+        };
+        for (index, c) in initial.controllers.iter().enumerate() {
+            if usize::from(c.id) != index + 1 {
+                return Err(Problem::Unsupported(format!(
+                    "controller {} listed at position {}",
+                    c.id,
+                    index + 1
+                )));
+            }
+            network.slots.push(Slot {
+                id: c.id,
+                life: Life::NotStarted,
+                incarnation: c.incarnation,
+                core: None,
+            });
+            match c.life {
+                Life::Up => network.start_core(c.id, c.incarnation)?,
+                Life::Down => network.slots[index].life = Life::Down,
+                Life::NotStarted => {}
+            }
+        }
+        Ok(network)
+    }
+
+    /// The current round's boundary (its start).
+    fn boundary_ms(&self) -> u64 {
+        self.round * PERIOD_MS
+    }
+
+    fn slot_mut(&mut self, id: ControllerId) -> Result<&mut Slot, Problem> {
+        let index = usize::from(id).wrapping_sub(1);
+        self.slots.get_mut(index).ok_or_else(|| {
+            Problem::Unsupported(format!(
+                "the action names C{id}, which the trace does not have"
+            ))
+        })
+    }
+
+    fn live_core(&mut self, id: ControllerId) -> Result<&mut Core, Problem> {
+        self.slot_mut(id)?
+            .core
+            .as_mut()
+            .ok_or_else(|| Problem::Timing(format!("C{id} is not running")))
+    }
+
+    fn start_core(&mut self, id: ControllerId, incarnation: u8) -> Result<(), Problem> {
+        let rounds = self.rounds;
+        let start_ms = self.boundary_ms() + START_OFFSET_MS;
+        // The implementation's incarnation is the model's number, so holders map one to one.
+        let stamp = u64::from(incarnation);
+        let number = self.numbers.started(id, stamp);
+        if number != incarnation {
+            return Err(Problem::Timing(format!(
+                "C{id} starts its life #{incarnation}, but it is its start number {number}"
+            )));
+        }
+        let config = (self.configure)(CoreConfig::new(id, stamp, PERIOD_MS, rounds));
+        let slot = self.slot_mut(id)?;
+        slot.life = Life::Up;
+        slot.incarnation = incarnation;
+        slot.core = Some(Core::new(config, start_ms));
+        self.lost.retain(|&(from, to)| from != id && to != id);
+        Ok(())
+    }
+
+    /// What an observer sees of every controller, in id order.
+    pub fn observed(&self) -> Vec<Observed> {
+        self.slots
+            .iter()
+            .map(|slot| match (&slot.core, slot.life) {
+                (Some(core), _) => Observed::Up(Box::new(core.status())),
+                (None, Life::Down) => Observed::Down {
+                    incarnation: u64::from(slot.incarnation),
+                },
+                (None, _) => Observed::NotStarted,
+            })
+            .collect()
+    }
+
+    /// The abstract state of the cores.
+    pub fn observe(&self) -> Result<AbstractState, Problem> {
+        abstraction::abstract_state(&self.observed(), &self.numbers).map_err(Problem::Abstraction)
+    }
+
+    /// Performs one model action; returns what each core did.
+    pub fn apply(&mut self, action: Action) -> Result<StepLog, Problem> {
+        let mut log = StepLog::new();
+        match action {
+            Action::Tick => self.tick(&mut log)?,
+            Action::LoseHeartbeat { from, to } => {
+                self.lost.insert((from, to));
+            }
+            Action::ExpireWindow { controller } => {
+                let boundary = self.boundary_ms();
+                let core = self.live_core(controller)?;
+                let due = core.next_deadline();
+                if due.timer != Timer::WindowExpiry || due.at_ms > boundary {
+                    return Err(Problem::Timing(format!(
+                        "C{controller}'s initialization window is not due at the round \
+                         boundary ({boundary} ms; its next timer is {:?} at {} ms)",
+                        due.timer, due.at_ms
+                    )));
+                }
+                let commands = core.step(Input::Timer(due.timer), due.at_ms);
+                log.insert(
+                    controller,
+                    vec![Emitted {
+                        cause: Cause::Timer(due.timer),
+                        commands,
+                    }],
+                );
+            }
+            Action::Crash { controller } => {
+                let slot = self.slot_mut(controller)?;
+                slot.core = None;
+                slot.life = Life::Down;
+                self.lost
+                    .retain(|&(from, to)| from != controller && to != controller);
+            }
+            Action::Restart { controller } => {
+                let next = self.slot_mut(controller)?.incarnation.saturating_add(1);
+                self.start_core(controller, next)?;
+                log.insert(controller, vec![started()]);
+            }
+            Action::Join { controller } => {
+                self.start_core(controller, 0)?;
+                log.insert(controller, vec![started()]);
+            }
+            Action::DeliverVotes { to } => {
+                return Err(Problem::Unsupported(format!(
+                    "votes delivered to C{to}: durable-vote delivery exists only in the paper \
+                     variant"
+                )));
+            }
+        }
+        Ok(log)
+    }
+
+    /// The end of a round: heartbeats out at the send slot, delivered, then the round ends.
+    fn tick(&mut self, log: &mut StepLog) -> Result<(), Problem> {
+        let boundary = self.boundary_ms();
+        let round_end = boundary + PERIOD_MS;
+        let mut heartbeats: BTreeMap<ControllerId, Heartbeat> = BTreeMap::new();
+        for slot in &mut self.slots {
+            let Some(core) = slot.core.as_mut() else {
+                continue;
+            };
+            let id = slot.id;
+            if core.next_deadline().timer == Timer::WindowExpiry {
+                return Err(Problem::Timing(format!(
+                    "C{id}'s initialization window is due, but the model ends the round \
+                     without it expiring"
+                )));
+            }
+            let send_slot = boundary + core.config().heartbeat_offset_ms();
+            let emitted = log.entry(id).or_default();
+            while core.next_deadline().at_ms <= send_slot {
+                let due = core.next_deadline();
+                let commands = core.step(Input::Timer(due.timer), due.at_ms);
+                for command in &commands {
+                    if let Command::PublishHeartbeat(heartbeat) = command {
+                        heartbeats.insert(id, *heartbeat);
+                    }
+                }
+                emitted.push(Emitted {
+                    cause: Cause::Timer(due.timer),
+                    commands,
+                });
+            }
+            if !heartbeats.contains_key(&id) {
+                return Err(Problem::Timing(format!(
+                    "C{id} published no heartbeat by its send slot ({send_slot} ms)"
+                )));
+            }
+        }
+        let lost = &self.lost;
+        for slot in &mut self.slots {
+            let Some(core) = slot.core.as_mut() else {
+                continue;
+            };
+            let to = slot.id;
+            let emitted = log.entry(to).or_default();
+            for (&from, heartbeat) in &heartbeats {
+                if from != to && !lost.contains(&(from, to)) {
+                    let commands =
+                        core.step(Input::Heartbeat(*heartbeat), boundary + DELIVERY_OFFSET_MS);
+                    // Deliveries are shown only when they make the core do something.
+                    if !commands.is_empty() {
+                        emitted.push(Emitted {
+                            cause: Cause::HeartbeatFrom(from),
+                            commands,
+                        });
+                    }
+                }
+            }
+        }
+        for slot in &mut self.slots {
+            let Some(core) = slot.core.as_mut() else {
+                continue;
+            };
+            let due = core.next_deadline();
+            if due.at_ms != round_end || due.timer != Timer::RoundEnd {
+                return Err(Problem::Timing(format!(
+                    "C{}'s next timer is {:?} at {} ms, but the round ends at {round_end} ms",
+                    slot.id, due.timer, due.at_ms
+                )));
+            }
+            let commands = core.step(Input::Timer(Timer::RoundEnd), round_end);
+            log.entry(slot.id).or_default().push(Emitted {
+                cause: Cause::Timer(Timer::RoundEnd),
+                commands,
+            });
+        }
+        self.lost.clear();
+        self.round += 1;
+        Ok(())
+    }
+}
+
+fn started() -> Emitted {
+    Emitted {
+        cause: Cause::Started,
+        commands: Vec::new(),
+    }
+}
