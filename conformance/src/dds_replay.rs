@@ -34,7 +34,8 @@ use crate::validate::Timing;
 use model::traces::AbstractState;
 use model::Action;
 use rl::core::ControllerId;
-use rl::procs::{parse_controller_event, wall_ms, Fleet, Line};
+use rl::event::{Event, EventLine};
+use rl::procs::{wall_ms, Fleet, Line};
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;
 use std::io::Write as _;
@@ -348,7 +349,7 @@ impl<'a> Run<'a> {
                 .lives
                 .iter()
                 .flat_map(|l| l.log.events.iter())
-                .filter(|e| e.event == "status")
+                .filter(|e| matches!(e.event, Event::Status { .. }))
                 .map(|e| e.t_ms)
                 .min();
             if let Some(t_ms) = earliest {
@@ -602,10 +603,10 @@ impl<'a> Run<'a> {
         let relative = self.first_round.map_or(String::new(), |f| {
             format!(" ({:+})", round as i64 - f as i64)
         });
-        let shown = match parse_controller_event(&line.text) {
+        let shown = match EventLine::parse(&line.text) {
             Some(event) => {
-                let shown =
-                    (event.event != "leds").then(|| crate::record::describe_event(&event, None));
+                let is_leds = matches!(event.event, Event::Leds { .. });
+                let shown = (!is_leds).then(|| crate::record::describe_event(&event, None));
                 if let Some(life) = self.lives.iter_mut().find(|l| l.log.source == line.source) {
                     if !life.stamped {
                         life.log.incarnation = event.incarnation;

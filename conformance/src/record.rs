@@ -17,7 +17,7 @@
 //! of the last status may still name it (trace validation allows exactly that).
 
 use rl::core::{ControllerId, Incarnation, Status};
-use rl::procs::ControllerEvent;
+use rl::event::{Event, EventLine};
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -39,7 +39,7 @@ pub struct LifeLog {
     pub incarnation: Incarnation,
     /// Where the events came from (`C1.log`), for messages.
     pub source: String,
-    pub events: Vec<ControllerEvent>,
+    pub events: Vec<EventLine>,
 }
 
 impl LifeLog {
@@ -47,7 +47,7 @@ impl LifeLog {
     pub fn started_ms(&self) -> Option<u64> {
         self.events
             .iter()
-            .find(|e| e.event == "started")
+            .find(|e| e.event == Event::Started)
             .or(self.events.first())
             .map(|e| e.t_ms)
     }
@@ -61,7 +61,7 @@ impl LifeLog {
     pub fn stopped_ms(&self) -> Option<u64> {
         self.events
             .iter()
-            .find(|e| e.event == "stopped")
+            .find(|e| e.event == Event::Stopped)
             .map(|e| e.t_ms)
     }
 
@@ -83,20 +83,17 @@ impl LifeLog {
 }
 
 /// Folds one event into the reported state.
-pub fn apply_event(status: &mut Status, event: &ControllerEvent) {
-    match event.event.as_str() {
-        "status" => {
-            if let Some(reported) = &event.status {
-                *status = reported.clone();
-            }
-        }
-        "alarm" => {
-            if let (Some(about), Some(raised)) = (event.about, event.raised) {
-                status.alarms.retain(|(who, _)| *who != about);
-                if raised {
-                    let reason = event.reason.unwrap_or(rl::core::AlarmReason::Lost);
-                    status.alarms.push((about, reason));
-                }
+pub fn apply_event(status: &mut Status, event: &EventLine) {
+    match &event.event {
+        Event::Status { status: reported } => *status = reported.clone(),
+        Event::Alarm {
+            about,
+            reason,
+            raised,
+        } => {
+            status.alarms.retain(|(who, _)| who != about);
+            if *raised {
+                status.alarms.push((*about, *reason));
             }
         }
         _ => {}
@@ -197,7 +194,7 @@ impl Recording {
                 self.skipped_lines += 1;
                 continue;
             }
-            let event: ControllerEvent = serde_json::from_value(serde_json::Value::Object(object))
+            let event: EventLine = serde_json::from_value(serde_json::Value::Object(object))
                 .map_err(|e| {
                     (
                         index + 1,
@@ -249,8 +246,8 @@ impl Recording {
     }
 
     /// Every event of every life, by time: `(life's source, event)`.
-    pub fn events_by_time(&self) -> Vec<(&str, &ControllerEvent)> {
-        let mut all: Vec<(&str, &ControllerEvent)> = self
+    pub fn events_by_time(&self) -> Vec<(&str, &EventLine)> {
+        let mut all: Vec<(&str, &EventLine)> = self
             .lives
             .values()
             .flatten()
@@ -262,13 +259,13 @@ impl Recording {
 }
 
 /// One event as a short line for transcripts: `C2#1 status steady secondary 20 ...`.
-pub fn describe_event(event: &ControllerEvent, number: Option<u8>) -> String {
+pub fn describe_event(event: &EventLine, number: Option<u8>) -> String {
     let who = match number {
         Some(n) if n > 0 => format!("C{}#{n}", event.id),
         _ => format!("C{}", event.id),
     };
-    let detail = match event.event.as_str() {
-        "status" => event.status.as_ref().map_or(String::new(), |s| {
+    let detail = match &event.event {
+        Event::Status { status: s } => {
             let holders = |a: Option<rl::core::Assignment>| {
                 a.map_or("-".to_string(), |a| {
                     a.holders()
@@ -289,23 +286,20 @@ pub fn describe_event(event: &ControllerEvent, number: Option<u8>) -> String {
                 s.sees,
                 s.failed
             )
-        }),
-        "alarm" => format!(
-            "about C{} {:?} raised={}",
-            event.about.unwrap_or(0),
-            event.reason,
-            event.raised.unwrap_or(false)
-        ),
-        "output" => format!(
+        }
+        Event::Alarm {
+            about,
+            reason,
+            raised,
+        } => format!("about C{about} {reason:?} raised={raised}"),
+        Event::Output { role, strength } => format!(
             "{} {}",
-            event.role.map_or("no-role", |r| r.name()),
-            event
-                .strength
-                .map_or("silent".to_string(), |v| v.to_string())
+            role.map_or("no-role", |r| r.name()),
+            strength.map_or("silent".to_string(), |v| v.to_string())
         ),
         _ => String::new(),
     };
-    format!("{who} {} {detail}", event.event)
+    format!("{who} {} {detail}", event.event.kind())
 }
 
 #[cfg(test)]

@@ -696,7 +696,10 @@ impl<'a> Search<'a> {
         let from_ms = boundary.saturating_sub(3) * period;
         let until_ms = (boundary + 2) * period;
         for (source, event) in self.recording.events_by_time() {
-            if event.t_ms >= from_ms && event.t_ms < until_ms && event.event != "leds" {
+            if event.t_ms >= from_ms
+                && event.t_ms < until_ms
+                && !matches!(event.event, rl::event::Event::Leds { .. })
+            {
                 let number = self.numbers.number(event.id, event.incarnation);
                 let _ = writeln!(
                     message,

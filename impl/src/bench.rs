@@ -10,7 +10,8 @@
 //! - resources: RSS and CPU of one controller at 4 Hz heartbeats and 30 Hz commands.
 
 use crate::core::{Phase, Role};
-use crate::procs::{parse_controller_event, parse_servo_event, wall_ms, Fleet, Line, ServoEvent};
+use crate::event::{Event, EventLine};
+use crate::procs::{parse_servo_event, wall_ms, Fleet, Line, ServoEvent};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -156,15 +157,15 @@ impl Watch {
                     self.owner_changes
                         .push((gap_ms, from_controller_id, to_controller_id));
                 }
-            } else if let Some(event) = parse_controller_event(&line.text) {
-                match event.event.as_str() {
-                    "status" => {
-                        if let Some(status) = event.status {
-                            self.status.insert(event.id, status);
-                        }
+            } else if let Some(line) = EventLine::parse(&line.text) {
+                match line.event {
+                    Event::Status { status } => {
+                        self.status.insert(line.id, status);
                     }
-                    "output" => self.outputs.push((event.id, event.t_ms, event.strength)),
-                    "started" => self.started.push((event.id, event.t_ms)),
+                    Event::Output { strength, .. } => {
+                        self.outputs.push((line.id, line.t_ms, strength));
+                    }
+                    Event::Started => self.started.push((line.id, line.t_ms)),
                     _ => {}
                 }
             }

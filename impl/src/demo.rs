@@ -5,7 +5,8 @@
 //! lowest role. `--record DIR` keeps every child's output (JSON events) for later checking.
 
 use crate::core::{Phase, Role};
-use crate::procs::{parse_controller_event, parse_servo_event, Fleet, ServoEvent};
+use crate::event::{Event, EventLine};
+use crate::procs::{parse_servo_event, Fleet, ServoEvent};
 use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::PathBuf;
@@ -141,49 +142,45 @@ pub fn run(args: DemoArgs) -> Result<(), crate::Error> {
                 }
                 continue;
             }
-            let Some(event) = parse_controller_event(&line.text) else {
+            let Some(line_event) = EventLine::parse(&line.text) else {
                 continue;
             };
-            let entry = seen.entry(event.id).or_default();
-            match event.event.as_str() {
-                "status" => {
-                    if let Some(status) = &event.status {
-                        let changed = entry.phase != Some(status.report.phase)
-                            || entry.role != status.report.role;
-                        entry.phase = Some(status.report.phase);
-                        entry.role = status.report.role;
-                        entry.strength = status.report.strength;
-                        if changed {
-                            let role = status
-                                .report
-                                .role
-                                .map(|r| format!("{r} ({})", status.report.strength.unwrap_or(0)))
-                                .unwrap_or_else(|| "no role".into());
-                            println!(
-                                "{} C{}: {} {}",
-                                stamp(line.at),
-                                event.id,
-                                status.report.phase,
-                                role
-                            );
-                        }
-                    }
-                }
-                "alarm" => {
-                    if let (Some(about), Some(raised)) = (event.about, event.raised) {
-                        let what = if raised { "raises" } else { "clears" };
-                        let reason = event
-                            .reason
-                            .map(|r| format!(" ({r:?})"))
-                            .unwrap_or_default();
+            let entry = seen.entry(line_event.id).or_default();
+            match &line_event.event {
+                Event::Status { status } => {
+                    let changed = entry.phase != Some(status.report.phase)
+                        || entry.role != status.report.role;
+                    entry.phase = Some(status.report.phase);
+                    entry.role = status.report.role;
+                    entry.strength = status.report.strength;
+                    if changed {
+                        let role = status
+                            .report
+                            .role
+                            .map(|r| format!("{r} ({})", status.report.strength.unwrap_or(0)))
+                            .unwrap_or_else(|| "no role".into());
                         println!(
-                            "{} C{}: {what} alarm for C{about}{reason}",
+                            "{} C{}: {} {}",
                             stamp(line.at),
-                            event.id
+                            line_event.id,
+                            status.report.phase,
+                            role
                         );
                     }
                 }
-                "output" => entry.strength = event.strength,
+                Event::Alarm {
+                    about,
+                    reason,
+                    raised,
+                } => {
+                    let what = if *raised { "raises" } else { "clears" };
+                    println!(
+                        "{} C{}: {what} alarm for C{about} ({reason:?})",
+                        stamp(line.at),
+                        line_event.id
+                    );
+                }
+                Event::Output { strength, .. } => entry.strength = *strength,
                 _ => {}
             }
         }

@@ -11,7 +11,8 @@
 //! - [`wire`], [`dds`]: the DDS topics, their QoS and sample types.
 //! - [`arbiter`]: exclusive ownership with DDS semantics on the reading side (RustDDS readers
 //!   do not enforce it).
-//! - [`controller`]: runs the core over DDS; [`api`] is what an application sees of it.
+//! - [`controller`]: runs the core over DDS; [`api`] is what an application sees of it;
+//!   [`event`] is the JSON event line it prints with `--json-events`.
 //! - [`tracker`]: the paper's application (pan/tilt from the camera's circle).
 //! - [`leds`], [`config`], [`sim`], [`status`], [`demo`], [`bench`]: status LEDs, configuration,
 //!   camera and actuator simulators, the live status view, the demo and the benchmarks.
@@ -29,6 +30,7 @@ pub use rl_core as core;
 pub mod dds;
 pub mod demo;
 pub mod error;
+pub mod event;
 pub mod leds;
 pub mod logging;
 pub mod procs;

@@ -2,7 +2,6 @@
 //! for real (`kill -9`, SIGSTOP/SIGCONT), and the servo simulator's JSON event stream.
 
 use crate::core::types::ControllerId;
-use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -205,65 +204,6 @@ pub fn parse_servo_event(text: &str) -> Option<ServoEvent> {
     serde_json::from_str(text).ok()
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn servo_lines_parse_by_their_event_field() {
-        let command = r#"{"event":"command","t_ms":12,"writer_guid":"01.02","controller_id":null,"strength":30,"pan":500,"tilt":400,"frequency":60}"#;
-        assert_eq!(
-            parse_servo_event(command),
-            Some(ServoEvent::Command {
-                t_ms: 12,
-                writer_guid: "01.02".into(),
-                controller_id: None,
-                strength: 30,
-                pan: 500,
-                tilt: 400,
-                frequency: 60
-            })
-        );
-        let change = r#"{"event":"owner_changed","t_ms":99,"from_controller_id":1,"to_controller_id":2,"gap_ms":104,"from_writer_guid":"01","to_writer_guid":"02","strength":20}"#;
-        assert!(matches!(
-            parse_servo_event(change),
-            Some(ServoEvent::OwnerChanged {
-                gap_ms: Some(104),
-                ..
-            })
-        ));
-        assert_eq!(parse_servo_event("owner: C1"), None);
-    }
-}
-
-/// One line of `rl controller --json-events` (see `runtime`).
-#[derive(Clone, Debug, PartialEq, Deserialize)]
-pub struct ControllerEvent {
-    /// Wall-clock milliseconds (the controller's round clock).
-    pub t_ms: u64,
-    pub id: ControllerId,
-    pub incarnation: u64,
-    /// `started`, `status`, `output`, `vote`, `alarm`, `leds`, `stopped`.
-    pub event: String,
-    #[serde(default)]
-    pub role: Option<crate::core::Role>,
-    #[serde(default)]
-    pub strength: Option<u8>,
-    #[serde(default)]
-    pub about: Option<ControllerId>,
-    #[serde(default)]
-    pub reason: Option<crate::core::AlarmReason>,
-    #[serde(default)]
-    pub raised: Option<bool>,
-    #[serde(default)]
-    pub status: Option<crate::core::Status>,
-}
-
-/// Parses a controller event line; `None` for anything else.
-pub fn parse_controller_event(text: &str) -> Option<ControllerEvent> {
-    serde_json::from_str(text).ok()
-}
-
 /// Wall-clock milliseconds now (comparable with controller event times on this machine).
 pub fn wall_ms() -> u64 {
     std::time::SystemTime::now()
@@ -295,5 +235,36 @@ impl Fleet {
         let pid = child.id();
         self.controllers.insert(id, child);
         Ok((pid, stdin))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn servo_lines_parse_by_their_event_field() {
+        let command = r#"{"event":"command","t_ms":12,"writer_guid":"01.02","controller_id":null,"strength":30,"pan":500,"tilt":400,"frequency":60}"#;
+        assert_eq!(
+            parse_servo_event(command),
+            Some(ServoEvent::Command {
+                t_ms: 12,
+                writer_guid: "01.02".into(),
+                controller_id: None,
+                strength: 30,
+                pan: 500,
+                tilt: 400,
+                frequency: 60
+            })
+        );
+        let change = r#"{"event":"owner_changed","t_ms":99,"from_controller_id":1,"to_controller_id":2,"gap_ms":104,"from_writer_guid":"01","to_writer_guid":"02","strength":20}"#;
+        assert!(matches!(
+            parse_servo_event(change),
+            Some(ServoEvent::OwnerChanged {
+                gap_ms: Some(104),
+                ..
+            })
+        ));
+        assert_eq!(parse_servo_event("owner: C1"), None);
     }
 }

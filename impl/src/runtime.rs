@@ -18,10 +18,10 @@ use crate::core::{
     AlarmReason, Command, ControllerId, Core, CoreConfig, Input, Rounds, Status, VoteRecord,
 };
 use crate::dds::{Reader, Session, Writer};
+use crate::event::{Event, EventLine};
 use crate::leds::{ConsoleLeds, LedBank, LedPattern};
 use crate::wire::{AlarmSample, ControllerAlarm, HeartbeatSample, VoteSample};
 use rustdds::mio::{Events, Poll, PollOpt, Ready, Token};
-use serde_json::json;
 use std::io::Write;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
@@ -224,7 +224,7 @@ impl Voting {
         register(&self.endpoints.heartbeats_in, HEARTBEATS)?;
         register(&self.endpoints.votes_in, VOTES)?;
         let mut events = Events::with_capacity(16);
-        self.event("started", json!({}));
+        self.event(Event::Started);
         #[cfg(feature = "fault-injection")]
         fault_injection::listen_on_stdin();
         let progress = self.options.voting_progress.clone();
@@ -256,7 +256,7 @@ impl Voting {
                 Err(e) => return Err(crate::Error::io("waiting for DDS samples", e)),
             }
         }
-        self.event("stopped", json!({}));
+        self.event(Event::Stopped);
         Ok(())
     }
 
@@ -315,7 +315,9 @@ impl Voting {
         if let Some(Err(error)) = shown {
             warn!("LEDs: {error}");
         }
-        self.event("leds", json!({ "leds": pattern.to_string() }));
+        self.event(Event::Leds {
+            leds: pattern.to_string(),
+        });
     }
 
     /// A line for the operator: on stdout, or in the log when stdout carries JSON events.
@@ -339,11 +341,11 @@ impl Voting {
                 self.publish_ros_status(&status);
             }
             Command::PublishVote(record) => {
-                self.event("vote", json!({ "vote": record.vote }));
+                self.event(Event::Vote { vote: record.vote });
                 self.write_vote(record);
             }
             Command::SetOutput { role, strength } => {
-                self.event("output", json!({ "role": role, "strength": strength }));
+                self.event(Event::Output { role, strength });
             }
             Command::RaiseAlarm { about, reason } => self.alarm(about, reason, true),
             Command::ClearAlarm { about, reason } => self.alarm(about, reason, false),
@@ -378,10 +380,11 @@ impl Voting {
             alarm.reporter, alarm.about, alarm.reason
         );
         self.console(&line);
-        self.event(
-            "alarm",
-            json!({ "about": alarm.about, "reason": alarm.reason, "raised": alarm.raised }),
-        );
+        self.event(Event::Alarm {
+            about: alarm.about,
+            reason: alarm.reason,
+            raised: alarm.raised,
+        });
         if let Err(error) = self.endpoints.alarms_out.write(&alarm) {
             warn!("alarm not published: {error}");
         }
@@ -399,27 +402,25 @@ impl Voting {
 
     fn status(&mut self, status: Status) {
         self.publish_ros_status(&status);
-        self.event("status", json!({ "status": status }));
+        self.event(Event::Status {
+            status: status.clone(),
+        });
         *self.shared.status() = status;
     }
 
     /// One JSON event line on stdout (with `--json-events`): the record of what it did.
-    fn event(&self, kind: &str, fields: serde_json::Value) {
+    fn event(&self, event: Event) {
         if !self.options.json_events {
             return;
         }
-        let mut record = json!({
-            "t_ms": self.clock.now_ms(),
-            "id": self.core.config().id,
-            "incarnation": self.core.config().incarnation,
-            "event": kind,
-        });
-        if let (Some(record), serde_json::Value::Object(fields)) = (record.as_object_mut(), fields)
-        {
-            record.extend(fields);
-        }
+        let line = EventLine {
+            t_ms: self.clock.now_ms(),
+            id: self.core.config().id,
+            incarnation: self.core.config().incarnation,
+            event,
+        };
         let mut out = std::io::stdout().lock();
-        let _ = writeln!(out, "{record}");
+        let _ = writeln!(out, "{}", line.to_json());
         let _ = out.flush();
     }
 }

@@ -6,6 +6,7 @@
 mod support;
 
 use rl::core::{AlarmReason, Phase, Role};
+use rl::event::Event;
 use rl::procs::ServoEvent;
 use std::time::Duration;
 use support::Cluster;
@@ -86,10 +87,12 @@ fn kill_9_of_the_primary_hands_the_servo_to_the_secondary_which_is_promoted() {
     for reporter in [2, 3] {
         assert!(
             cluster.events.iter().any(|(_, e)| e.id == reporter
-                && e.event == "alarm"
-                && e.about == Some(1)
-                && e.raised == Some(true)
-                && e.reason == Some(AlarmReason::Lost)),
+                && e.event
+                    == Event::Alarm {
+                        about: 1,
+                        reason: AlarmReason::Lost,
+                        raised: true
+                    }),
             "C{reporter} raised an alarm for C1"
         );
     }
@@ -116,9 +119,14 @@ fn sigstop_sigcont_primary_resumes_commanding() {
         [2, 3].iter().all(|&reporter| {
             c.events[resumed_from..].iter().any(|(_, e)| {
                 e.id == reporter
-                    && e.event == "alarm"
-                    && e.about == Some(1)
-                    && e.raised == Some(false)
+                    && matches!(
+                        e.event,
+                        Event::Alarm {
+                            about: 1,
+                            raised: false,
+                            ..
+                        }
+                    )
             })
         })
     });
@@ -161,10 +169,14 @@ fn a_fourth_controller_is_ignored() {
     cluster.wait_for("C4 steady without a role", FORM, |c| c.steady_with(4, None));
     assert!(cluster.steady_with(1, P) && cluster.steady_with(2, S) && cluster.steady_with(3, T));
     assert!(
-        !cluster
-            .events
-            .iter()
-            .any(|(_, e)| e.id == 4 && e.event == "output" && e.strength.is_some()),
+        !cluster.events.iter().any(|(_, e)| e.id == 4
+            && matches!(
+                e.event,
+                Event::Output {
+                    strength: Some(_),
+                    ..
+                }
+            )),
         "C4 never commands"
     );
 }
@@ -238,7 +250,7 @@ fn malformed_heartbeats_are_dropped_and_nothing_crashes() {
             !cluster
                 .events
                 .iter()
-                .any(|(_, e)| e.id == id && e.event == "stopped"),
+                .any(|(_, e)| e.id == id && e.event == Event::Stopped),
             "C{id} still runs"
         );
     }

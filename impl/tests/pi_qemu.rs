@@ -9,7 +9,8 @@
 //! pass, unless `CI` is set: .ci/run builds and installs both, so there they must exist.
 
 use rl::core::{Phase, Role, Status};
-use rl::procs::{parse_controller_event, parse_servo_event, Fleet, Line, ServoEvent};
+use rl::event::{Event, EventLine};
+use rl::procs::{parse_servo_event, Fleet, Line, ServoEvent};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::Receiver;
@@ -162,10 +163,13 @@ impl Formation {
                 .push(format!("{t:>6} ms {:>7}: {}", line.source, line.text));
             if line.source == "servo" {
                 self.servo.extend(parse_servo_event(&line.text));
-            } else if let Some(event) = parse_controller_event(&line.text) {
-                if let Some(status) = event.status {
-                    self.status.insert(event.id, status);
-                }
+            } else if let Some(EventLine {
+                id,
+                event: Event::Status { status },
+                ..
+            }) = EventLine::parse(&line.text)
+            {
+                self.status.insert(id, status);
             }
         }
     }

@@ -4,7 +4,8 @@
 #![allow(dead_code)]
 
 use rl::core::{Phase, Role, Status};
-use rl::procs::{parse_controller_event, parse_servo_event, Fleet, Line, ServoEvent};
+use rl::event::EventLine;
+use rl::procs::{parse_servo_event, Fleet, Line, ServoEvent};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::mpsc::Receiver;
@@ -29,7 +30,7 @@ pub struct Cluster {
     /// Every servo event, with when it was read.
     pub servo: Vec<(Instant, ServoEvent)>,
     /// Every controller event line, in arrival order.
-    pub events: Vec<(Instant, rl::procs::ControllerEvent)>,
+    pub events: Vec<(Instant, EventLine)>,
     /// Everything the children printed, for failure reports.
     pub transcript: Vec<String>,
     _dir: tempdir::Dir,
@@ -115,8 +116,8 @@ impl Cluster {
             if let Some(event) = parse_servo_event(&line.text) {
                 self.servo.push((line.at, event));
             }
-        } else if let Some(event) = parse_controller_event(&line.text) {
-            if let Some(status) = &event.status {
+        } else if let Some(event) = EventLine::parse(&line.text) {
+            if let Some(status) = event.status() {
                 self.status.insert(event.id, status.clone());
             }
             self.events.push((line.at, event));

@@ -1,0 +1,207 @@
+//! The controller's JSON event lines (`rl controller --json-events`): one [`EventLine`] per
+//! line on stdout, the record of what the controller did. The runtime writes them; the demo,
+//! the benchmark, the process tests and the conformance checks read them back with the same
+//! type, so writer and readers cannot drift apart.
+//!
+//! Every line carries `t_ms` (the controller's round clock: wall-clock milliseconds), `id`,
+//! `incarnation` and `event`, the kind, with that kind's fields beside it:
+//! ```text
+//! {"t_ms":1795370649251,"id":1,"incarnation":117661410823791923,"event":"output",
+//!  "role":"primary","strength":30}
+//! ```
+//! Fields may be added later, never removed or renamed; readers ignore fields they do not
+//! know.
+
+use crate::core::{AlarmReason, Assignment, ControllerId, Incarnation, Role, Status};
+use serde::{Deserialize, Serialize};
+
+/// One line of `rl controller --json-events`: who, when, and what happened.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EventLine {
+    /// The controller's round clock when it happened (wall-clock milliseconds).
+    pub t_ms: u64,
+    pub id: ControllerId,
+    pub incarnation: Incarnation,
+    #[serde(flatten)]
+    pub event: Event,
+}
+
+/// What a controller reports, by kind (the `event` field).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "event", rename_all = "snake_case")]
+pub enum Event {
+    /// The voting thread started (before its first round).
+    Started,
+    /// The protocol state changed (phase, role, strength, agreed result, vote or membership).
+    Status { status: Status },
+    /// The command output changed: commanding at `strength` for `role`, or silent (`null`).
+    Output {
+        role: Option<Role>,
+        strength: Option<u8>,
+    },
+    /// A durable vote record was published; `null` withdraws the vote.
+    Vote { vote: Option<Assignment> },
+    /// A controller alarm about peer `about` was raised or cleared.
+    Alarm {
+        about: ControllerId,
+        reason: AlarmReason,
+        raised: bool,
+    },
+    /// The status LEDs now show this pattern (its console form).
+    Leds { leds: String },
+    /// The voting thread stopped cleanly.
+    Stopped,
+}
+
+impl Event {
+    /// The kind as written in the `event` field (`status`, `alarm`, ...).
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Event::Started => "started",
+            Event::Status { .. } => "status",
+            Event::Output { .. } => "output",
+            Event::Vote { .. } => "vote",
+            Event::Alarm { .. } => "alarm",
+            Event::Leds { .. } => "leds",
+            Event::Stopped => "stopped",
+        }
+    }
+}
+
+impl EventLine {
+    /// Parses one line; `None` for anything else (log text, servo lines, partial output).
+    pub fn parse(text: &str) -> Option<EventLine> {
+        serde_json::from_str(text).ok()
+    }
+
+    /// The reported status, if this is a `status` line.
+    pub fn status(&self) -> Option<&Status> {
+        match &self.event {
+            Event::Status { status } => Some(status),
+            _ => None,
+        }
+    }
+
+    /// One JSON line (no newline).
+    pub fn to_json(&self) -> String {
+        // Serializing plain data with string keys cannot fail; an empty line would only
+        // be skipped by readers.
+        serde_json::to_string(self).unwrap_or_default()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::core::{Holder, Phase, SelfReport};
+
+    fn line(event: Event) -> EventLine {
+        EventLine {
+            t_ms: 1000,
+            id: 2,
+            incarnation: 77,
+            event,
+        }
+    }
+
+    #[test]
+    fn lines_have_the_documented_shape() {
+        assert_eq!(
+            line(Event::Started).to_json(),
+            r#"{"t_ms":1000,"id":2,"incarnation":77,"event":"started"}"#
+        );
+        assert_eq!(
+            line(Event::Output {
+                role: Some(Role::Secondary),
+                strength: Some(20)
+            })
+            .to_json(),
+            r#"{"t_ms":1000,"id":2,"incarnation":77,"event":"output","role":"secondary","strength":20}"#
+        );
+        assert_eq!(
+            line(Event::Alarm {
+                about: 1,
+                reason: AlarmReason::Lost,
+                raised: true
+            })
+            .to_json(),
+            r#"{"t_ms":1000,"id":2,"incarnation":77,"event":"alarm","about":1,"reason":"lost","raised":true}"#
+        );
+        assert_eq!(
+            line(Event::Vote { vote: None }).to_json(),
+            r#"{"t_ms":1000,"id":2,"incarnation":77,"event":"vote","vote":null}"#
+        );
+    }
+
+    #[test]
+    fn every_kind_reads_back_as_written() {
+        let holder = Holder {
+            id: 1,
+            incarnation: 5,
+        };
+        let assignment = Assignment::from_ranked([holder]);
+        let mut status = Status::initial(2, 77);
+        status.report = SelfReport {
+            phase: Phase::Steady,
+            role: Some(Role::Secondary),
+            strength: Some(20),
+            agreed: Some(assignment),
+            vote: Some(assignment),
+            ..status.report
+        };
+        status.sees = vec![1, 3];
+        status.failed = vec![3];
+        status.alarms = vec![(3, AlarmReason::Failed)];
+        let events = [
+            Event::Started,
+            Event::Status { status },
+            Event::Output {
+                role: None,
+                strength: None,
+            },
+            Event::Vote {
+                vote: Some(assignment),
+            },
+            Event::Alarm {
+                about: 3,
+                reason: AlarmReason::Failed,
+                raised: false,
+            },
+            Event::Leds {
+                leds: "[P:off S:green T:off | own:green]".into(),
+            },
+            Event::Stopped,
+        ];
+        for event in events {
+            let written = line(event);
+            let text = written.to_json();
+            assert_eq!(EventLine::parse(&text), Some(written.clone()), "{text}");
+            assert!(text.contains(&format!(r#""event":"{}""#, written.event.kind())));
+        }
+    }
+
+    #[test]
+    fn recorded_lines_with_sorted_keys_and_unknown_fields_parse() {
+        // The key order of older recordings (alphabetical), plus a field added later.
+        let recorded = r#"{"about":2,"event":"alarm","id":1,"incarnation":9,"raised":false,"reason":"lost","t_ms":1500,"extra":1}"#;
+        assert_eq!(
+            EventLine::parse(recorded),
+            Some(EventLine {
+                t_ms: 1500,
+                id: 1,
+                incarnation: 9,
+                event: Event::Alarm {
+                    about: 2,
+                    reason: AlarmReason::Lost,
+                    raised: false
+                }
+            })
+        );
+        assert_eq!(EventLine::parse(r#"{"event":"command","t_ms":5}"#), None);
+        assert_eq!(
+            EventLine::parse(r#"{"t_ms":1,"id":1,"incarnation":1,"event":"dancing"}"#),
+            None
+        );
+        assert_eq!(EventLine::parse("owner: C1"), None);
+    }
+}
