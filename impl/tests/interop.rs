@@ -6,8 +6,8 @@
 //! `cyclonedds`; `.ci/run` installs them). Without them the tests say so and pass, except under
 //! CI (`CI` set), where a missing peer is a failure. Domains 211 and 212.
 //!
-//! These tests fail without fix 1 of vendor/rustdds/PATCHES.md: RustDDS would take the peers'
-//! "EXCLUSIVE without strength" for no ownership and never send them a sample.
+//! These tests fail without fix 1 of impl/vendor/rustdds/PATCHES.md: RustDDS would take the
+//! peers' "EXCLUSIVE without strength" for no ownership and never send them a sample.
 
 mod support;
 

@@ -1,5 +1,5 @@
-//! The Raspberry Pi binary (scripts/pi-build: static aarch64 musl, profile `pi`) checked on
-//! this machine: its format and size, and, run under qemu-user, a role in a three-controller
+//! The Raspberry Pi binary (impl/scripts/pi-build: static aarch64 musl, profile `pi`) checked
+//! on this machine: its format and size, and, run under qemu-user, a role in a three-controller
 //! formation with two native controllers over real DDS (domain 180), the native servo
 //! following it, and a failover away from it when it is killed.
 //!
@@ -22,7 +22,7 @@ const SIZE_LIMIT_BYTES: u64 = 5_000_000;
 fn binary() -> Result<PathBuf, String> {
     let binary = std::env::var_os("RL_AARCH64_BIN")
         .map(PathBuf::from)
-        .ok_or("RL_AARCH64_BIN is not set (scripts/pi-build prints the path)")?;
+        .ok_or("RL_AARCH64_BIN is not set (impl/scripts/pi-build prints the path)")?;
     if !binary.is_file() {
         return Err(format!(
             "RL_AARCH64_BIN={} does not exist",
@@ -41,7 +41,7 @@ fn qemu() -> Result<PathBuf, String> {
             Path::new(&path).display()
         )),
         None => find_on_path("qemu-aarch64-static").ok_or_else(|| {
-            "qemu-aarch64-static not found (scripts/pi-qemu-install installs it from \
+            "qemu-aarch64-static not found (impl/scripts/pi-qemu-install installs it from \
              bookworm-backports)"
                 .to_string()
         }),

@@ -2,7 +2,8 @@
 //! `systemd-analyze verify` with no output at all (it exits 0 even on bad values, so any
 //! output is a failure) and stays hardened (`systemd-analyze security`); it has the settings
 //! the deployment relies on; the packaged configuration is the example's defaults with GPIO
-//! LEDs; and, when scripts/pi-build made one (`RL_PI_DEB`), the .deb holds what a Pi needs.
+//! LEDs; and, when impl/scripts/pi-build made one (`RL_PI_DEB`), the .deb holds what a Pi
+//! needs.
 //!
 //! `systemd-analyze` (Debian package systemd) and the .deb are required under CI (`CI` set);
 //! elsewhere a test without them prints "SKIPPED" and passes.
@@ -215,7 +216,7 @@ fn the_deb_holds_the_binary_unit_conffile_and_udev_rule_for_arm64() {
     let test = "the_deb_holds_the_binary_unit_conffile_and_udev_rule_for_arm64";
     let deb = std::env::var_os("RL_PI_DEB").map(PathBuf::from);
     let available = match &deb {
-        None => Err("RL_PI_DEB is not set (scripts/pi-build prints the .deb's path)".into()),
+        None => Err("RL_PI_DEB is not set (impl/scripts/pi-build prints the .deb's path)".into()),
         Some(path) if !path.is_file() => {
             Err(format!("RL_PI_DEB={} does not exist", path.display()))
         }
