@@ -59,7 +59,7 @@ pub struct Timing {
 }
 
 impl Timing {
-    /// The rounds `rl` derives from its configuration (impl/src/config.rs).
+    /// The rounds `rl` derives from its configuration (impl/src/config/timing.rs).
     pub fn from_config(timing: &rl::config::Timing) -> Result<Timing, String> {
         let rounds = |name: &str, value: u32| {
             u8::try_from(value).map_err(|_| format!("{name}: {value} rounds is more than 255"))

@@ -9,6 +9,9 @@
 //! tests take turns (they are timed on the wall clock, and this machine has 2 cores). The
 //! `rl` binary with the `fault-injection` feature is built once into
 //! `target/fault-injection`; the recordings are kept in `target/tmp/dds-replay/NNNN/`.
+//!
+//! Every replayable trace, not only this subset, is a command, not a test (about 6 minutes):
+//! `cargo run --release -p conformance --bin dds-replay-all`.
 
 use conformance::dds_plan::{self, CURATED};
 use conformance::dds_replay;
@@ -173,64 +176,4 @@ fn one_way_heartbeat_loss() {
 #[test]
 fn minority_vote() {
     replay_curated("minority vote");
-}
-
-/// Every trace the plan can time on real processes, not only the curated subset (about 100,
-/// some 5 minutes): `cargo test --release -p conformance --test dds_replay -- --ignored`.
-/// Domain 199, one trace after the other.
-#[test]
-#[ignore = "minutes: every replayable trace, beyond the curated subset"]
-fn every_replayable_trace() {
-    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
-    let timing = dds_replay::timing().expect("the replay configuration is valid");
-    let exe = dds_replay::fault_injection_rl().unwrap_or_else(|e| panic!("{e}"));
-    let traces = trace::read_dir(&trace::default_dir()).expect("the trace set is readable");
-    let started = Instant::now();
-    let mut failures = Vec::new();
-    let mut replayed = 0;
-    let mut not_replayable = 0;
-    for trace in &traces {
-        let plan = match dds_plan::plan(trace, &timing) {
-            Ok(plan) => plan,
-            Err(_) => {
-                not_replayable += 1;
-                continue;
-            }
-        };
-        let selected = dds_plan::Selected {
-            curated: CURATED[0],
-            trace: trace.clone(),
-            plan,
-        };
-        let stem = trace.file.trim_end_matches(".jsonl");
-        let record_dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
-            .join("dds-replay-all")
-            .join(stem);
-        let outcome = dds_replay::replay(&selected, &exe, 199, &record_dir).and_then(|done| {
-            let recording = Recording::read_dir(&record_dir).map_err(|e| e.to_string())?;
-            validate::validate(&recording, &timing)
-                .map(|accepted| (done, accepted))
-                .map_err(|r| format!("{}: recording rejected:\n{r}", trace.file))
-        });
-        match outcome {
-            Ok((done, accepted)) => {
-                replayed += 1;
-                println!(
-                    "{} conforms ({}, attempt {}); its recording: {accepted}",
-                    trace.file, trace.purpose, done.attempts
-                );
-            }
-            Err(message) => {
-                println!("{} FAILED", trace.file);
-                failures.push(message);
-            }
-        }
-    }
-    println!(
-        "{replayed} traces replayed over DDS, {} failed, {not_replayable} not replayable on \
-         real processes, in {:.0} s",
-        failures.len(),
-        started.elapsed().as_secs_f64()
-    );
-    assert!(failures.is_empty(), "{}", failures.join("\n\n"));
 }

@@ -500,12 +500,21 @@ mod tests {
         assert!(!arbiter.offer(TERTIARY, 10, 202).accepted);
     }
 
+    /// How a failover check found the arbiter wanting.
+    #[derive(Debug, PartialEq)]
+    enum FailoverMiss {
+        /// The Secondary was accepted, but later than the deadline plus one period allows.
+        TooLate { gap_ms: u64 },
+        /// The Secondary was never accepted.
+        Never,
+    }
+
     /// The failover check the tests above make, as a function of the arbiter: Primary stops at
     /// 300 while a Secondary keeps publishing at 30 Hz; the Secondary must be accepted within
     /// the deadline plus one period of the Primary's last sample.
     fn fails_over_while_a_weaker_writer_publishes(
         mut arbiter: Arbiter<u32>,
-    ) -> Result<u64, String> {
+    ) -> Result<u64, FailoverMiss> {
         let mut last_primary_ms = 0;
         for (t, writer, strength) in
             schedule(&[(PRIMARY, 30, 33, 0, 300), (SECONDARY, 20, 33, 10, 2000)])
@@ -518,11 +527,11 @@ mod tests {
                 return if gap_ms <= DEADLINE_MS + 33 {
                     Ok(gap_ms)
                 } else {
-                    Err(format!("failed over after {gap_ms} ms"))
+                    Err(FailoverMiss::TooLate { gap_ms })
                 };
             }
         }
-        Err("never failed over".into())
+        Err(FailoverMiss::Never)
     }
 
     #[test]
@@ -534,7 +543,7 @@ mod tests {
         // check must reject it, or it would not guard the rule.
         let mutant =
             fails_over_while_a_weaker_writer_publishes(Arbiter::with_cyclone_renewal(DEADLINE_MS));
-        assert_eq!(mutant, Err("never failed over".to_string()));
+        assert_eq!(mutant, Err(FailoverMiss::Never));
     }
 
     #[test]

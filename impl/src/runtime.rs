@@ -15,7 +15,7 @@
 use crate::api::{Options, Shared};
 use crate::config::{Config, LedBackend};
 use crate::core::{
-    AlarmReason, Command, ControllerId, Core, CoreConfig, Input, Rounds, Status, VoteRecord,
+    AlarmReason, Command, ControllerId, Core, CoreConfig, Input, Status, VoteRecord,
 };
 use crate::dds::{Reader, Session, Writer};
 use crate::event::{Event, EventLine};
@@ -110,11 +110,7 @@ pub(crate) fn spawn(
     // in the same millisecond.
     let incarnation = clock.now_ms() << 16 | u64::from(std::process::id() & 0xffff);
     let timing = &config.timing;
-    let rounds = Rounds {
-        dead_after_rounds: timing.dead_after_rounds(),
-        window_rounds: timing.window_rounds(),
-    };
-    let core_config = CoreConfig::new(id, incarnation, timing.heartbeat_period_ms, rounds);
+    let core_config = CoreConfig::new(id, incarnation, timing.heartbeat_period_ms, timing.rounds());
     #[cfg(feature = "mutation")]
     let core_config = core_config.with_mutation(mutation_from_environment()?);
     let core = Core::new(core_config, clock.now_ms());

@@ -3,11 +3,12 @@
 //! `pixy/servo_control` samples and switch to the Secondary after the Primary is killed.
 //!
 //! The peers are the Python scripts in `tests/interop/` (PyPI `rticonnextdds-connector`,
-//! `cyclonedds`; `.ci/run` installs them). Without them the tests say so and pass, except under
-//! CI (`CI` set), where a missing peer is a failure. Domains 211 and 212.
+//! `cyclonedds`; `.ci/run` installs them), so the tests are ignored by default;
+//! `cargo test -- --include-ignored` runs them, and then a missing peer fails the test.
+//! Domains 211 and 212.
 //!
-//! These tests fail without fix 1 of vendor/rustdds/PATCHES.md: RustDDS would take the peers'
-//! "EXCLUSIVE without strength" for no ownership and never send them a sample.
+//! These tests fail without fix 1 of impl/vendor/rustdds/PATCHES.md: RustDDS would take the
+//! peers' "EXCLUSIVE without strength" for no ownership and never send them a sample.
 
 mod support;
 
@@ -27,21 +28,17 @@ struct Received {
     participant: String,
 }
 
-fn peer_available(module: &str) -> bool {
-    let ok = Command::new("python3")
+/// Panics unless python3 can import the peer's DDS module (the test was asked for, so its
+/// peer must be there).
+fn require_peer(module: &str, package: &str) {
+    let imported = Command::new("python3")
         .args(["-c", &format!("import {module}")])
         .output()
         .is_ok_and(|o| o.status.success());
-    if !ok {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "python3 module {module} is missing (CI installs it: .ci/run)"
-        );
-        eprintln!(
-            "SKIPPED: python3 module {module} not installed (pip install it to run this test)"
-        );
-    }
-    ok
+    assert!(
+        imported,
+        "python3 cannot import {module} (pip install {package})"
+    );
 }
 
 fn participant_of(guid_hex: &str) -> String {
@@ -160,17 +157,17 @@ fn run_peer(script: &str, domain: u16, switch_within_ms: f64) {
 }
 
 #[test]
+#[ignore = "needs python3 with rticonnextdds-connector (pip install rticonnextdds-connector==1.2.4)"]
 fn connext_exclusive_reader_follows_the_primary() {
-    if peer_available("rticonnextdds_connector") {
-        // Deadline 100 ms plus one command period and scheduling.
-        run_peer("connext_reader.py", 211, 400.0);
-    }
+    require_peer("rticonnextdds_connector", "rticonnextdds-connector==1.2.4");
+    // Deadline 100 ms plus one command period and scheduling.
+    run_peer("connext_reader.py", 211, 400.0);
 }
 
 #[test]
+#[ignore = "needs python3 with cyclonedds (pip install cyclonedds==11.0.1)"]
 fn cyclone_exclusive_reader_follows_the_primary() {
-    if peer_available("cyclonedds") {
-        // Cyclone fails over on the liveliness lease (300 ms), not the deadline.
-        run_peer("cyclone_reader.py", 212, 900.0);
-    }
+    require_peer("cyclonedds", "cyclonedds==11.0.1");
+    // Cyclone fails over on the liveliness lease (300 ms), not the deadline.
+    run_peer("cyclone_reader.py", 212, 900.0);
 }

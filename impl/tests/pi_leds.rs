@@ -146,10 +146,7 @@ impl Bench {
         Bench {
             units: BTreeMap::new(),
             now_ms: 1_000_000,
-            rounds: Rounds {
-                dead_after_rounds: timing.dead_after_rounds(),
-                window_rounds: timing.window_rounds(),
-            },
+            rounds: timing.rounds(),
             period_ms: timing.heartbeat_period_ms,
             next_incarnation: 1,
         }

@@ -1,12 +1,13 @@
-//! The Raspberry Pi binary (scripts/pi-build: static aarch64 musl, profile `pi`) checked on
-//! this machine: its format and size, and, run under qemu-user, a role in a three-controller
+//! The Raspberry Pi binary (impl/scripts/pi-build: static aarch64 musl, profile `pi`) checked
+//! on this machine: its format and size, and, run under qemu-user, a role in a three-controller
 //! formation with two native controllers over real DDS (domain 180), the native servo
 //! following it, and a failover away from it when it is killed.
 //!
 //! The binary comes from `RL_AARCH64_BIN`, the emulator from `RL_QEMU_AARCH64` or
 //! `qemu-aarch64-static` on PATH (qemu-user 10 from bookworm-backports: Debian 12's own 7.2
-//! lacks `IP_MULTICAST_IF` and RustDDS panics). Without them the tests print "SKIPPED" and
-//! pass, unless `CI` is set: .ci/run builds and installs both, so there they must exist.
+//! lacks `IP_MULTICAST_IF` and RustDDS panics). The tests are ignored by default;
+//! `cargo test -- --include-ignored` runs them (.ci/run builds and installs both first), and
+//! then a missing binary or emulator fails the test.
 
 use rl::core::{Phase, Role, Status};
 use rl::event::{Event, EventLine};
@@ -19,32 +20,54 @@ use std::time::{Duration, Instant};
 const DOMAIN: u16 = 180;
 const SIZE_LIMIT_BYTES: u64 = 5_000_000;
 
+/// What a test needs and this machine lacks, and how to get it.
+struct Missing(String);
+
+impl std::fmt::Debug for Missing {
+    // The test harness prints a failed test's error with `Debug`: the message alone.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::fmt::Display for Missing {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for Missing {}
+
 /// The aarch64 binary, or why the test cannot run.
-fn binary() -> Result<PathBuf, String> {
+fn binary() -> Result<PathBuf, Missing> {
     let binary = std::env::var_os("RL_AARCH64_BIN")
         .map(PathBuf::from)
-        .ok_or("RL_AARCH64_BIN is not set (scripts/pi-build prints the path)")?;
+        .ok_or_else(|| {
+            Missing("RL_AARCH64_BIN is not set (impl/scripts/pi-build prints the path)".into())
+        })?;
     if !binary.is_file() {
-        return Err(format!(
+        return Err(Missing(format!(
             "RL_AARCH64_BIN={} does not exist",
             binary.display()
-        ));
+        )));
     }
     Ok(binary)
 }
 
 /// The emulator, or why the test cannot run.
-fn qemu() -> Result<PathBuf, String> {
+fn qemu() -> Result<PathBuf, Missing> {
     match std::env::var_os("RL_QEMU_AARCH64") {
         Some(path) if Path::new(&path).is_file() => Ok(PathBuf::from(path)),
-        Some(path) => Err(format!(
+        Some(path) => Err(Missing(format!(
             "RL_QEMU_AARCH64={} does not exist",
             Path::new(&path).display()
-        )),
+        ))),
         None => find_on_path("qemu-aarch64-static").ok_or_else(|| {
-            "qemu-aarch64-static not found (scripts/pi-qemu-install installs it from \
-             bookworm-backports)"
-                .to_string()
+            Missing(
+                "qemu-aarch64-static not found (impl/scripts/pi-qemu-install installs it from \
+                 bookworm-backports)"
+                    .into(),
+            )
         }),
     }
 }
@@ -56,25 +79,10 @@ fn find_on_path(name: &str) -> Option<PathBuf> {
         .find(|candidate| candidate.is_file())
 }
 
-/// `found`, or `None` after printing why the test is skipped; under CI, a failure.
-fn or_skip<T>(test: &str, found: Result<T, String>) -> Option<T> {
-    match found {
-        Ok(found) => Some(found),
-        Err(reason) if std::env::var_os("CI").is_some() => {
-            panic!("{test}: required under CI: {reason}")
-        }
-        Err(reason) => {
-            println!("SKIPPED {test}: {reason}");
-            None
-        }
-    }
-}
-
 #[test]
-fn the_pi_binary_is_static_aarch64_and_under_5_mb() {
-    let Some(binary) = or_skip("the_pi_binary_is_static_aarch64_and_under_5_mb", binary()) else {
-        return;
-    };
+#[ignore = "needs the Pi binary: RL_AARCH64_BIN, printed by impl/scripts/pi-build"]
+fn the_pi_binary_is_static_aarch64_and_under_5_mb() -> Result<(), Missing> {
+    let binary = binary()?;
     let bytes = std::fs::read(&binary).unwrap();
     assert_eq!(&bytes[..4], b"\x7fELF", "not an ELF file");
     assert_eq!(bytes[4], 2, "not 64-bit");
@@ -97,6 +105,7 @@ fn the_pi_binary_is_static_aarch64_and_under_5_mb() {
         binary.display()
     );
     println!("{}: {size} bytes, static aarch64", binary.display());
+    Ok(())
 }
 
 /// Children's lines, the latest status per controller and the servo's events.
@@ -214,11 +223,11 @@ impl Drop for Formation {
 }
 
 #[test]
-fn the_emulated_pi_binary_takes_the_primary_role_among_two_native_controllers() {
-    let test = "the_emulated_pi_binary_takes_the_primary_role_among_two_native_controllers";
-    let Some((binary, qemu)) = or_skip(test, binary().and_then(|b| Ok((b, qemu()?)))) else {
-        return;
-    };
+#[ignore = "needs the Pi binary (RL_AARCH64_BIN, impl/scripts/pi-build) and qemu-aarch64-static \
+            (impl/scripts/pi-qemu-install)"]
+fn the_emulated_pi_binary_takes_the_primary_role_among_two_native_controllers(
+) -> Result<(), Missing> {
+    let (binary, qemu) = (binary()?, qemu()?);
     let mut formation = Formation::new(&binary, &qemu);
     formation
         .fleet
@@ -274,4 +283,5 @@ fn the_emulated_pi_binary_takes_the_primary_role_among_two_native_controllers() 
         "after killing the emulated Primary: P=2 S=3, servo follows C2 at {} ms",
         formation.started.elapsed().as_millis()
     );
+    Ok(())
 }

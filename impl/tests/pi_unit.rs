@@ -2,10 +2,12 @@
 //! `systemd-analyze verify` with no output at all (it exits 0 even on bad values, so any
 //! output is a failure) and stays hardened (`systemd-analyze security`); it has the settings
 //! the deployment relies on; the packaged configuration is the example's defaults with GPIO
-//! LEDs; and, when scripts/pi-build made one (`RL_PI_DEB`), the .deb holds what a Pi needs.
+//! LEDs; and, when impl/scripts/pi-build made one (`RL_PI_DEB`), the .deb holds what a Pi
+//! needs.
 //!
-//! `systemd-analyze` (Debian package systemd) and the .deb are required under CI (`CI` set);
-//! elsewhere a test without them prints "SKIPPED" and passes.
+//! The tests that need `systemd-analyze` (Debian package systemd) or the .deb are ignored by
+//! default; `cargo test -- --include-ignored` runs them (.ci/run provides both), and then a
+//! missing tool or package fails the test.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -20,24 +22,30 @@ fn unit_text() -> String {
     std::fs::read_to_string(debian_dir().join(UNIT_NAME)).unwrap()
 }
 
-/// `Ok(())` to run; otherwise prints SKIPPED (or fails under CI) and returns `Err`.
-fn require(test: &str, available: Result<(), String>) -> Result<(), ()> {
-    match available {
-        Ok(()) => Ok(()),
-        Err(reason) if std::env::var_os("CI").is_some() => {
-            panic!("{test}: required under CI: {reason}")
-        }
-        Err(reason) => {
-            println!("SKIPPED {test}: {reason}");
-            Err(())
-        }
+/// What a test needs and this machine lacks, and how to get it.
+struct Missing(String);
+
+impl std::fmt::Debug for Missing {
+    // The test harness prints a failed test's error with `Debug`: the message alone.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
     }
 }
 
-fn systemd_analyze() -> Result<(), String> {
+impl std::fmt::Display for Missing {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for Missing {}
+
+fn systemd_analyze() -> Result<(), Missing> {
     match Command::new("systemd-analyze").arg("--version").output() {
         Ok(output) if output.status.success() => Ok(()),
-        _ => Err("systemd-analyze not found (apt-get install systemd)".into()),
+        _ => Err(Missing(
+            "systemd-analyze not found (apt-get install systemd)".into(),
+        )),
     }
 }
 
@@ -92,11 +100,9 @@ impl Drop for UnitRoot {
 }
 
 #[test]
-fn systemd_analyze_verify_prints_nothing_for_the_unit() {
-    let test = "systemd_analyze_verify_prints_nothing_for_the_unit";
-    if require(test, systemd_analyze()).is_err() {
-        return;
-    }
+#[ignore = "needs systemd-analyze (apt install systemd)"]
+fn systemd_analyze_verify_prints_nothing_for_the_unit() -> Result<(), Missing> {
+    systemd_analyze()?;
     let root = UnitRoot::new("verify", &unit_text());
     let (ok, output) = root.analyze(&["verify"]);
     assert!(ok && output.is_empty(), "systemd-analyze verify:\n{output}");
@@ -108,14 +114,13 @@ fn systemd_analyze_verify_prints_nothing_for_the_unit() {
     let (_, output) = root.analyze(&["verify"]);
     assert!(output.contains("WatchdogSecs"), "{output}");
     assert!(output.contains("soon"), "{output}");
+    Ok(())
 }
 
 #[test]
-fn the_unit_stays_hardened() {
-    let test = "the_unit_stays_hardened";
-    if require(test, systemd_analyze()).is_err() {
-        return;
-    }
+#[ignore = "needs systemd-analyze (apt install systemd)"]
+fn the_unit_stays_hardened() -> Result<(), Missing> {
+    systemd_analyze()?;
     let root = UnitRoot::new("security", &unit_text());
     // Exposure 0.0 (locked down) .. 10.0 (unprotected); the unit scores 1.9 ("OK").
     let (ok, output) = root.analyze(&["security", "--offline=true", "--threshold=25"]);
@@ -125,6 +130,7 @@ fn the_unit_stays_hardened() {
         .unwrap_or("(no overall level)");
     assert!(ok, "exposure above 2.5: {overall}\n{output}");
     println!("{overall}");
+    Ok(())
 }
 
 /// The value of `key=` in the unit (the last one wins, as in systemd).
@@ -210,21 +216,26 @@ fn dpkg_deb(args: &[&str], deb: &Path) -> String {
     String::from_utf8_lossy(&output.stdout).into_owned()
 }
 
-#[test]
-fn the_deb_holds_the_binary_unit_conffile_and_udev_rule_for_arm64() {
-    let test = "the_deb_holds_the_binary_unit_conffile_and_udev_rule_for_arm64";
-    let deb = std::env::var_os("RL_PI_DEB").map(PathBuf::from);
-    let available = match &deb {
-        None => Err("RL_PI_DEB is not set (scripts/pi-build prints the .deb's path)".into()),
-        Some(path) if !path.is_file() => {
-            Err(format!("RL_PI_DEB={} does not exist", path.display()))
-        }
-        Some(_) => Ok(()),
-    };
-    if require(test, available).is_err() {
-        return;
+/// The package `RL_PI_DEB` names, or why the test cannot run.
+fn pi_deb() -> Result<PathBuf, Missing> {
+    let deb = std::env::var_os("RL_PI_DEB")
+        .map(PathBuf::from)
+        .ok_or_else(|| {
+            Missing("RL_PI_DEB is not set (impl/scripts/pi-build prints the .deb's path)".into())
+        })?;
+    if !deb.is_file() {
+        return Err(Missing(format!(
+            "RL_PI_DEB={} does not exist",
+            deb.display()
+        )));
     }
-    let deb = deb.unwrap();
+    Ok(deb)
+}
+
+#[test]
+#[ignore = "needs the Pi package: RL_PI_DEB, printed by impl/scripts/pi-build"]
+fn the_deb_holds_the_binary_unit_conffile_and_udev_rule_for_arm64() -> Result<(), Missing> {
+    let deb = pi_deb()?;
     let field = |name: &str| {
         dpkg_deb(&["--field"], &deb)
             .lines()
@@ -270,4 +281,5 @@ fn the_deb_holds_the_binary_unit_conffile_and_udev_rule_for_arm64() {
     let _ = std::fs::remove_dir_all(&control);
     let size = std::fs::metadata(&deb).unwrap().len();
     println!("{}: {size} bytes", deb.display());
+    Ok(())
 }

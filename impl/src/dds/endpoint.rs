@@ -5,9 +5,11 @@ use super::{qos, DdsError};
 use crate::config::Timing;
 use crate::wire::{ServoControl, WireSample};
 use rustdds::{
-    dds::ReadError, mio, no_key, serialization::CDRSerializerAdapter, with_key,
-    CDRDeserializerAdapter, Keyed, Publisher, RTPSEntity, ReadCondition, Timestamp, Topic,
-    TopicDescription, GUID,
+    dds::{ReadError, WriteError},
+    mio, no_key,
+    serialization::CDRSerializerAdapter,
+    with_key, CDRDeserializerAdapter, Keyed, Publisher, RTPSEntity, ReadCondition, Timestamp,
+    Topic, TopicDescription, GUID,
 };
 use serde::{de::DeserializeOwned, Serialize};
 use std::io;
@@ -229,7 +231,7 @@ impl<S: WireSample> mio::Evented for Reader<S> {
 
 /// What `Writer` needs from a keyed or an unkeyed RustDDS writer.
 trait RawWriter<S> {
-    fn write_raw(&self, sample: S) -> Result<(), String>;
+    fn write_raw(&self, sample: S) -> Result<(), WriteError<()>>;
     fn guid(&self) -> GUID;
 }
 
@@ -238,8 +240,8 @@ where
     S: Keyed + Serialize,
     S::K: Serialize,
 {
-    fn write_raw(&self, sample: S) -> Result<(), String> {
-        self.write(sample, None).map_err(|e| e.to_string())
+    fn write_raw(&self, sample: S) -> Result<(), WriteError<()>> {
+        self.write(sample, None).map_err(WriteError::forget_data)
     }
     fn guid(&self) -> GUID {
         RTPSEntity::guid(self)
@@ -250,8 +252,8 @@ impl<S> RawWriter<S> for no_key::DataWriter<S, CDRSerializerAdapter<S>>
 where
     S: Serialize,
 {
-    fn write_raw(&self, sample: S) -> Result<(), String> {
-        self.write(sample, None).map_err(|e| e.to_string())
+    fn write_raw(&self, sample: S) -> Result<(), WriteError<()>> {
+        self.write(sample, None).map_err(WriteError::forget_data)
     }
     fn guid(&self) -> GUID {
         RTPSEntity::guid(self)
@@ -313,9 +315,9 @@ where
     pub fn write_sample(&self, sample: S) -> Result<(), DdsError> {
         self.raw
             .write_raw(sample)
-            .map_err(|reason| DdsError::Write {
+            .map_err(|source| DdsError::Write {
                 topic: self.topic.clone(),
-                reason,
+                source,
             })
     }
 
@@ -424,9 +426,9 @@ impl CommandWriter {
         let Some(writer) = &self.writer else {
             return Ok(false);
         };
-        let error = |e: rustdds::dds::WriteError<ServoControl>| DdsError::Write {
+        let error = |e: WriteError<ServoControl>| DdsError::Write {
             topic: self.topic.name(),
-            reason: e.to_string(),
+            source: e.forget_data(),
         };
         if let Some((retiring, _)) = &self.retiring {
             retiring.write(command, None).map_err(error)?;

@@ -49,18 +49,27 @@ use std::collections::{BTreeMap, HashMap};
 /// A DDS failure, with the entity and topic it concerns.
 #[derive(Debug, thiserror::Error)]
 pub enum DdsError {
+    /// The domain participant could not be created (no usable network interface, a bad
+    /// domain id).
     #[error("cannot join DDS domain {domain}: {reason}")]
     Participant { domain: u16, reason: String },
+    /// A topic, reader or writer could not be created (`what` names which).
     #[error("cannot create the {what} of topic {topic}: {reason}")]
     Create {
         what: &'static str,
         topic: String,
         reason: String,
     },
-    #[error("cannot write on topic {topic}: {reason}")]
-    Write { topic: String, reason: String },
+    /// RustDDS refused a write (its background thread gone, or the sample not serializable).
+    #[error("cannot write on topic {topic}: {source}")]
+    Write {
+        topic: String,
+        source: rustdds::dds::WriteError<()>,
+    },
+    /// The sample would not pass the readers' validation, so it was not sent.
     #[error("refusing to write an invalid sample on topic {topic}: {source}")]
     Invalid { topic: String, source: WireError },
+    /// A ROS 2 node, publisher or graph operation failed (`what` names which).
     #[error("ROS 2 {what}: {reason}")]
     Ros { what: &'static str, reason: String },
 }

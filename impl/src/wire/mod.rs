@@ -1,0 +1,94 @@
+//! DDS sample types: what travels on each topic, byte for byte.
+//!
+//! Every type here is serialized as classic little-endian CDR (RustDDS's
+//! `CDRSerializerAdapter`), so field order is wire order. Two topics are shared with the
+//! original camera application and match its IDL exactly ([`ShapeTypeExtended`] on `Circle`,
+//! [`ServoControl`] on `pixy/servo_control`). The RL's own topics ([`HeartbeatSample`],
+//! [`VoteSample`], [`AlarmSample`], [`NetworkAlarmSample`]) are flat structs of integers and
+//! booleans: no `Option` on the wire, absence is a `valid` flag or a 0 code, so any DDS tool with
+//! the IDL below can read them.
+//!
+//! Decoding a sample of an RL topic validates it and returns a [`WireError`] naming the bad
+//! field; a malformed sample never panics, the reader drops it with a warning. Encoding is
+//! infallible, and [`crate::dds`] re-checks every encoded sample with the decoder before
+//! writing, so RL never publishes what it would reject.
+//!
+//! One file per sample family (`camera`, `heartbeat`, `vote`, `alarm`), with `codes` (the
+//! enumerations' wire codes) and `assignment` (role slots) shared between them.
+//!
+//! Equivalent IDL of the RL topics (codes in `codes.rs`):
+//! ```text
+//! struct HolderSlot { octet id; unsigned long long incarnation; };   // id 0 = empty slot
+//! struct WireAssignment { HolderSlot slots[3]; };                   // Primary, Secondary, Tertiary
+//! struct HeartbeatSample { @key octet from_id; unsigned long long incarnation; octet phase;
+//!   octet role; octet strength; boolean agreed_valid; WireAssignment agreed;
+//!   boolean vote_valid; WireAssignment vote; };
+//! struct VoteSample { @key octet from_id; unsigned long long incarnation; boolean vote_valid;
+//!   WireAssignment vote; };
+//! struct AlarmSample { octet reporter_id; unsigned long long reporter_incarnation;
+//!   octet about_id; boolean about_incarnation_valid; unsigned long long about_incarnation;
+//!   octet reason; boolean raised; };
+//! struct NetworkAlarmSample { octet reporter_id; octet network; octet peer_id; boolean raised; };
+//! ```
+
+mod alarm;
+mod assignment;
+mod camera;
+mod codes;
+mod heartbeat;
+#[cfg(test)]
+mod tests;
+mod vote;
+
+pub use self::alarm::{
+    AlarmSample, ControllerAlarm, NetworkAlarm, NetworkAlarmSample, ALARM_TYPE_NAME,
+    NETWORK_ALARM_TYPE_NAME, NETWORK_COUNT,
+};
+pub use self::assignment::{HolderSlot, WireAssignment};
+pub use self::camera::{
+    ServoControl, ShapeFillKind, ShapeTypeExtended, SERVO_CONTROL_TYPE_NAME, SHAPE_TYPE_NAME,
+};
+pub use self::codes::{
+    phase_code, reason_code, role_code, PHASE_FAILED, PHASE_INITIALIZING, PHASE_STEADY,
+    PHASE_VOTING, REASON_FAILED, REASON_LOST, ROLE_NONE, ROLE_PRIMARY, ROLE_SECONDARY,
+    ROLE_TERTIARY, STRENGTH_NONE,
+};
+pub use self::heartbeat::{HeartbeatSample, HEARTBEAT_TYPE_NAME};
+pub use self::vote::{VoteSample, VOTE_TYPE_NAME};
+
+use serde::{Deserialize, Serialize};
+
+/// A sample that failed validation: which field, and why.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{field}: {reason}")]
+pub struct WireError {
+    /// The field path, e.g. `heartbeat.phase` or `vote.vote`.
+    pub field: &'static str,
+    pub reason: String,
+}
+
+impl WireError {
+    fn new(field: &'static str, reason: impl Into<String>) -> WireError {
+        WireError {
+            field,
+            reason: reason.into(),
+        }
+    }
+}
+
+/// A sample type of an RL topic: how it is validated into the value the program uses, and how
+/// that value is encoded.
+pub trait WireSample: Sized {
+    /// The validated value.
+    type Value;
+    /// DDS type name registered for the topic.
+    const TYPE_NAME: &'static str;
+    fn decode(self) -> Result<Self::Value, WireError>;
+    fn encode(value: &Self::Value) -> Self;
+}
+
+/// `std_msgs/msg/String`: the controller's status line on the ROS 2 topic `status`.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct RosString {
+    pub data: String,
+}
