@@ -82,7 +82,7 @@ init_window_ms = 750
 pub fn timing() -> Result<Timing, String> {
     let config = rl::config::Config::from_toml_str(CONFIG_TOML, "replay configuration")
         .map_err(|e| e.to_string())?;
-    Timing::from_config(&config.timing)
+    Timing::from_config(&config.timing).map_err(|e| e.to_string())
 }
 
 /// Builds `rl` with the `fault-injection` feature into `<workspace>/target/fault-injection`

@@ -1,0 +1,393 @@
+//! The search for model states consistent with a recorded run: candidate histories
+//! ("branches"), one model state set per controller, stepped round by round through the
+//! environment's choices (join, restart, crash) and the round's end.
+
+use super::{reject, Accepted, Rejection, Timing};
+use crate::abstraction::{self, IncarnationNumbers, Observed};
+use crate::record::{round_of, LifeLog, Recording};
+use model::protocol;
+use model::state::History;
+use model::traces::AbstractController;
+use model::{Action, Assignment, Controller, Life, Phase, State};
+use rl::core::ControllerId;
+use std::collections::{HashMap, HashSet};
+
+/// What the record says of one life, in rounds.
+#[derive(Clone, Debug)]
+pub(super) struct LifeRounds {
+    pub(super) log: LifeLog,
+    pub(super) start_round: u64,
+    /// The last round in which it printed anything: it was alive until then.
+    pub(super) last_round: u64,
+    pub(super) stopped_round: Option<u64>,
+}
+
+/// The search's view of one candidate history: per controller id (index id - 1) the model
+/// states it may be in, all with the same heartbeat content.
+#[derive(Clone, Debug)]
+pub(super) struct Branch {
+    pub(super) slots: Vec<Vec<Controller>>,
+}
+
+/// What one controller's heartbeat carries (and whether it is up): all a receiver's next
+/// state depends on.
+pub(super) type Visible = (
+    Life,
+    u8,
+    Phase,
+    Option<model::Role>,
+    Option<u8>,
+    Option<Assignment>,
+    Option<Assignment>,
+);
+
+pub(super) fn visible(c: &Controller) -> Visible {
+    (
+        c.life,
+        c.incarnation,
+        c.phase,
+        c.role,
+        c.output,
+        c.agreed,
+        c.vote,
+    )
+}
+
+/// An environment choice for one controller in one round.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Lifecycle {
+    Keep,
+    Crash,
+    /// Start life number `n` (a join for 0, a restart otherwise), crashing the current one.
+    Start(u8),
+}
+
+pub(super) struct Search<'a> {
+    pub(super) timing: Timing,
+    pub(super) config: model::Config,
+    pub(super) numbers: IncarnationNumbers,
+    /// Per id (index id - 1), its lives in start order.
+    pub(super) lives: Vec<Vec<LifeRounds>>,
+    pub(super) recording: &'a Recording,
+    /// Observations already abstracted: (id, life number, boundary round).
+    pub(super) observed: HashMap<(ControllerId, u8, u64), AbstractController>,
+    /// (controller, boundary) pairs explained only by the lag tolerance.
+    pub(super) lagged: HashSet<(ControllerId, u64)>,
+    /// Whether the one-round lag tolerance applies.
+    pub(super) lag: bool,
+    pub(super) stats: Accepted,
+}
+
+impl<'a> Search<'a> {
+    pub(super) fn new(
+        recording: &'a Recording,
+        timing: &Timing,
+        lag: bool,
+    ) -> Result<Search<'a>, Box<Rejection>> {
+        let controllers = recording.max_id();
+        if controllers == 0 {
+            return Err(reject("the recording holds no controller events".into()));
+        }
+        if usize::from(controllers) > model::types::MAX_CONTROLLERS {
+            return Err(reject(format!(
+                "the recording has controller id {controllers}; the model has at most {} \
+                 controllers",
+                model::types::MAX_CONTROLLERS
+            )));
+        }
+        let config = timing.model_config(controllers);
+        config
+            .validate()
+            .map_err(|e| reject(format!("model configuration: {e}")))?;
+        let period = timing.period_ms;
+        let mut lives = vec![Vec::new(); usize::from(controllers)];
+        for (id, logs) in &recording.lives {
+            if *id == 0 {
+                return Err(reject("a controller event names id 0".into()));
+            }
+            for log in logs {
+                let start = log.started_ms().unwrap_or(0);
+                lives[usize::from(*id) - 1].push(LifeRounds {
+                    log: log.clone(),
+                    start_round: round_of(start, period),
+                    last_round: round_of(log.last_event_ms().unwrap_or(start), period),
+                    stopped_round: log.stopped_ms().map(|t| round_of(t, period)),
+                });
+            }
+        }
+        let stats = Accepted {
+            controllers,
+            lives: lives.iter().map(Vec::len).sum(),
+            ..Accepted::default()
+        };
+        Ok(Search {
+            timing: *timing,
+            config,
+            numbers: recording.incarnation_numbers(),
+            lives,
+            recording,
+            observed: HashMap::new(),
+            lagged: HashSet::new(),
+            lag,
+            stats,
+        })
+    }
+
+    pub(super) fn life(&self, id: ControllerId, number: u8) -> Option<&LifeRounds> {
+        self.lives
+            .get(usize::from(id) - 1)
+            .and_then(|lives| lives.get(usize::from(number)))
+    }
+
+    /// What life `number` of `id` reported by the boundary of `round`, abstracted.
+    pub(super) fn observation(
+        &mut self,
+        id: ControllerId,
+        number: u8,
+        round: u64,
+    ) -> Result<AbstractController, Box<Rejection>> {
+        if let Some(found) = self.observed.get(&(id, number, round)) {
+            return Ok(found.clone());
+        }
+        let life = self.life(id, number).ok_or_else(|| {
+            reject(format!(
+                "internal: C{id} life #{number} is not in the recording"
+            ))
+        })?;
+        let status = life.log.status_at_boundary(round, self.timing.period_ms);
+        let source = life.log.source.clone();
+        let abstracted =
+            abstraction::abstract_controller(id, &Observed::Up(Box::new(status)), &self.numbers)
+                .map_err(|e| reject(format!("{source}: {e}")))?;
+        self.observed
+            .insert((id, number, round), abstracted.clone());
+        Ok(abstracted)
+    }
+
+    pub(super) fn run(mut self) -> Result<Accepted, Box<Rejection>> {
+        let first_start = self
+            .lives
+            .iter()
+            .flatten()
+            .map(|l| l.start_round)
+            .min()
+            .unwrap_or(0);
+        let last_round = self
+            .lives
+            .iter()
+            .flatten()
+            .map(|l| l.last_round)
+            .max()
+            .unwrap_or(first_start);
+        // One round early: a process may join the round before its `started` event's.
+        let begin = first_start.saturating_sub(1);
+        let initial = Branch {
+            slots: self
+                .config
+                .ids()
+                .map(|id| vec![Controller::new(id, Life::NotStarted)])
+                .collect(),
+        };
+        let mut branches = vec![initial];
+        for round in begin..last_round {
+            branches = self.step(round, branches, begin)?;
+            self.stats.rounds_checked += 1;
+            self.stats.branches_max = self.stats.branches_max.max(branches.len());
+        }
+        Ok(self.stats)
+    }
+
+    /// One round: from the branches consistent with boundary `round` to those consistent
+    /// with boundary `round + 1`.
+    pub(super) fn step(
+        &mut self,
+        round: u64,
+        branches: Vec<Branch>,
+        begin: u64,
+    ) -> Result<Vec<Branch>, Box<Rejection>> {
+        let mut next: Vec<Branch> = Vec::new();
+        let mut first_dead: Option<Dead> = None;
+        let considered = branches.len();
+        for branch in &branches {
+            for prepared in self.lifecycles(round, branch) {
+                match self.end_round(round, &prepared)? {
+                    super::round::RoundEnd::Survivors(survivors) => {
+                        for survivor in survivors {
+                            if !next.iter().any(|b| same_branch(b, &survivor)) {
+                                next.push(survivor);
+                            }
+                        }
+                    }
+                    super::round::RoundEnd::Dead(dead) => {
+                        if first_dead.is_none() {
+                            first_dead = Some(*dead);
+                        }
+                    }
+                }
+            }
+        }
+        if next.is_empty() {
+            return Err(self.rejection(round + 1, begin, considered, first_dead));
+        }
+        if next.len() > BRANCHES_MAX {
+            return Err(reject(format!(
+                "round {}: {} alternative histories; the search is limited to {BRANCHES_MAX}",
+                round + 1,
+                next.len()
+            )));
+        }
+        Ok(next)
+    }
+
+    /// The environment's choices for round `round` (joins, restarts, crashes), applied.
+    pub(super) fn lifecycles(&self, round: u64, branch: &Branch) -> Vec<Branch> {
+        let mut per_id: Vec<Vec<Lifecycle>> = Vec::new();
+        for (index, slot) in branch.slots.iter().enumerate() {
+            let id = (index + 1) as ControllerId;
+            per_id.push(self.lifecycle_options(round, id, &slot[0]));
+        }
+        let mut out = vec![branch.clone()];
+        for (index, options) in per_id.iter().enumerate() {
+            let id = (index + 1) as ControllerId;
+            let mut expanded = Vec::new();
+            for partial in &out {
+                for option in options {
+                    if let Some(applied) = self.apply_lifecycle(partial, id, *option, round) {
+                        expanded.push(applied);
+                    }
+                }
+            }
+            out = expanded;
+        }
+        out
+    }
+
+    pub(super) fn lifecycle_options(
+        &self,
+        round: u64,
+        id: ControllerId,
+        c: &Controller,
+    ) -> Vec<Lifecycle> {
+        let next_number = match c.life {
+            Life::NotStarted => 0,
+            Life::Up | Life::Down => c.incarnation.saturating_add(1),
+        };
+        let current = match c.life {
+            Life::NotStarted => None,
+            Life::Up | Life::Down => self.life(id, c.incarnation),
+        };
+        // It may crash once it printed its last line; a clean stop ends it by the next round.
+        let may_crash =
+            c.life == Life::Up && current.as_ref().is_some_and(|l| l.last_round <= round);
+        let must_crash = c.life == Life::Up
+            && current
+                .as_ref()
+                .and_then(|l| l.stopped_round)
+                .is_some_and(|stopped| round > stopped);
+        let mut options = Vec::new();
+        if let Some(next) = self.life(id, next_number) {
+            let start = next.start_round;
+            if round + 1 == start {
+                options.push(Lifecycle::Start(next_number));
+            } else if round == start {
+                // It started this round: the start is not optional.
+                return vec![Lifecycle::Start(next_number)];
+            } else if round > start {
+                return Vec::new();
+            }
+        }
+        if !must_crash {
+            options.push(Lifecycle::Keep);
+        }
+        if may_crash {
+            options.push(Lifecycle::Crash);
+        }
+        options
+    }
+
+    /// Applies one lifecycle choice through the model; `None` if the model does not allow it.
+    pub(super) fn apply_lifecycle(
+        &self,
+        branch: &Branch,
+        id: ControllerId,
+        choice: Lifecycle,
+        round: u64,
+    ) -> Option<Branch> {
+        let index = usize::from(id) - 1;
+        let mut state = representatives(branch);
+        let mut actions = Vec::new();
+        let current = &state.controllers[index];
+        match choice {
+            Lifecycle::Keep => return Some(branch.clone()),
+            Lifecycle::Crash => actions.push(Action::Crash { controller: id }),
+            Lifecycle::Start(number) => {
+                if current.life == Life::Up {
+                    let may_crash = self
+                        .life(id, current.incarnation)
+                        .is_some_and(|l| l.last_round <= round);
+                    if !may_crash {
+                        return None;
+                    }
+                    actions.push(Action::Crash { controller: id });
+                }
+                actions.push(if number == 0 {
+                    Action::Join { controller: id }
+                } else {
+                    Action::Restart { controller: id }
+                });
+            }
+        }
+        for action in actions {
+            state = step_model(&self.config, &state, action)?;
+        }
+        let mut out = branch.clone();
+        out.slots[index] = vec![state.controllers[index].clone()];
+        Some(out)
+    }
+}
+
+/// Histories are limited to this many at once (each is a crash-timing alternative).
+pub(super) const BRANCHES_MAX: usize = 256;
+
+/// Where a history died: the controller none of whose next states agrees with its report.
+#[derive(Clone, Debug)]
+pub(super) struct Dead {
+    pub(super) id: ControllerId,
+    pub(super) number: u8,
+    pub(super) observed: AbstractController,
+    pub(super) previous: AbstractController,
+    /// Every state the round could end in for it, with the lost-heartbeat choice (a bit per
+    /// sender, in `senders` order).
+    pub(super) candidates: Vec<(AbstractController, u16, Vec<ControllerId>)>,
+    pub(super) before: Controller,
+}
+
+pub(super) fn same_branch(a: &Branch, b: &Branch) -> bool {
+    a.slots.len() == b.slots.len()
+        && a.slots.iter().zip(&b.slots).all(|(x, y)| {
+            let x: HashSet<&Controller> = x.iter().collect();
+            let y: HashSet<&Controller> = y.iter().collect();
+            x == y
+        })
+}
+
+/// A whole model state from a branch: each controller's first candidate (they all carry the
+/// same heartbeat), no lost links, no history.
+pub(super) fn representatives(branch: &Branch) -> State {
+    State {
+        controllers: branch.slots.iter().map(|slot| slot[0].clone()).collect(),
+        lost_links: 0,
+        overdue_votes: 0,
+        history: History::default(),
+    }
+}
+
+/// One model step, only if the model offers the action in that state.
+pub(super) fn step_model(config: &model::Config, state: &State, action: Action) -> Option<State> {
+    let mut enabled = Vec::new();
+    protocol::actions(config, state, &mut enabled);
+    if !enabled.contains(&action) {
+        return None;
+    }
+    protocol::next_state(config, state, action)
+}
