@@ -4,8 +4,8 @@
 //! The board is pure (samples and times in, a view out) so the demo and the benchmarks use it
 //! too; only [`run`] touches DDS.
 
-use crate::core::types::{AlarmReason, ControllerId, Incarnation, Phase, Role};
-use crate::core::Heartbeat;
+use crate::core::types::{AlarmReason, ControllerId};
+use crate::core::{Heartbeat, SelfReport};
 use crate::wire::ControllerAlarm;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -27,17 +27,12 @@ pub struct StatusArgs {
     pub domain: Option<u16>,
 }
 
-/// One controller as the board last heard it.
+/// One controller as the board last heard it: its last self-report (the heartbeat's fields,
+/// flattened: id, incarnation, phase, role, strength, agreed, vote) and how long ago.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ControllerView {
-    pub id: ControllerId,
-    pub incarnation: Incarnation,
-    pub phase: Phase,
-    pub role: Option<Role>,
-    pub strength: Option<u8>,
-    /// `P=1 S=2 T=3`, or null before agreement.
-    pub agreed: Option<String>,
-    pub vote: Option<String>,
+    #[serde(flatten)]
+    pub report: SelfReport,
     /// Heard within the dead-man deadline.
     pub alive: bool,
     /// Milliseconds since its last heartbeat.
@@ -108,13 +103,7 @@ impl Board {
             .map(|(h, at)| {
                 let since = now_ms.saturating_sub(*at);
                 ControllerView {
-                    id: h.id,
-                    incarnation: h.incarnation,
-                    phase: h.phase,
-                    role: h.role,
-                    strength: h.strength,
-                    agreed: h.agreed.map(|a| a.to_string()),
-                    vote: h.vote.map(|a| a.to_string()),
+                    report: *h,
                     alive: since <= alive_within_ms,
                     last_heard_ms: since,
                 }
@@ -142,16 +131,17 @@ impl Board {
 pub fn render_table(view: &StatusView) -> String {
     let mut out =
         String::from("ID  PHASE         ROLE       STRENGTH  AGREED              HEARD\n");
-    for c in &view.controllers {
+    for view in &view.controllers {
+        let c = &view.report;
         let role = c.role.map(|r| r.name()).unwrap_or("-");
         let strength = c
             .strength
             .map(|s| s.to_string())
             .unwrap_or_else(|| "-".into());
-        let heard = if c.alive {
-            format!("{} ms ago", c.last_heard_ms)
+        let heard = if view.alive {
+            format!("{} ms ago", view.last_heard_ms)
         } else {
-            format!("LOST ({} ms)", c.last_heard_ms)
+            format!("LOST ({} ms)", view.last_heard_ms)
         };
         out.push_str(&format!(
             "C{:<2} {:<13} {:<10} {:<9} {:<19} {}\n",
@@ -159,7 +149,7 @@ pub fn render_table(view: &StatusView) -> String {
             c.phase.name(),
             role,
             strength,
-            c.agreed.as_deref().unwrap_or("-"),
+            c.agreed.map_or("-".to_string(), |a| a.to_string()),
             heard
         ));
     }
@@ -267,7 +257,7 @@ pub fn run(args: StatusArgs) -> Result<(), crate::Error> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::core::types::{Assignment, Holder};
+    use crate::core::types::{Assignment, Holder, Phase, Role};
 
     fn hb(from: ControllerId, role: Option<Role>) -> Heartbeat {
         let agreed = Assignment::from_ranked([1, 2, 3].map(|id| Holder { id, incarnation: 0 }));
@@ -295,7 +285,9 @@ mod tests {
         let json = serde_json::to_value(&view).unwrap();
         assert_eq!(json["controllers"][1]["role"], "secondary");
         assert_eq!(json["controllers"][1]["strength"], 20);
-        assert_eq!(json["controllers"][1]["agreed"], "P=1 S=2 T=3");
+        let agreed: Assignment = serde_json::from_value(json["controllers"][1]["agreed"].clone())
+            .expect("the agreed result reads back as an assignment");
+        assert_eq!(agreed.to_string(), "P=1 S=2 T=3");
     }
 
     #[test]
