@@ -19,6 +19,9 @@ pub enum Error {
         #[source]
         source: std::io::Error,
     },
+    /// A benchmark failed, or measured failed kills or formations.
+    #[error(transparent)]
+    Bench(#[from] crate::bench::BenchError),
     /// Anything else that ends a command.
     #[error("{0}")]
     Runtime(String),
