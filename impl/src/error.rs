@@ -22,6 +22,9 @@ pub enum Error {
     /// A benchmark failed, or measured failed kills or formations.
     #[error(transparent)]
     Bench(#[from] crate::bench::BenchError),
+    /// The demo stopped early.
+    #[error(transparent)]
+    Demo(#[from] crate::demo::DemoError),
     /// Anything else that ends a command.
     #[error("{0}")]
     Runtime(String),

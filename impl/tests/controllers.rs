@@ -225,30 +225,7 @@ fn malformed_heartbeats_are_dropped_and_nothing_crashes() {
     let session = rl::dds::Session::new(&config.dds, &config.timing).unwrap();
     let writer = session.heartbeat_writer().unwrap();
     let mut heartbeats = session.heartbeat_reader().unwrap();
-    // Two samples every reader must drop (id 0; unknown phase and role codes, a strength
-    // that is no role's), and one valid heartbeat from a ninth controller nobody votes for.
-    // None under a live controller's id: heartbeat readers keep the last sample per id, so
-    // those would replace that controller's own heartbeats before the reader takes them.
-    let garbage = [
-        rl::wire::HeartbeatSample {
-            from_id: 0,
-            ..Default::default()
-        },
-        rl::wire::HeartbeatSample {
-            from_id: 7,
-            phase: 200,
-            role: 9,
-            strength: 77,
-            ..Default::default()
-        },
-        rl::wire::HeartbeatSample {
-            from_id: 9,
-            phase: 2,
-            role: 1,
-            strength: 10,
-            ..Default::default()
-        },
-    ];
+    let garbage = garbage_heartbeats();
     // Garbage written before the controllers have discovered this participant is lost:
     // start once this participant hears all three (discovery runs both ways at once).
     wait_for_heartbeats_from_all(&mut cluster, &mut heartbeats);
@@ -301,6 +278,33 @@ fn malformed_heartbeats_are_dropped_and_nothing_crashes() {
             2 * ROUNDS
         );
     }
+}
+
+/// Two samples every reader must drop (id 0; unknown phase and role codes, a strength that is
+/// no role's), and one valid heartbeat from a ninth controller nobody votes for. None under a
+/// live controller's id: heartbeat readers keep the last sample per id, so those would replace
+/// that controller's own heartbeats before the reader takes them.
+fn garbage_heartbeats() -> [rl::wire::HeartbeatSample; 3] {
+    [
+        rl::wire::HeartbeatSample {
+            from_id: 0,
+            ..Default::default()
+        },
+        rl::wire::HeartbeatSample {
+            from_id: 7,
+            phase: 200,
+            role: 9,
+            strength: 77,
+            ..Default::default()
+        },
+        rl::wire::HeartbeatSample {
+            from_id: 9,
+            phase: 2,
+            role: 1,
+            strength: 10,
+            ..Default::default()
+        },
+    ]
 }
 
 /// The incarnation of controllers 1-3 from their heartbeats that `heartbeats` takes within
