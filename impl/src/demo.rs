@@ -4,13 +4,15 @@
 //! to the Secondary within the command deadline, the promotion, the alarms, the rejoin in the
 //! lowest role. `--record DIR` keeps every child's output (JSON events) for later checking.
 
-use crate::core::{Phase, Role};
+use crate::core::{ControllerId, Phase, Role};
 use crate::event::{Event, EventLine};
-use crate::procs::{parse_servo_event, Fleet, ServoEvent};
+use crate::procs::{parse_servo_event, Fleet, Line, ServoEvent};
 use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::PathBuf;
+use std::process::ExitStatus;
 use std::sync::atomic::Ordering;
+use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
 /// Arguments of `rl demo`.
@@ -36,6 +38,18 @@ pub struct DemoArgs {
     pub record: Option<PathBuf>,
 }
 
+/// Why the demo stopped early.
+#[derive(Debug, thiserror::Error)]
+pub enum DemoError {
+    /// A controller the demo did not kill exited (its last stderr line says why).
+    #[error("C{id} exited ({status}){}", last_words.as_deref().map(|w| format!(": {w}")).unwrap_or_default())]
+    ControllerExited {
+        id: ControllerId,
+        status: ExitStatus,
+        last_words: Option<String>,
+    },
+}
+
 /// What the demo knows of one controller, from its events.
 #[derive(Clone, Debug, Default)]
 struct Seen {
@@ -45,15 +59,16 @@ struct Seen {
 }
 
 /// The next line printed by a child, or `None` once `until` has passed.
-fn next_line(
-    lines: &std::sync::mpsc::Receiver<crate::procs::Line>,
-    until: Instant,
-) -> Option<crate::procs::Line> {
+fn next_line(lines: &Receiver<Line>, until: Instant) -> Option<Line> {
     let left = until.saturating_duration_since(Instant::now());
     if left.is_zero() {
         return None;
     }
     lines.recv_timeout(left).ok()
+}
+
+fn spawn_error(e: std::io::Error) -> crate::Error {
+    crate::Error::io("starting a child process", e)
 }
 
 pub fn run(args: DemoArgs) -> Result<(), crate::Error> {
@@ -63,195 +78,286 @@ pub fn run(args: DemoArgs) -> Result<(), crate::Error> {
         std::fs::create_dir_all(dir)
             .map_err(|e| crate::Error::io(format!("creating {}", dir.display()), e))?;
     }
-    let (mut fleet, lines) = Fleet::new(&exe, args.config.as_deref(), args.domain);
-    let started = Instant::now();
-    let stamp = |at: Instant| format!("[{:6.1}s]", at.duration_since(started).as_secs_f64());
+    let (fleet, lines) = Fleet::new(&exe, args.config.as_deref(), args.domain);
     println!(
         "rl demo: 3 controllers, camera and servo on domain {} (Ctrl-C to stop)",
         args.domain
     );
-    let spawn = |e: std::io::Error| crate::Error::io("starting a child process", e);
-    fleet.start_other("camera", &["shapes"]).map_err(spawn)?;
-    fleet
-        .start_other("servo", &["servo", "--json"])
-        .map_err(spawn)?;
-    for id in 1..=3 {
-        fleet
-            .start_controller_with(id, &["--json-events"])
-            .map_err(spawn)?;
-    }
-    let mut recordings: BTreeMap<String, std::fs::File> = BTreeMap::new();
-    let mut seen: BTreeMap<u8, Seen> = BTreeMap::new();
-    let mut owner: Option<u8> = None;
-    let mut last_pan_tilt = (0u16, 0u16);
-    let mut settled_since: Option<Instant> = None;
-    let mut killed: Option<(u8, Instant)> = None;
-    let mut cycles = 0u32;
-    let mut next_summary = started + Duration::from_secs(2);
-    while !stop.load(Ordering::SeqCst) {
+    let mut demo = Demo::new(args, fleet);
+    demo.start_children()?;
+    let outcome = loop {
+        if stop.load(Ordering::SeqCst) {
+            break Ok(());
+        }
         // Drain for 20 ms at most: the servo prints a line every few milliseconds, so waiting
         // for a quiet gap would never reach the kill schedule below.
         let drain_until = Instant::now() + Duration::from_millis(20);
         while let Some(line) = next_line(&lines, drain_until) {
-            if let Some(dir) = &args.record {
-                let file = match recordings.get_mut(&line.source) {
-                    Some(file) => file,
-                    None => {
-                        let path = dir.join(format!("{}.log", line.source.replace('!', ".stderr")));
-                        let file = std::fs::File::create(&path).map_err(|e| {
-                            crate::Error::io(format!("creating {}", path.display()), e)
-                        })?;
-                        recordings.entry(line.source.clone()).or_insert(file)
-                    }
-                };
-                let _ = writeln!(file, "{}", line.text);
-            }
-            if line.source == "servo" {
-                match parse_servo_event(&line.text) {
-                    Some(ServoEvent::OwnerChanged {
-                        from_controller_id,
-                        to_controller_id,
-                        gap_ms,
-                        strength,
-                        ..
-                    }) => {
-                        owner = to_controller_id;
-                        if from_controller_id.is_some() && from_controller_id == to_controller_id {
-                            // The same controller with a new writer: its strength changed.
-                            println!(
-                                "{} servo: C{} now commands at strength {strength}",
-                                stamp(line.at),
-                                to_controller_id.unwrap_or(0)
-                            );
-                            continue;
-                        }
-                        let name =
-                            |id: Option<u8>| id.map(|i| format!("C{i}")).unwrap_or("-".into());
-                        let gap = gap_ms
-                            .map(|g| format!(" after a {g} ms gap"))
-                            .unwrap_or_default();
-                        println!(
-                            "{} servo: owner {} -> {}{gap}",
-                            stamp(line.at),
-                            name(from_controller_id),
-                            name(to_controller_id)
-                        );
-                    }
-                    Some(ServoEvent::Command { pan, tilt, .. }) => last_pan_tilt = (pan, tilt),
-                    None => {}
-                }
-                continue;
-            }
-            let Some(line_event) = EventLine::parse(&line.text) else {
-                continue;
-            };
-            let entry = seen.entry(line_event.id).or_default();
-            match &line_event.event {
-                Event::Status { status } => {
-                    let changed = entry.phase != Some(status.report.phase)
-                        || entry.role != status.report.role;
-                    entry.phase = Some(status.report.phase);
-                    entry.role = status.report.role;
-                    entry.strength = status.report.strength;
-                    if changed {
-                        let role = status
-                            .report
-                            .role
-                            .map(|r| format!("{r} ({})", status.report.strength.unwrap_or(0)))
-                            .unwrap_or_else(|| "no role".into());
-                        println!(
-                            "{} C{}: {} {}",
-                            stamp(line.at),
-                            line_event.id,
-                            status.report.phase,
-                            role
-                        );
-                    }
-                }
-                Event::Alarm {
-                    about,
-                    reason,
-                    raised,
-                } => {
-                    let what = if *raised { "raises" } else { "clears" };
-                    println!(
-                        "{} C{}: {what} alarm for C{about} ({reason:?})",
-                        stamp(line.at),
-                        line_event.id
-                    );
-                }
-                Event::Output { strength, .. } => entry.strength = *strength,
-                _ => {}
-            }
+            demo.take(line)?;
+        }
+        if let Err(error) = demo.check_controllers() {
+            break Err(error.into());
         }
         let now = Instant::now();
-        let settled = seen
-            .values()
-            .filter(|s| s.phase == Some(Phase::Steady))
-            .count()
-            == 3
-            && owner.is_some()
-            && killed.is_none();
-        if settled {
-            settled_since.get_or_insert(now);
-        } else {
-            settled_since = None;
+        if !demo.follow_schedule(now)? {
+            break Ok(());
         }
-        if let Some((id, at)) = killed {
-            if now.duration_since(at) >= Duration::from_secs(args.down_s) {
-                println!("{} restart C{id}", stamp(now));
-                fleet
-                    .start_controller_with(id, &["--json-events"])
-                    .map_err(spawn)?;
-                killed = None;
-                cycles += 1;
-            }
-        } else if settled_since.is_some_and(|since| {
-            now.duration_since(since) >= Duration::from_secs(args.kill_every_s)
-        }) {
-            if args.cycles > 0 && cycles >= args.cycles {
-                break;
-            }
-            let primary = seen
-                .iter()
-                .find(|(_, s)| s.role == Some(Role::Primary))
-                .map(|(id, _)| *id);
-            if let Some(id) = primary {
-                println!("{} kill -9 C{id} (the Primary)", stamp(now));
-                fleet
-                    .kill(id)
-                    .map_err(|e| crate::Error::io("killing a controller", e))?;
-                seen.remove(&id);
-                killed = Some((id, now));
-            }
-        }
-        if now >= next_summary {
-            next_summary = now + Duration::from_secs(2);
-            let roles: Vec<String> = Role::ALL
-                .iter()
-                .map(|role| {
-                    let holder = seen
-                        .iter()
-                        .find(|(_, s)| s.role == Some(*role))
-                        .map(|(id, _)| *id);
-                    format!(
-                        "{}={}",
-                        &role.name()[..1].to_uppercase(),
-                        holder.map(|i| format!("C{i}")).unwrap_or("-".into())
-                    )
-                })
-                .collect();
-            println!(
-                "{} roles {} | servo owner {} | pan {} tilt {}",
-                stamp(now),
-                roles.join(" "),
-                owner.map(|i| format!("C{i}")).unwrap_or("-".into()),
-                last_pan_tilt.0,
-                last_pan_tilt.1
-            );
+        demo.print_roles_every_2_s(now);
+    };
+    println!("{} stopping", demo.stamp(Instant::now()));
+    demo.fleet.stop_all();
+    outcome
+}
+
+/// The demo's state: the children, what they reported, and the kill/restart schedule.
+struct Demo {
+    args: DemoArgs,
+    fleet: Fleet,
+    started: Instant,
+    recordings: BTreeMap<String, std::fs::File>,
+    /// The last stderr line of each child, to say why one exited.
+    last_stderr: BTreeMap<String, String>,
+    seen: BTreeMap<ControllerId, Seen>,
+    owner: Option<ControllerId>,
+    last_pan_tilt: (u16, u16),
+    settled_since: Option<Instant>,
+    killed: Option<(ControllerId, Instant)>,
+    cycles: u32,
+    next_summary: Instant,
+}
+
+impl Demo {
+    fn new(args: DemoArgs, fleet: Fleet) -> Demo {
+        let started = Instant::now();
+        Demo {
+            args,
+            fleet,
+            started,
+            recordings: BTreeMap::new(),
+            last_stderr: BTreeMap::new(),
+            seen: BTreeMap::new(),
+            owner: None,
+            last_pan_tilt: (0, 0),
+            settled_since: None,
+            killed: None,
+            cycles: 0,
+            next_summary: started + Duration::from_secs(2),
         }
     }
-    println!("{} stopping", stamp(Instant::now()));
-    fleet.stop_all();
-    Ok(())
+
+    /// `[  12.3s]`: time since the demo started.
+    fn stamp(&self, at: Instant) -> String {
+        format!("[{:6.1}s]", at.duration_since(self.started).as_secs_f64())
+    }
+
+    fn start_children(&mut self) -> Result<(), crate::Error> {
+        self.fleet
+            .start_other("camera", &["shapes"])
+            .map_err(spawn_error)?;
+        self.fleet
+            .start_other("servo", &["servo", "--json"])
+            .map_err(spawn_error)?;
+        for id in 1..=3 {
+            self.start_controller(id)?;
+        }
+        Ok(())
+    }
+
+    fn start_controller(&mut self, id: ControllerId) -> Result<(), crate::Error> {
+        self.fleet
+            .start_controller_with(id, &["--json-events"])
+            .map(|_| ())
+            .map_err(spawn_error)
+    }
+
+    /// Records, then shows what a line says.
+    fn take(&mut self, line: Line) -> Result<(), crate::Error> {
+        self.record(&line)?;
+        if let Some(source) = line.source.strip_suffix('!') {
+            self.last_stderr.insert(source.to_string(), line.text);
+        } else if line.source == "servo" {
+            self.on_servo_line(&line);
+        } else if let Some(event) = EventLine::parse(&line.text) {
+            self.on_controller_event(line.at, &event);
+        }
+        Ok(())
+    }
+
+    /// With `--record DIR`: appends the line to DIR/<source>.log (stderr: <source>.stderr.log).
+    fn record(&mut self, line: &Line) -> Result<(), crate::Error> {
+        let Some(dir) = &self.args.record else {
+            return Ok(());
+        };
+        let file = match self.recordings.get_mut(&line.source) {
+            Some(file) => file,
+            None => {
+                let path = dir.join(format!("{}.log", line.source.replace('!', ".stderr")));
+                let file = std::fs::File::create(&path)
+                    .map_err(|e| crate::Error::io(format!("creating {}", path.display()), e))?;
+                self.recordings.entry(line.source.clone()).or_insert(file)
+            }
+        };
+        let _ = writeln!(file, "{}", line.text);
+        Ok(())
+    }
+
+    fn on_servo_line(&mut self, line: &Line) {
+        match parse_servo_event(&line.text) {
+            Some(ServoEvent::OwnerChanged {
+                from_controller_id,
+                to_controller_id,
+                gap_ms,
+                strength,
+                ..
+            }) => {
+                self.owner = to_controller_id;
+                if from_controller_id.is_some() && from_controller_id == to_controller_id {
+                    // The same controller with a new writer: its strength changed.
+                    println!(
+                        "{} servo: C{} now commands at strength {strength}",
+                        self.stamp(line.at),
+                        to_controller_id.unwrap_or(0)
+                    );
+                    return;
+                }
+                let name = |id: Option<u8>| id.map(|i| format!("C{i}")).unwrap_or("-".into());
+                let gap = gap_ms
+                    .map(|g| format!(" after a {g} ms gap"))
+                    .unwrap_or_default();
+                println!(
+                    "{} servo: owner {} -> {}{gap}",
+                    self.stamp(line.at),
+                    name(from_controller_id),
+                    name(to_controller_id)
+                );
+            }
+            Some(ServoEvent::Command { pan, tilt, .. }) => self.last_pan_tilt = (pan, tilt),
+            None => {}
+        }
+    }
+
+    fn on_controller_event(&mut self, at: Instant, line: &EventLine) {
+        let stamp = self.stamp(at);
+        let entry = self.seen.entry(line.id).or_default();
+        match &line.event {
+            Event::Status { status } => {
+                let changed =
+                    entry.phase != Some(status.report.phase) || entry.role != status.report.role;
+                entry.phase = Some(status.report.phase);
+                entry.role = status.report.role;
+                entry.strength = status.report.strength;
+                if changed {
+                    let role = status
+                        .report
+                        .role
+                        .map(|r| format!("{r} ({})", status.report.strength.unwrap_or(0)))
+                        .unwrap_or_else(|| "no role".into());
+                    println!("{stamp} C{}: {} {role}", line.id, status.report.phase);
+                }
+            }
+            Event::Alarm {
+                about,
+                reason,
+                raised,
+            } => {
+                let what = if *raised { "raises" } else { "clears" };
+                println!(
+                    "{stamp} C{}: {what} alarm for C{about} ({reason:?})",
+                    line.id
+                );
+            }
+            Event::Output { strength, .. } => entry.strength = *strength,
+            _ => {}
+        }
+    }
+
+    /// A controller the demo did not kill must still run.
+    fn check_controllers(&mut self) -> Result<(), DemoError> {
+        let running: Vec<ControllerId> = self.fleet.running().collect();
+        for id in running {
+            if let Ok(Some(status)) = self.fleet.exit_status(id) {
+                return Err(DemoError::ControllerExited {
+                    id,
+                    status,
+                    last_words: self.last_stderr.get(&format!("C{id}")).cloned(),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Kills the Primary once the system has been settled `--kill-every-s`, restarts it after
+    /// `--down-s`; `Ok(false)` when `--cycles` are done.
+    fn follow_schedule(&mut self, now: Instant) -> Result<bool, crate::Error> {
+        let steady = self
+            .seen
+            .values()
+            .filter(|s| s.phase == Some(Phase::Steady))
+            .count();
+        if steady == 3 && self.owner.is_some() && self.killed.is_none() {
+            self.settled_since.get_or_insert(now);
+        } else {
+            self.settled_since = None;
+        }
+        if let Some((id, at)) = self.killed {
+            if now.duration_since(at) >= Duration::from_secs(self.args.down_s) {
+                println!("{} restart C{id}", self.stamp(now));
+                self.start_controller(id)?;
+                self.killed = None;
+                self.cycles += 1;
+            }
+            return Ok(true);
+        }
+        let kill_due = self.settled_since.is_some_and(|since| {
+            now.duration_since(since) >= Duration::from_secs(self.args.kill_every_s)
+        });
+        if !kill_due {
+            return Ok(true);
+        }
+        if self.args.cycles > 0 && self.cycles >= self.args.cycles {
+            return Ok(false);
+        }
+        let primary = self
+            .seen
+            .iter()
+            .find(|(_, s)| s.role == Some(Role::Primary))
+            .map(|(id, _)| *id);
+        if let Some(id) = primary {
+            println!("{} kill -9 C{id} (the Primary)", self.stamp(now));
+            self.fleet
+                .kill(id)
+                .map_err(|e| crate::Error::io("killing a controller", e))?;
+            self.seen.remove(&id);
+            self.killed = Some((id, now));
+        }
+        Ok(true)
+    }
+
+    /// `roles P=C1 S=C2 T=C3 | servo owner C1 | pan .. tilt ..`, every 2 s.
+    fn print_roles_every_2_s(&mut self, now: Instant) {
+        if now < self.next_summary {
+            return;
+        }
+        self.next_summary = now + Duration::from_secs(2);
+        let name = |id: Option<ControllerId>| id.map(|i| format!("C{i}")).unwrap_or("-".into());
+        let roles: Vec<String> = Role::ALL
+            .iter()
+            .map(|role| {
+                let holder = self
+                    .seen
+                    .iter()
+                    .find(|(_, s)| s.role == Some(*role))
+                    .map(|(id, _)| *id);
+                format!("{}={}", &role.name()[..1].to_uppercase(), name(holder))
+            })
+            .collect();
+        println!(
+            "{} roles {} | servo owner {} | pan {} tilt {}",
+            self.stamp(now),
+            roles.join(" "),
+            name(self.owner),
+            self.last_pan_tilt.0,
+            self.last_pan_tilt.1
+        );
+    }
 }

@@ -22,6 +22,12 @@ pub enum Error {
     /// `RL_MUTATION` names no mutation (a `mutation` build only).
     #[error("RL_MUTATION={name} is not a mutation; known: {known}")]
     Mutation { name: String, known: String },
+    /// A benchmark failed, or measured failed kills or formations.
+    #[error(transparent)]
+    Bench(#[from] crate::bench::BenchError),
+    /// The demo stopped early.
+    #[error(transparent)]
+    Demo(#[from] crate::demo::DemoError),
     /// Anything else that ends a command.
     #[error("{0}")]
     Runtime(String),

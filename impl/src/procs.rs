@@ -5,7 +5,7 @@ use crate::core::types::ControllerId;
 use std::collections::BTreeMap;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::mpsc::{self, Receiver};
 use std::time::Instant;
 
@@ -148,8 +148,19 @@ impl Fleet {
         self.controllers.get(&id).map(Child::id)
     }
 
+    /// The ids of the controllers started and not killed (some may have exited since:
+    /// [`Fleet::exit_status`] tells).
     pub fn running(&self) -> impl Iterator<Item = ControllerId> + '_ {
         self.controllers.keys().copied()
+    }
+
+    /// How controller `id` ended, if it has (`None` while it runs or when it was never
+    /// started).
+    pub fn exit_status(&mut self, id: ControllerId) -> std::io::Result<Option<ExitStatus>> {
+        match self.controllers.get_mut(&id) {
+            Some(child) => child.try_wait(),
+            None => Ok(None),
+        }
     }
 
     /// `kill -9` and reap.

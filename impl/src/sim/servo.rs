@@ -28,7 +28,8 @@
 use crate::arbiter::Arbiter;
 use crate::config::Config;
 use crate::core::types::ControllerId;
-use crate::dds::{guid_hex, mio, ControllerDirectory, Session, GUID};
+use crate::dds::{guid_hex, mio, ControllerDirectory, Reader, Received, Session, GUID};
+use crate::wire::{HeartbeatSample, ServoControl};
 use crate::Error;
 use serde::Serialize;
 use std::collections::{BTreeMap, BTreeSet};
@@ -185,17 +186,6 @@ pub fn run(args: ServoArgs) -> Result<(), Error> {
     let config = load_config(args.config.as_ref(), args.domain)?;
     let stop = stop_flag()?;
     let session = Session::new(&config.dds, &config.timing).map_err(dds_error)?;
-    let mut commands = session.command_reader().map_err(dds_error)?;
-    let mut heartbeats = session.heartbeat_reader().map_err(dds_error)?;
-    let poll = mio::Poll::new().map_err(|e| Error::io("creating a poll", e))?;
-    for (reader, token) in [
-        (&commands as &dyn mio::Evented, COMMANDS),
-        (&heartbeats as &dyn mio::Evented, HEARTBEATS),
-    ] {
-        poll.register(reader, token, mio::Ready::readable(), mio::PollOpt::edge())
-            .map_err(|e| Error::io("registering a DDS reader", e))?;
-    }
-
     let output = Output { json: args.json };
     let deadline_ms = config.timing.command_deadline_ms;
     if !output.json {
@@ -204,132 +194,206 @@ pub fn run(args: ServoArgs) -> Result<(), Error> {
             config.dds.command_topic, config.dds.domain
         ))?;
     }
-
-    let start = Instant::now();
-    let now_ms = || u64::try_from(start.elapsed().as_millis()).unwrap_or(u64::MAX);
-    let mut arbiter: Arbiter<GUID> = Arbiter::new(deadline_ms);
-    let mut writers = Writers {
-        strengths: BTreeMap::new(),
-        unknown_warned: BTreeSet::new(),
-        directory: ControllerDirectory::new(),
-        last_refresh_ms: None,
-    };
-    let mut accepted_count: u64 = 0;
-    let mut rejected_count: u64 = 0;
-    let mut last_summary_ms = 0;
-    let mut last_command = None;
-    let mut events = mio::Events::with_capacity(16);
-
+    let mut servo = Servo::open(&session, output, deadline_ms)?;
     while !stop.load(Ordering::Relaxed) {
-        if args.duration_ms.is_some_and(|limit| now_ms() >= limit) {
+        if args
+            .duration_ms
+            .is_some_and(|limit| servo.now_ms() >= limit)
+        {
             break;
         }
-        match poll.poll(&mut events, Some(Duration::from_millis(POLL_TIMEOUT_MS))) {
-            Ok(_) => {}
-            Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
-            Err(e) => return Err(Error::io("waiting for DDS", e)),
+        if !servo.wait_for_samples()? {
+            continue;
         }
-
-        // Heartbeats first: they name the controllers of the commands that follow.
-        for heartbeat in heartbeats.take() {
-            writers.directory.note_heartbeat(&heartbeat);
-        }
-        let now = now_ms();
-        if writers.refresh_due(now, DISCOVERY_REFRESH_MS) {
-            for lost in writers.refresh(&session, now) {
-                arbiter.writer_lost(lost);
-            }
-        }
-
-        for command in commands.take() {
-            let now = now_ms();
-            let writer = command.writer;
-            if !writers.strengths.contains_key(&writer)
-                && writers.refresh_due(now, UNKNOWN_WRITER_REFRESH_MS)
-            {
-                for lost in writers.refresh(&session, now) {
-                    arbiter.writer_lost(lost);
-                }
-            }
-            let strength = match writers.strengths.get(&writer) {
-                Some(strength) => *strength,
-                None => {
-                    if writers.unknown_warned.insert(writer) {
-                        tracing::warn!(
-                            writer = %guid_hex(writer),
-                            "command from a writer not yet discovered: strength 0 until it is"
-                        );
-                    }
-                    0
-                }
-            };
-            let decision = arbiter.offer(writer, strength, now);
-            if let Some(change) = decision.owner_changed {
-                let event = ServoEvent::OwnerChanged {
-                    t_ms: now,
-                    from_controller_id: change.from.and_then(|w| writers.controller(w)),
-                    to_controller_id: writers.controller(change.to),
-                    gap_ms: change.gap_ms,
-                    from_writer_guid: change.from.map(guid_hex),
-                    to_writer_guid: guid_hex(change.to),
-                    strength,
-                };
-                let printed = if output.json {
-                    output.event(&event)?
-                } else {
-                    output.line(&describe_change(&event))?
-                };
-                if !printed {
-                    return Ok(());
-                }
-            }
-            if !decision.accepted {
-                rejected_count += 1;
-                continue;
-            }
-            accepted_count += 1;
-            last_command = Some(command.value);
-            if output.json {
-                let event = ServoEvent::Command {
-                    t_ms: now,
-                    writer_guid: guid_hex(writer),
-                    controller_id: writers.controller(writer),
-                    strength,
-                    pan: command.value.pan,
-                    tilt: command.value.tilt,
-                    frequency: command.value.frequency,
-                };
-                if !output.event(&event)? {
-                    return Ok(());
-                }
-            }
-        }
-
-        let now = now_ms();
-        if !output.json && now.saturating_sub(last_summary_ms) >= SUMMARY_PERIOD_MS {
-            last_summary_ms = now;
-            let owner = match arbiter.owner(now) {
-                Some(writer) => format!(
-                    "{} at strength {}",
-                    controller_name(writers.controller(writer), writer),
-                    arbiter.strength_of(writer).unwrap_or(0)
-                ),
-                None => "none".to_string(),
-            };
-            let position = match last_command {
-                Some(c) => format!("pan {} tilt {}", c.pan, c.tilt),
-                None => "no command yet".to_string(),
-            };
-            let line = format!(
-                "servo: owner {owner}; {position}; {accepted_count} commands accepted, \
-                 {rejected_count} ignored (weaker writers)"
-            );
-            if !output.line(&line)? {
-                return Ok(());
-            }
+        if !servo.take_samples(&session)? || !servo.maybe_summarize()? {
+            // stdout is gone: the consumer exited.
+            return Ok(());
         }
     }
     Ok(())
+}
+
+/// The running simulator: its readers, the arbiter and what it has counted.
+struct Servo {
+    commands: Reader<ServoControl>,
+    heartbeats: Reader<HeartbeatSample>,
+    poll: mio::Poll,
+    events: mio::Events,
+    output: Output,
+    arbiter: Arbiter<GUID>,
+    writers: Writers,
+    start: Instant,
+    accepted_count: u64,
+    rejected_count: u64,
+    last_summary_ms: u64,
+    last_command: Option<ServoControl>,
+}
+
+impl Servo {
+    /// Creates the readers and registers them with a poll.
+    fn open(session: &Session, output: Output, deadline_ms: u64) -> Result<Servo, Error> {
+        let commands = session.command_reader().map_err(dds_error)?;
+        let heartbeats = session.heartbeat_reader().map_err(dds_error)?;
+        let poll = mio::Poll::new().map_err(|e| Error::io("creating a poll", e))?;
+        for (reader, token) in [
+            (&commands as &dyn mio::Evented, COMMANDS),
+            (&heartbeats as &dyn mio::Evented, HEARTBEATS),
+        ] {
+            poll.register(reader, token, mio::Ready::readable(), mio::PollOpt::edge())
+                .map_err(|e| Error::io("registering a DDS reader", e))?;
+        }
+        Ok(Servo {
+            commands,
+            heartbeats,
+            poll,
+            events: mio::Events::with_capacity(16),
+            output,
+            arbiter: Arbiter::new(deadline_ms),
+            writers: Writers {
+                strengths: BTreeMap::new(),
+                unknown_warned: BTreeSet::new(),
+                directory: ControllerDirectory::new(),
+                last_refresh_ms: None,
+            },
+            start: Instant::now(),
+            accepted_count: 0,
+            rejected_count: 0,
+            last_summary_ms: 0,
+            last_command: None,
+        })
+    }
+
+    /// Milliseconds since the servo started.
+    fn now_ms(&self) -> u64 {
+        u64::try_from(self.start.elapsed().as_millis()).unwrap_or(u64::MAX)
+    }
+
+    /// Waits for samples, at most [`POLL_TIMEOUT_MS`]; `false` when a signal interrupted it.
+    fn wait_for_samples(&mut self) -> Result<bool, Error> {
+        let timeout = Some(Duration::from_millis(POLL_TIMEOUT_MS));
+        match self.poll.poll(&mut self.events, timeout) {
+            Ok(_) => Ok(true),
+            Err(e) if e.kind() == io::ErrorKind::Interrupted => Ok(false),
+            Err(e) => Err(Error::io("waiting for DDS", e)),
+        }
+    }
+
+    /// Re-reads discovery and tells the arbiter of writers that are gone.
+    fn refresh_writers(&mut self, session: &Session, now: u64) {
+        for lost in self.writers.refresh(session, now) {
+            self.arbiter.writer_lost(lost);
+        }
+    }
+
+    /// Heartbeats, discovery, then commands; `Ok(false)` when stdout is gone.
+    fn take_samples(&mut self, session: &Session) -> Result<bool, Error> {
+        // Heartbeats first: they name the controllers of the commands that follow.
+        for heartbeat in self.heartbeats.take() {
+            self.writers.directory.note_heartbeat(&heartbeat);
+        }
+        let now = self.now_ms();
+        if self.writers.refresh_due(now, DISCOVERY_REFRESH_MS) {
+            self.refresh_writers(session, now);
+        }
+        for command in self.commands.take() {
+            if !self.offer(session, command)? {
+                return Ok(false);
+            }
+        }
+        Ok(true)
+    }
+
+    /// The strength `writer` announced; discovery is re-read for a writer not yet known, and
+    /// one still unknown is offered at 0 (warned once).
+    fn strength_of(&mut self, session: &Session, writer: GUID, now: u64) -> i32 {
+        if !self.writers.strengths.contains_key(&writer)
+            && self.writers.refresh_due(now, UNKNOWN_WRITER_REFRESH_MS)
+        {
+            self.refresh_writers(session, now);
+        }
+        if let Some(strength) = self.writers.strengths.get(&writer) {
+            return *strength;
+        }
+        if self.writers.unknown_warned.insert(writer) {
+            tracing::warn!(
+                writer = %guid_hex(writer),
+                "command from a writer not yet discovered: strength 0 until it is"
+            );
+        }
+        0
+    }
+
+    /// Offers one command to the arbiter and prints what changed; `Ok(false)` when stdout is
+    /// gone.
+    fn offer(&mut self, session: &Session, command: Received<ServoControl>) -> Result<bool, Error> {
+        let now = self.now_ms();
+        let writer = command.writer;
+        let strength = self.strength_of(session, writer, now);
+        let decision = self.arbiter.offer(writer, strength, now);
+        if let Some(change) = decision.owner_changed {
+            let event = ServoEvent::OwnerChanged {
+                t_ms: now,
+                from_controller_id: change.from.and_then(|w| self.writers.controller(w)),
+                to_controller_id: self.writers.controller(change.to),
+                gap_ms: change.gap_ms,
+                from_writer_guid: change.from.map(guid_hex),
+                to_writer_guid: guid_hex(change.to),
+                strength,
+            };
+            let printed = if self.output.json {
+                self.output.event(&event)?
+            } else {
+                self.output.line(&describe_change(&event))?
+            };
+            if !printed {
+                return Ok(false);
+            }
+        }
+        if !decision.accepted {
+            self.rejected_count += 1;
+            return Ok(true);
+        }
+        self.accepted_count += 1;
+        self.last_command = Some(command.value);
+        if !self.output.json {
+            return Ok(true);
+        }
+        self.output.event(&ServoEvent::Command {
+            t_ms: now,
+            writer_guid: guid_hex(writer),
+            controller_id: self.writers.controller(writer),
+            strength,
+            pan: command.value.pan,
+            tilt: command.value.tilt,
+            frequency: command.value.frequency,
+        })
+    }
+
+    /// The human summary line every [`SUMMARY_PERIOD_MS`] (not with `--json`); `Ok(false)`
+    /// when stdout is gone.
+    fn maybe_summarize(&mut self) -> Result<bool, Error> {
+        let now = self.now_ms();
+        if self.output.json || now.saturating_sub(self.last_summary_ms) < SUMMARY_PERIOD_MS {
+            return Ok(true);
+        }
+        self.last_summary_ms = now;
+        let owner = match self.arbiter.owner(now) {
+            Some(writer) => format!(
+                "{} at strength {}",
+                controller_name(self.writers.controller(writer), writer),
+                self.arbiter.strength_of(writer).unwrap_or(0)
+            ),
+            None => "none".to_string(),
+        };
+        let position = match self.last_command {
+            Some(c) => format!("pan {} tilt {}", c.pan, c.tilt),
+            None => "no command yet".to_string(),
+        };
+        self.output.line(&format!(
+            "servo: owner {owner}; {position}; {} commands accepted, {} ignored (weaker writers)",
+            self.accepted_count, self.rejected_count
+        ))
+    }
 }
 
 fn controller_name(controller: Option<ControllerId>, writer: GUID) -> String {

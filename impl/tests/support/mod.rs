@@ -33,6 +33,9 @@ pub struct Cluster {
     pub events: Vec<(Instant, EventLine)>,
     /// Everything the children printed, for failure reports.
     pub transcript: Vec<String>,
+    /// Every line as `(source, text)`, terminal colours removed; stderr's source ends in `!`
+    /// (`C1!`).
+    pub lines_seen: Vec<(String, String)>,
     _dir: tempdir::Dir,
 }
 
@@ -74,6 +77,7 @@ impl Cluster {
             servo: Vec::new(),
             events: Vec::new(),
             transcript: Vec::new(),
+            lines_seen: Vec::new(),
             _dir: dir,
         }
     }
@@ -112,6 +116,8 @@ impl Cluster {
         let t = line.at.duration_since(self.started).as_millis();
         self.transcript
             .push(format!("{t:>6} ms {:>7}: {}", line.source, line.text));
+        self.lines_seen
+            .push((line.source.clone(), without_terminal_colours(&line.text)));
         if line.source == "servo" {
             if let Some(event) = parse_servo_event(&line.text) {
                 self.servo.push((line.at, event));
@@ -122,6 +128,14 @@ impl Cluster {
             }
             self.events.push((line.at, event));
         }
+    }
+
+    /// The lines `source` printed so far (`C1!` for controller 1's stderr).
+    pub fn lines_from<'a>(&'a self, source: &'a str) -> impl Iterator<Item = &'a str> + 'a {
+        self.lines_seen
+            .iter()
+            .filter(move |(from, _)| from == source)
+            .map(|(_, text)| text.as_str())
     }
 
     /// Waits until `done` holds, at most `timeout`; panics with `what` and the transcript.
@@ -193,6 +207,24 @@ impl Cluster {
             _ => None,
         })?
     }
+}
+
+/// `text` without ANSI escape sequences (`ESC [ ... letter`).
+pub fn without_terminal_colours(text: &str) -> String {
+    let mut plain = String::with_capacity(text.len());
+    let mut chars = text.chars();
+    while let Some(c) = chars.next() {
+        if c == '\u{1b}' {
+            for c in chars.by_ref() {
+                if c.is_ascii_alphabetic() {
+                    break;
+                }
+            }
+        } else {
+            plain.push(c);
+        }
+    }
+    plain
 }
 
 impl Drop for Cluster {

@@ -1,0 +1,281 @@
+//! Failover: `kill -9` of the Primary, repeatedly, at one command deadline. Each kill lands
+//! at a seeded random phase of the heartbeat round (promotion depends on it: the survivors
+//! decide at round boundaries). Measured per kill: the command gap at the servo and the time
+//! to the Secondary's promotion; then the killed controller is restarted and the next kill
+//! waits until all three are steady again.
+
+use super::stats::{SplitMix64, Summary};
+use super::watch::Watch;
+use super::{BenchError, Setup};
+use crate::core::{ControllerId, Role};
+use crate::procs::{wall_ms, Fleet};
+use serde::Serialize;
+use std::time::{Duration, Instant};
+
+/// The reader that measures the command gap: `rl servo`, whose arbiter applies exclusive
+/// ownership with the command deadline (`owner_changed.gap_ms`).
+pub const GAP_READER: &str = "rl servo (arbiter)";
+
+/// How long a formation, a promotion or a rejoin may take before it counts as failed.
+const FORMATION_TIMEOUT: Duration = Duration::from_secs(20);
+const PROMOTION_TIMEOUT: Duration = Duration::from_secs(10);
+const REJOIN_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// Why a kill did not give its figures, or left the fleet broken.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum KillFailure {
+    /// Before the kill, no steady Primary and Secondary to kill and promote.
+    NoPrimaryAndSecondary,
+    /// The Secondary did not command at 30 within the timeout.
+    NotPromoted,
+    /// The servo reported no owner change away from the killed Primary.
+    NoSwitchAtServo,
+    /// The servo followed another controller than the Secondary.
+    SwitchedPastTheSecondary,
+    /// The restarted controller and the others were not all steady within the timeout.
+    NotRejoined,
+}
+
+/// One kill and what it measured.
+#[derive(Clone, Debug, Serialize)]
+pub struct KillSample {
+    /// 1-based.
+    pub kill: u32,
+    pub killed: Option<ControllerId>,
+    /// Milliseconds into the heartbeat round (wall clock) when the kill was sent.
+    pub phase_ms: Option<u64>,
+    pub gap_ms: Option<u64>,
+    /// The controller the servo followed next (the Secondary, unless something is wrong).
+    pub switched_to: Option<ControllerId>,
+    /// From the kill to the Secondary's `output` event at strength 30.
+    pub promotion_ms: Option<u64>,
+    pub failure: Option<KillFailure>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct FailoverResult {
+    pub deadline_ms: u64,
+    pub command_republish_ms: u64,
+    /// Who measured `gap_ms`.
+    pub gap_reader: &'static str,
+    pub gap_ms: Summary,
+    pub gap_over_deadline_p50: f64,
+    pub gap_over_deadline_p99: f64,
+    pub promotion_ms: Summary,
+    pub promotion_over_period_p50: f64,
+    pub promotion_over_period_p99: f64,
+    pub kills: u32,
+    pub failed_kills: u32,
+    pub samples: Vec<KillSample>,
+}
+
+impl FailoverResult {
+    fn of(deadline_ms: u64, republish_ms: u64, period_ms: u64, samples: Vec<KillSample>) -> Self {
+        let gap = Summary::of_measured(samples.iter().map(|s| s.gap_ms));
+        let promotion = Summary::of_measured(samples.iter().map(|s| s.promotion_ms));
+        let period = period_ms.max(1) as f64;
+        FailoverResult {
+            deadline_ms,
+            command_republish_ms: republish_ms,
+            gap_reader: GAP_READER,
+            gap_over_deadline_p50: gap.p50 / deadline_ms.max(1) as f64,
+            gap_over_deadline_p99: gap.p99 / deadline_ms.max(1) as f64,
+            gap_ms: gap,
+            promotion_over_period_p50: promotion.p50 / period,
+            promotion_over_period_p99: promotion.p99 / period,
+            promotion_ms: promotion,
+            kills: samples.len() as u32,
+            failed_kills: samples.iter().filter(|s| s.failure.is_some()).count() as u32,
+            samples,
+        }
+    }
+}
+
+/// Kills the Primary `kills` times at command deadline `deadline_ms`, each at a phase drawn
+/// from `phases`.
+pub fn failover(
+    setup: &Setup,
+    deadline_ms: u64,
+    kills: u32,
+    phases: &mut SplitMix64,
+) -> Result<FailoverResult, BenchError> {
+    // The next writer's first sample lands up to one re-publish period after the deadline:
+    // re-publishing at a tenth of the deadline keeps the gap within 1.1 x the deadline.
+    let republish_ms = (deadline_ms / 10).max(1);
+    let config = setup.write_config(
+        &format!("failover-{deadline_ms}.toml"),
+        &format!(
+            "[timing]\ninit_window_ms = 1000\ncommand_deadline_ms = {deadline_ms}\ncommand_republish_ms = {republish_ms}\n"
+        ),
+    )?;
+    let (mut fleet, mut watch) = setup.fleet(&config);
+    fleet
+        .start_other("servo", &["servo", "--json"])
+        .map_err(BenchError::spawn)?;
+    for id in 1..=3 {
+        setup.start_controller(&mut fleet, id)?;
+    }
+    let formed = |w: &Watch| w.all_steady(&[1, 2, 3]) && w.owner.is_some();
+    if !watch.wait(FORMATION_TIMEOUT, formed) {
+        return Err(BenchError::NoFormation {
+            run: format!("failover run at deadline {deadline_ms} ms"),
+            timeout_s: FORMATION_TIMEOUT.as_secs(),
+        });
+    }
+    let period_ms = setup.heartbeat_period_ms;
+    let mut samples = Vec::new();
+    for kill in 1..=kills {
+        let phase_ms = phases.below(period_ms);
+        let sample = kill_once(setup, &mut fleet, &mut watch, kill, phase_ms)?;
+        eprintln!(
+            "deadline {deadline_ms} ms, kill {kill}/{kills}: C{} killed {} ms into the round, gap {:?} ms ({GAP_READER}), promotion {:?} ms{}",
+            sample.killed.map_or("-".into(), |id| id.to_string()),
+            sample.phase_ms.map_or("-".into(), |p| p.to_string()),
+            sample.gap_ms,
+            sample.promotion_ms,
+            sample
+                .failure
+                .map(|f| format!(", FAILED: {f:?}"))
+                .unwrap_or_default()
+        );
+        samples.push(sample);
+    }
+    fleet.stop_all();
+    Ok(FailoverResult::of(
+        deadline_ms,
+        republish_ms,
+        period_ms,
+        samples,
+    ))
+}
+
+/// The next instant the wall clock is `phase_ms` into a heartbeat round (controllers' rounds
+/// start at multiples of the period on the wall clock).
+fn next_phase(phase_ms: u64, period_ms: u64) -> Instant {
+    Instant::now() + Duration::from_millis(ms_until_phase(wall_ms(), phase_ms, period_ms))
+}
+
+/// From wall-clock `now_ms`, the wait until `phase_ms` into a round of `period_ms`
+/// (`0..period_ms`).
+fn ms_until_phase(now_ms: u64, phase_ms: u64, period_ms: u64) -> u64 {
+    let period_ms = period_ms.max(1);
+    (phase_ms % period_ms + period_ms - now_ms % period_ms) % period_ms
+}
+
+/// One kill of the Primary at `phase_ms` into a round, its measurements, the restart and the
+/// wait for all three steady.
+fn kill_once(
+    setup: &Setup,
+    fleet: &mut Fleet,
+    watch: &mut Watch,
+    kill: u32,
+    phase_ms: u64,
+) -> Result<KillSample, BenchError> {
+    let mut sample = KillSample {
+        kill,
+        killed: None,
+        phase_ms: None,
+        gap_ms: None,
+        switched_to: None,
+        promotion_ms: None,
+        failure: None,
+    };
+    watch.pump(Duration::from_millis(500));
+    let (Some(primary), Some(secondary)) =
+        (watch.holder(Role::Primary), watch.holder(Role::Secondary))
+    else {
+        sample.failure = Some(KillFailure::NoPrimaryAndSecondary);
+        return Ok(sample);
+    };
+    watch.pump_until(next_phase(phase_ms, setup.heartbeat_period_ms));
+    let changes_before = watch.owner_changes.len();
+    let outputs_before = watch.outputs.len();
+    let killed_ms = wall_ms();
+    fleet
+        .kill(primary)
+        .map_err(|source| BenchError::io(format!("kill -9 of controller {primary}"), source))?;
+    sample.killed = Some(primary);
+    sample.phase_ms = Some(killed_ms % setup.heartbeat_period_ms.max(1));
+    watch.status.remove(&primary);
+    let promoted_at = |w: &Watch| {
+        w.outputs[outputs_before..]
+            .iter()
+            .find(|o| o.id == secondary && o.strength == Some(Role::Primary.strength()))
+            .map(|o| o.t_ms)
+    };
+    let switched = |w: &Watch| {
+        w.owner_changes[changes_before..]
+            .iter()
+            .find(|c| c.from == Some(primary))
+            .copied()
+    };
+    watch.wait(PROMOTION_TIMEOUT, |w| {
+        promoted_at(w).is_some() && switched(w).is_some()
+    });
+    sample.promotion_ms = promoted_at(watch).map(|t| t.saturating_sub(killed_ms));
+    let switch = switched(watch);
+    sample.gap_ms = switch.and_then(|c| c.gap_ms);
+    sample.switched_to = switch.and_then(|c| c.to);
+    sample.failure = if sample.promotion_ms.is_none() {
+        Some(KillFailure::NotPromoted)
+    } else if sample.gap_ms.is_none() {
+        Some(KillFailure::NoSwitchAtServo)
+    } else if sample.switched_to != Some(secondary) {
+        Some(KillFailure::SwitchedPastTheSecondary)
+    } else {
+        None
+    };
+    setup.start_controller(fleet, primary)?;
+    if !watch.wait(REJOIN_TIMEOUT, |w| w.all_steady(&[1, 2, 3])) {
+        sample.failure = sample.failure.or(Some(KillFailure::NotRejoined));
+    }
+    Ok(sample)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample(gap_ms: Option<u64>, failure: Option<KillFailure>) -> KillSample {
+        KillSample {
+            kill: 1,
+            killed: Some(1),
+            phase_ms: Some(10),
+            gap_ms,
+            switched_to: Some(2),
+            promotion_ms: gap_ms.map(|g| g * 8),
+            failure,
+        }
+    }
+
+    #[test]
+    fn failed_kills_are_counted_and_their_missing_figures_left_out() {
+        let result = FailoverResult::of(
+            100,
+            10,
+            250,
+            vec![
+                sample(Some(100), None),
+                sample(None, Some(KillFailure::NotPromoted)),
+                sample(Some(110), Some(KillFailure::NotRejoined)),
+            ],
+        );
+        assert_eq!((result.kills, result.failed_kills), (3, 2));
+        assert_eq!(result.gap_ms.count, 2);
+        assert_eq!(result.gap_over_deadline_p99, 1.1);
+        assert_eq!(result.promotion_over_period_p50, 3.2);
+        assert_eq!(result.gap_reader, "rl servo (arbiter)");
+    }
+
+    #[test]
+    fn a_kill_waits_for_its_phase_of_the_round() {
+        assert_eq!(ms_until_phase(1000, 10, 250), 10);
+        assert_eq!(ms_until_phase(1010, 10, 250), 0);
+        assert_eq!(ms_until_phase(1011, 10, 250), 249);
+        assert_eq!(ms_until_phase(1249, 0, 250), 1);
+        for now_ms in 5000..5250 {
+            assert_eq!((now_ms + ms_until_phase(now_ms, 137, 250)) % 250, 137);
+        }
+    }
+}

@@ -1,0 +1,71 @@
+//! The benchmark's human-readable report: one line per figure, every command gap naming the
+//! reader that measured it.
+
+use super::stats::Summary;
+use super::BenchResult;
+use std::io::Write;
+
+fn summary(x: &Summary) -> String {
+    format!(
+        "n={} min {:.0} p50 {:.0} p99 {:.0} max {:.0}",
+        x.count, x.min, x.p50, x.p99, x.max
+    )
+}
+
+/// Writes the report; a closed output is not an error worth more than the figures.
+pub fn write_report(out: &mut impl Write, result: &BenchResult) -> std::io::Result<()> {
+    writeln!(
+        out,
+        "rl bench (seed {}, {} cores): heartbeat period {} ms",
+        result.seed, result.cores, result.heartbeat_period_ms
+    )?;
+    for f in &result.failover {
+        writeln!(
+            out,
+            "failover @ deadline {} ms (re-publish {} ms): command gap at {}, ms: {}; p50/deadline {:.2}, p99/deadline {:.2}",
+            f.deadline_ms,
+            f.command_republish_ms,
+            f.gap_reader,
+            summary(&f.gap_ms),
+            f.gap_over_deadline_p50,
+            f.gap_over_deadline_p99
+        )?;
+        writeln!(
+            out,
+            "    promotion of the Secondary to 30 (kill to its output event), ms: {}; p50 {:.2} periods, p99 {:.2} periods",
+            summary(&f.promotion_ms),
+            f.promotion_over_period_p50,
+            f.promotion_over_period_p99
+        )?;
+        writeln!(out, "    failed kills: {} of {}", f.failed_kills, f.kills)?;
+    }
+    let formation = &result.formation;
+    writeln!(
+        out,
+        "formation after the third controller's start, Primary at 30, ms: {}",
+        summary(&formation.primary_ms)
+    )?;
+    writeln!(
+        out,
+        "formation, all three steady, ms: {}",
+        summary(&formation.all_steady_ms)
+    )?;
+    writeln!(
+        out,
+        "formation after the third controller's first heartbeat heard, Primary at 30, ms: {}; p50 {:.2} periods",
+        summary(&formation.primary_after_first_heartbeat_ms),
+        formation.primary_after_first_heartbeat_over_period_p50
+    )?;
+    writeln!(
+        out,
+        "    failed formations: {} of {}",
+        formation.failed_formations, formation.runs
+    )?;
+    writeln!(
+        out,
+        "controller resources over {} s: max RSS {} kB, CPU {:.2}% of one core",
+        result.resources.seconds,
+        result.resources.rss_kb_max,
+        result.resources.cpu_percent_of_one_core
+    )
+}

@@ -1,0 +1,106 @@
+//! Resources: RSS and CPU of one controller at 4 Hz heartbeats and 30 Hz commands (the
+//! camera simulator at 30 Hz), read from `/proc`.
+
+use super::{BenchError, Setup};
+use serde::Serialize;
+use std::time::{Duration, Instant};
+
+/// The controller measured.
+const MEASURED: crate::core::ControllerId = 1;
+
+#[derive(Clone, Debug, Serialize)]
+pub struct ResourceResult {
+    pub rss_kb_max: u64,
+    pub cpu_percent_of_one_core: f64,
+    pub seconds: u64,
+}
+
+/// utime + stime of a process, in clock ticks, and its resident set in kB.
+fn proc_usage(pid: u32) -> Result<(u64, u64), BenchError> {
+    let unreadable = || BenchError::ProcUnreadable { pid };
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).map_err(|_| unreadable())?;
+    let status =
+        std::fs::read_to_string(format!("/proc/{pid}/status")).map_err(|_| unreadable())?;
+    parse_usage(&stat, &status).ok_or_else(unreadable)
+}
+
+/// `(utime + stime, VmRSS kB)` from the text of `/proc/<pid>/stat` and `/proc/<pid>/status`.
+fn parse_usage(stat: &str, status: &str) -> Option<(u64, u64)> {
+    // Fields after the command name (which may contain spaces) start after the last ')'.
+    let after = stat.rsplit_once(')')?.1;
+    let fields: Vec<&str> = after.split_whitespace().collect();
+    let ticks = fields.get(11)?.parse::<u64>().ok()? + fields.get(12)?.parse::<u64>().ok()?;
+    let rss_kb = status
+        .lines()
+        .find(|l| l.starts_with("VmRSS:"))?
+        .split_whitespace()
+        .nth(1)?
+        .parse()
+        .ok()?;
+    Some((ticks, rss_kb))
+}
+
+fn ticks_per_second() -> f64 {
+    // SAFETY: sysconf has no memory effects.
+    let ticks = unsafe { libc::sysconf(libc::_SC_CLK_TCK) };
+    if ticks > 0 {
+        ticks as f64
+    } else {
+        100.0
+    }
+}
+
+pub fn resources(setup: &Setup, seconds: u64) -> Result<ResourceResult, BenchError> {
+    // 30 Hz commands: the camera at 30 Hz, re-publishing no faster.
+    let config = setup.write_config(
+        "resources.toml",
+        "[timing]\ninit_window_ms = 1000\ncommand_republish_ms = 34\n",
+    )?;
+    let (mut fleet, mut watch) = setup.fleet(&config);
+    fleet
+        .start_other("camera", &["shapes", "--rate-hz", "30"])
+        .map_err(BenchError::spawn)?;
+    for id in 1..=3 {
+        setup.start_controller(&mut fleet, id)?;
+    }
+    if !watch.wait(Duration::from_secs(20), |w| w.all_steady(&[1, 2, 3])) {
+        return Err(BenchError::NoFormation {
+            run: "resource run".into(),
+            timeout_s: 20,
+        });
+    }
+    watch.pump(Duration::from_secs(1));
+    let pid = fleet
+        .pid(MEASURED)
+        .ok_or(BenchError::NotRunning { id: MEASURED })?;
+    let (ticks_before, mut rss_max) = proc_usage(pid)?;
+    let started = Instant::now();
+    while started.elapsed() < Duration::from_secs(seconds) {
+        watch.pump(Duration::from_millis(500));
+        rss_max = rss_max.max(proc_usage(pid)?.1);
+    }
+    let (ticks_after, _) = proc_usage(pid)?;
+    let cpu = ticks_after.saturating_sub(ticks_before) as f64
+        / ticks_per_second()
+        / started.elapsed().as_secs_f64();
+    fleet.stop_all();
+    Ok(ResourceResult {
+        rss_kb_max: rss_max,
+        cpu_percent_of_one_core: cpu * 100.0,
+        seconds,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn usage_is_read_after_the_command_name() {
+        let stat = "42 (rl (x) y) S 1 2 3 4 5 6 7 8 9 10 120 30 0 0";
+        let status = "Name:\trl\nVmRSS:\t   14404 kB\n";
+        assert_eq!(parse_usage(stat, status), Some((150, 14404)));
+        assert_eq!(parse_usage("42 (rl) S 1", status), None);
+        assert_eq!(parse_usage(stat, "Name:\trl\n"), None);
+    }
+}

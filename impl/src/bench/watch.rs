@@ -1,0 +1,129 @@
+//! The benchmark's view of a running fleet, built from the children's JSON lines: each
+//! controller's last status, every `output` and `started` event, and the servo's owner
+//! changes.
+
+use crate::core::{ControllerId, Phase, Role, Status};
+use crate::event::{Event, EventLine};
+use crate::procs::{parse_servo_event, Line, ServoEvent};
+use std::collections::BTreeMap;
+use std::sync::mpsc::Receiver;
+use std::time::{Duration, Instant};
+
+/// A controller's `output` event: from `t_ms` on (its round clock) it commands at `strength`.
+#[derive(Clone, Copy, Debug)]
+pub struct Output {
+    pub id: ControllerId,
+    pub t_ms: u64,
+    pub strength: Option<u8>,
+}
+
+/// An owner change at the servo (`owner_changed`).
+#[derive(Clone, Copy, Debug)]
+pub struct OwnerChange {
+    /// Time without commands, measured by the servo's arbiter (`None` for the first owner).
+    pub gap_ms: Option<u64>,
+    pub from: Option<ControllerId>,
+    pub to: Option<ControllerId>,
+}
+
+pub struct Watch {
+    lines: Receiver<Line>,
+    pub status: BTreeMap<ControllerId, Status>,
+    pub outputs: Vec<Output>,
+    /// `(controller, t_ms)` of every `started` event.
+    pub started: Vec<(ControllerId, u64)>,
+    pub owner_changes: Vec<OwnerChange>,
+    pub owner: Option<ControllerId>,
+}
+
+impl Watch {
+    pub fn new(lines: Receiver<Line>) -> Watch {
+        Watch {
+            lines,
+            status: BTreeMap::new(),
+            outputs: Vec::new(),
+            started: Vec::new(),
+            owner_changes: Vec::new(),
+            owner: None,
+        }
+    }
+
+    /// Takes in the lines that arrive within `wait`.
+    pub fn pump(&mut self, wait: Duration) {
+        self.pump_until(Instant::now() + wait);
+    }
+
+    /// Takes in the lines that arrive until `until` (returns then, within a millisecond or so).
+    pub fn pump_until(&mut self, until: Instant) {
+        while let Ok(line) = self
+            .lines
+            .recv_timeout(until.saturating_duration_since(Instant::now()))
+        {
+            self.take(&line);
+            if Instant::now() >= until {
+                break;
+            }
+        }
+    }
+
+    fn take(&mut self, line: &Line) {
+        if line.source == "servo" {
+            if let Some(ServoEvent::OwnerChanged {
+                gap_ms,
+                from_controller_id,
+                to_controller_id,
+                ..
+            }) = parse_servo_event(&line.text)
+            {
+                self.owner = to_controller_id;
+                self.owner_changes.push(OwnerChange {
+                    gap_ms,
+                    from: from_controller_id,
+                    to: to_controller_id,
+                });
+            }
+        } else if let Some(line) = EventLine::parse(&line.text) {
+            match line.event {
+                Event::Status { status } => {
+                    self.status.insert(line.id, status);
+                }
+                Event::Output { strength, .. } => self.outputs.push(Output {
+                    id: line.id,
+                    t_ms: line.t_ms,
+                    strength,
+                }),
+                Event::Started => self.started.push((line.id, line.t_ms)),
+                _ => {}
+            }
+        }
+    }
+
+    /// Pumps until `done` holds (true) or `timeout` passes (false).
+    pub fn wait(&mut self, timeout: Duration, mut done: impl FnMut(&Watch) -> bool) -> bool {
+        let until = Instant::now() + timeout;
+        while !done(self) {
+            if Instant::now() >= until {
+                return false;
+            }
+            self.pump(Duration::from_millis(10));
+        }
+        true
+    }
+
+    /// The steady controller holding `role`.
+    pub fn holder(&self, role: Role) -> Option<ControllerId> {
+        self.status
+            .values()
+            .find(|s| s.report.phase == Phase::Steady && s.report.role == Some(role))
+            .map(|s| s.report.id)
+    }
+
+    /// Whether every one of `ids` is steady and commanding.
+    pub fn all_steady(&self, ids: &[ControllerId]) -> bool {
+        ids.iter().all(|id| {
+            self.status
+                .get(id)
+                .is_some_and(|s| s.report.phase == Phase::Steady && s.report.strength.is_some())
+        })
+    }
+}
