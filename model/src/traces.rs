@@ -13,7 +13,25 @@ use crate::{Config, RlModel};
 use serde::Serialize;
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write;
-use std::path::Path as FsPath;
+use std::path::{Path as FsPath, PathBuf};
+
+/// The trace directory or one of its files could not be read or written.
+#[derive(Debug, thiserror::Error)]
+pub enum TraceFileError {
+    /// Reading, writing, listing or removing `path` failed.
+    #[error("{}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+}
+
+fn io_error(path: &FsPath) -> impl FnOnce(std::io::Error) -> TraceFileError + '_ {
+    move |source| TraceFileError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
 
 /// Random walks added to the set, and their length.
 const WALKS: u64 = 24;
@@ -25,9 +43,14 @@ pub const FORMAT: &str = "rl-trace/1";
 /// A hash of the specification's source: a trace records which model produced it.
 pub fn model_hash() -> String {
     let sources = [
-        include_str!("protocol.rs"),
+        include_str!("protocol/mod.rs"),
+        include_str!("protocol/round.rs"),
+        include_str!("protocol/vote.rs"),
+        include_str!("protocol/agreement.rs"),
+        include_str!("protocol/minority.rs"),
         include_str!("state.rs"),
         include_str!("types.rs"),
+        include_str!("fixes.rs"),
         include_str!("config.rs"),
         include_str!("properties.rs"),
     ];
@@ -375,19 +398,21 @@ fn class_purpose(class: &TransitionClass) -> String {
 }
 
 /// Writes the set, replacing the trace files already in `dir`.
-pub fn write(set: &TraceSet, dir: &FsPath) -> Result<(), String> {
-    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+pub fn write(set: &TraceSet, dir: &FsPath) -> Result<(), TraceFileError> {
+    std::fs::create_dir_all(dir).map_err(io_error(dir))?;
     for old in existing(dir)? {
-        std::fs::remove_file(dir.join(&old)).map_err(|e| format!("{old}: {e}"))?;
+        let path = dir.join(&old);
+        std::fs::remove_file(&path).map_err(io_error(&path))?;
     }
     for (name, text) in &set.files {
-        std::fs::write(dir.join(name), text).map_err(|e| format!("{name}: {e}"))?;
+        let path = dir.join(name);
+        std::fs::write(&path, text).map_err(io_error(&path))?;
     }
     Ok(())
 }
 
 /// The files that differ between the set and `dir` (missing, extra or changed).
-pub fn compare(set: &TraceSet, dir: &FsPath) -> Result<Vec<String>, String> {
+pub fn compare(set: &TraceSet, dir: &FsPath) -> Result<Vec<String>, TraceFileError> {
     let on_disk: BTreeSet<String> = existing(dir)?.into_iter().collect();
     let generated: BTreeMap<&str, &str> = set
         .files
@@ -410,15 +435,15 @@ pub fn compare(set: &TraceSet, dir: &FsPath) -> Result<Vec<String>, String> {
     Ok(differences)
 }
 
-fn existing(dir: &FsPath) -> Result<Vec<String>, String> {
+fn existing(dir: &FsPath) -> Result<Vec<String>, TraceFileError> {
     let entries = match std::fs::read_dir(dir) {
         Ok(entries) => entries,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
-        Err(e) => return Err(format!("{}: {e}", dir.display())),
+        Err(e) => return Err(io_error(dir)(e)),
     };
     let mut names = Vec::new();
     for entry in entries {
-        let entry = entry.map_err(|e| format!("{}: {e}", dir.display()))?;
+        let entry = entry.map_err(io_error(dir))?;
         let name = entry.file_name().to_string_lossy().into_owned();
         if name.ends_with(".jsonl") || name == "index.json" {
             names.push(name);
