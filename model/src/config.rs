@@ -104,29 +104,39 @@ impl Config {
         }
     }
 
-    /// The paper-variant scopes of docs/findings.md (F2, F3, F4), without network faults.
-    pub fn paper_findings() -> Vec<Config> {
+    /// The paper-variant scopes of docs/findings.md, without network faults, each with the
+    /// finding whose counterexample it shows (F2, F3, F4).
+    pub fn paper_findings() -> Vec<(Fix, Config)> {
         let paper = Config {
             max_lost_heartbeats: 0,
             variant: Variant::Paper,
             ..Config::default()
         };
         vec![
-            Config {
-                late_joiners: 0,
-                max_crashes: 0,
-                max_restarts: 0,
-                ..paper.clone()
-            },
-            Config {
-                late_joiners: 0,
-                ..paper.clone()
-            },
-            Config {
-                max_crashes: 0,
-                max_restarts: 0,
-                ..paper
-            },
+            (
+                Fix::KeepStandbyOrder,
+                Config {
+                    late_joiners: 0,
+                    max_crashes: 0,
+                    max_restarts: 0,
+                    ..paper.clone()
+                },
+            ),
+            (
+                Fix::IncarnationAware,
+                Config {
+                    late_joiners: 0,
+                    ..paper.clone()
+                },
+            ),
+            (
+                Fix::QuorumOfView,
+                Config {
+                    max_crashes: 0,
+                    max_restarts: 0,
+                    ..paper
+                },
+            ),
         ]
     }
 

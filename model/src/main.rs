@@ -333,11 +333,11 @@ fn explore(scope: &Scope, addr: &str) -> Result<ExitCode, CliError> {
 fn write_traces(scope: &Scope, out: &std::path::Path, check: bool) -> Result<ExitCode, CliError> {
     // The configured scope, a persistent link failure for the minority voter's path, and
     // the paper variant's counterexamples.
-    let models = traces::standard(scope.config()?);
-    for (model, _) in &models {
-        eprintln!("exploring {} ...", model.config.summary());
+    let scopes = traces::standard(scope.config()?);
+    for scope in &scopes {
+        eprintln!("exploring {} ...", scope.model.config.summary());
     }
-    let set = traces::generate(&models, |states, edges| {
+    let set = traces::generate(&scopes, |states, edges| {
         eprintln!("  ... {states} states, {edges} edges");
     });
     println!("{}", set.coverage_report());
