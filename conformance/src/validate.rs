@@ -84,6 +84,7 @@ impl Timing {
             window_rounds: self.window_rounds,
             settle_within_rounds: model::Config::default().settle_within_rounds,
             variant: Variant::Default,
+            reverted: Vec::new(),
             mutation: None,
         }
     }
