@@ -191,22 +191,7 @@ fn breadth_first(
         truncated: false,
     };
     let mut seen: HashMap<u64, u32> = HashMap::new();
-    let mut queue: VecDeque<(u32, u32, State)> = VecDeque::new();
-    for (index, state) in model.init_states().into_iter().enumerate() {
-        if seen.contains_key(&fingerprint(&state)) {
-            continue;
-        }
-        let node = explored.push(
-            &mut seen,
-            &state,
-            Node {
-                parent: None,
-                step: Step::Init(index),
-            },
-        );
-        explored.check(&infos, node, &state);
-        queue.push_back((node, 0, state));
-    }
+    let mut queue = explored.seed(&mut seen, &infos);
     let mut actions = Vec::new();
     while let Some((node, depth, state)) = queue.pop_front() {
         explored.max_depth = explored.max_depth.max(depth as usize);
@@ -249,6 +234,31 @@ fn breadth_first(
 }
 
 impl Explored {
+    /// The initial states, as the search's first level.
+    fn seed(
+        &mut self,
+        seen: &mut HashMap<u64, u32>,
+        infos: &[PropertyInfo],
+    ) -> VecDeque<(u32, u32, State)> {
+        let mut queue = VecDeque::new();
+        for (index, state) in self.model.init_states().into_iter().enumerate() {
+            if seen.contains_key(&fingerprint(&state)) {
+                continue;
+            }
+            let node = self.push(
+                seen,
+                &state,
+                Node {
+                    parent: None,
+                    step: Step::Init(index),
+                },
+            );
+            self.check(infos, node, &state);
+            queue.push_back((node, 0, state));
+        }
+        queue
+    }
+
     fn push(&mut self, seen: &mut HashMap<u64, u32>, state: &State, node: Node) -> u32 {
         let index = self.nodes.len() as u32;
         self.nodes.push(node);
