@@ -1,27 +1,32 @@
-//! Reading the model's trace set (`traces/NNNN.jsonl` and `traces/index.json`).
+//! Reading the model's trace set (`traces/NNNN-what-it-shows.jsonl` and `traces/index.json`).
 //!
-//! The format is the model's (`model/src/traces.rs`, docs/model.md "Traces"): a header line
-//! with the configuration, purpose and initial abstract state, then one line per step with the
-//! action and the abstract state after it. The model only writes traces, so the reading side
-//! lives here, in the one crate that needs it; unknown fields are rejected so that a format
-//! change is noticed rather than half read. File input is never trusted: every problem is a
-//! [`TraceError`] naming the file and line.
+//! The format is the model's (`model/src/traces/`, docs/model.md "Traces"): a header line
+//! with the configuration, purpose, description and initial abstract state, then one line per
+//! step with the action and the abstract state after it. Lines are read into the model's own
+//! types ([`HeaderLine`], [`StepLine`], [`IndexEntry`]), which reject unknown fields so that a
+//! format change is noticed rather than half read. File input is never trusted: every problem
+//! is a [`TraceError`] naming the file and line.
 
-use model::traces::{AbstractController, AbstractState, FORMAT};
-use model::{Action, Config, Life, Phase, Role, Variant};
-use serde::Deserialize;
+use model::traces::{AbstractState, HeaderLine, StepLine, FORMAT};
+use model::{Action, Config, Variant};
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt;
 use std::path::{Path, PathBuf};
 
+pub use model::traces::IndexEntry;
+
 /// One trace file, parsed.
 #[derive(Clone, Debug)]
 pub struct Trace {
-    /// The file name, e.g. `0004.jsonl`.
+    /// The file name, e.g. `0005-late-joiner-becomes-tertiary.jsonl`.
     pub file: String,
+    /// The number the file name starts with (5 for `0005-...`): how tools refer to a trace.
+    pub number: usize,
     pub model_hash: String,
     pub config: Config,
     pub purpose: String,
+    /// One line saying what the trace shows.
+    pub description: String,
     /// Which of the model's initial states the trace starts from.
     pub initial_state_index: usize,
     pub initial: AbstractState,
@@ -75,74 +80,6 @@ impl fmt::Display for FileError {
 
 impl std::error::Error for FileError {}
 
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct HeaderLine {
-    format: String,
-    model_hash: String,
-    config: Config,
-    purpose: String,
-    initial_state_index: usize,
-    initial: RecordedState,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct StepLine {
-    step: usize,
-    action: Action,
-    state: RecordedState,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RecordedState {
-    controllers: Vec<RecordedController>,
-    actuator_owner: Option<u8>,
-}
-
-/// `model::traces::AbstractController` as serialized (the model's type only serializes).
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RecordedController {
-    id: u8,
-    life: Life,
-    incarnation: u8,
-    phase: Option<Phase>,
-    role: Option<Role>,
-    strength: Option<u8>,
-    sees: Vec<u8>,
-    failed: Vec<u8>,
-    alarms: Vec<u8>,
-    agreed: Option<String>,
-    vote: Option<String>,
-}
-
-impl From<RecordedState> for AbstractState {
-    fn from(recorded: RecordedState) -> AbstractState {
-        AbstractState {
-            controllers: recorded
-                .controllers
-                .into_iter()
-                .map(|c| AbstractController {
-                    id: c.id,
-                    life: c.life,
-                    incarnation: c.incarnation,
-                    phase: c.phase,
-                    role: c.role,
-                    strength: c.strength,
-                    sees: c.sees,
-                    failed: c.failed,
-                    alarms: c.alarms,
-                    agreed: c.agreed,
-                    vote: c.vote,
-                })
-                .collect(),
-            actuator_owner: recorded.actuator_owner,
-        }
-    }
-}
-
 /// Reads one trace file.
 pub fn read_trace(path: &Path) -> Result<Trace, TraceError> {
     let error = |line: Option<usize>, message: String| TraceError {
@@ -183,20 +120,28 @@ pub fn read_trace(path: &Path) -> Result<Trace, TraceError> {
         steps.push(TraceStep {
             number: parsed.step,
             action: parsed.action,
-            state: parsed.state.into(),
+            state: parsed.state,
         });
     }
     let file = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
+    let number = model::traces::number_of(&file).ok_or_else(|| {
+        error(
+            None,
+            "the file name does not start with a trace number".into(),
+        )
+    })?;
     Ok(Trace {
         file,
+        number,
         model_hash: header.model_hash,
         config: header.config,
         purpose: header.purpose,
+        description: header.description,
         initial_state_index: header.initial_state_index,
-        initial: header.initial.into(),
+        initial: header.initial,
         steps,
     })
 }
@@ -219,16 +164,6 @@ pub fn read_dir(dir: &Path) -> Result<Vec<Trace>, TraceError> {
     paths.iter().map(|path| read_trace(path)).collect()
 }
 
-/// One `index.json` entry: a trace file, what it is for, its length and the coverage classes
-/// the model says it covers.
-#[derive(Clone, Debug, Deserialize)]
-pub struct IndexEntry {
-    pub file: String,
-    pub purpose: String,
-    pub steps: usize,
-    pub covers: Vec<String>,
-}
-
 /// Every entry of `index.json`, in file order.
 pub fn read_index_entries(path: &Path) -> Result<Vec<IndexEntry>, TraceError> {
     let error = |message: String| TraceError {
@@ -247,6 +182,31 @@ pub fn read_index(path: &Path) -> Result<BTreeMap<String, BTreeSet<String>>, Tra
         .into_iter()
         .map(|entry| (entry.file, entry.covers.into_iter().collect()))
         .collect())
+}
+
+/// The path of trace number `number` in `dir` (`5` finds `0005-late-joiner-becomes-tertiary.jsonl`).
+pub fn path_of(dir: &Path, number: usize) -> Result<PathBuf, TraceError> {
+    let error = |message: String| TraceError {
+        path: dir.to_path_buf(),
+        line: None,
+        message,
+    };
+    let mut found = Vec::new();
+    for entry in std::fs::read_dir(dir).map_err(|e| error(e.to_string()))? {
+        let path = entry.map_err(|e| error(e.to_string()))?.path();
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        if name.ends_with(".jsonl") && model::traces::number_of(&name) == Some(number) {
+            found.push(path);
+        }
+    }
+    match found.len() {
+        1 => Ok(found.remove(0)),
+        0 => Err(error(format!("no trace number {number:04}"))),
+        n => Err(error(format!("{n} traces numbered {number:04}"))),
+    }
 }
 
 /// The repository's trace directory (`traces/` beside this crate).

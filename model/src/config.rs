@@ -1,10 +1,14 @@
-//! The size of a check: how many controllers, which faults, how many rounds the timers span.
+//! The size of a check: how many controllers, which faults, how many rounds the timers span,
+//! and which rules (variant and reverted fixes).
 //!
 //! Every fault is bounded by a budget so the state space is finite; the defaults are the
 //! configuration `check` runs (three founders, one late joiner, one crash, one restart and two
-//! lost heartbeats).
+//! lost heartbeats). Timer lengths derived from others (the minority grace, the losses a
+//! minority witness needs) are defined here once.
 
-use crate::types::{Id, Mutation, Rules, Variant, MAX_CONTROLLERS};
+use crate::fixes::{Fix, Rules, Variant};
+use crate::types::{Id, MAX_CONTROLLERS};
+use crate::Mutation;
 use serde::{Deserialize, Serialize};
 
 #[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -28,8 +32,33 @@ pub struct Config {
     /// Bounded response: after this many fault-free rounds every live controller has settled.
     pub settle_within_rounds: u8,
     pub variant: Variant,
+    /// Fixes of docs/findings.md taken out of the variant's rules (`check --revert fN`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub reverted: Vec<Fix>,
     /// A deliberately broken rule (mutation tests only).
     pub mutation: Option<Mutation>,
+}
+
+/// A configuration outside the model's bounds; each names the field (as `check` spells it).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum ConfigError {
+    /// No controller starts the system.
+    #[error("controllers: at least one controller must start the system")]
+    NoFounder,
+    /// More controllers than the model's state holds.
+    #[error(
+        "controllers + late joiners: {count} exceeds the model's maximum of {MAX_CONTROLLERS}"
+    )]
+    TooManyControllers { count: usize },
+    /// A zero dead-man deadline would declare every peer lost at once.
+    #[error("dead-after-rounds: must be at least 1")]
+    ZeroDeadAfter,
+    /// A zero window would close before any peer is heard.
+    #[error("window-rounds: must be at least 1")]
+    ZeroWindow,
+    /// `--revert` with the paper variant, which has no fix left to revert.
+    #[error("revert {fix}: the paper variant already reverts every fix")]
+    RevertInPaper { fix: String },
 }
 
 impl Default for Config {
@@ -44,6 +73,7 @@ impl Default for Config {
             window_rounds: 2,
             settle_within_rounds: 8,
             variant: Variant::Default,
+            reverted: Vec::new(),
             mutation: None,
         }
     }
@@ -69,34 +99,44 @@ impl Config {
             late_joiners: 0,
             max_crashes: 0,
             max_restarts: 0,
-            max_lost_heartbeats: base.dead_after_rounds + base.minority_grace_rounds(),
+            max_lost_heartbeats: base.losses_to_fail_minority(),
             ..base
         }
     }
 
-    /// The paper-variant scopes of docs/findings.md (F2, F3, F4), without network faults.
-    pub fn paper_findings() -> Vec<Config> {
+    /// The paper-variant scopes of docs/findings.md, without network faults, each with the
+    /// finding whose counterexample it shows (F2, F3, F4).
+    pub fn paper_findings() -> Vec<(Fix, Config)> {
         let paper = Config {
             max_lost_heartbeats: 0,
             variant: Variant::Paper,
             ..Config::default()
         };
         vec![
-            Config {
-                late_joiners: 0,
-                max_crashes: 0,
-                max_restarts: 0,
-                ..paper.clone()
-            },
-            Config {
-                late_joiners: 0,
-                ..paper.clone()
-            },
-            Config {
-                max_crashes: 0,
-                max_restarts: 0,
-                ..paper
-            },
+            (
+                Fix::KeepStandbyOrder,
+                Config {
+                    late_joiners: 0,
+                    max_crashes: 0,
+                    max_restarts: 0,
+                    ..paper.clone()
+                },
+            ),
+            (
+                Fix::IncarnationAware,
+                Config {
+                    late_joiners: 0,
+                    ..paper.clone()
+                },
+            ),
+            (
+                Fix::QuorumOfView,
+                Config {
+                    max_crashes: 0,
+                    max_restarts: 0,
+                    ..paper
+                },
+            ),
         ]
     }
 
@@ -108,40 +148,50 @@ impl Config {
         1..=self.controller_count() as Id
     }
 
+    /// The variant's rules without the reverted fixes.
     pub fn rules(&self) -> Rules {
-        Rules::of(self.variant)
+        Rules::of(self.variant).reverting(&self.reverted)
     }
 
     pub fn mutated(&self, mutation: Mutation) -> bool {
         self.mutation == Some(mutation)
     }
 
-    /// Rounds a dissent must persist before its voter is marked FAILED.
+    /// Rounds a dissent must persist before its voter is marked FAILED (F10): the detection
+    /// skew between voters (`dead_after_rounds`) plus one round of vote delay; 0 without F10.
     pub fn minority_grace_rounds(&self) -> u8 {
-        if self.rules().minority_grace {
-            // Detection skew between voters (dead_after) plus one round of vote delay.
+        if self.rules().f10_minority_grace {
             self.dead_after_rounds + 1
         } else {
             0
         }
     }
 
+    /// Lost heartbeats on one link before its receiver can mark a live sender FAILED: the
+    /// dead-man deadline, then a dissent that outlasts the minority grace.
+    pub fn losses_to_fail_minority(&self) -> u8 {
+        self.dead_after_rounds + self.minority_grace_rounds()
+    }
+
     /// Checks the bounds; the error names the field.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), ConfigError> {
         let count = self.controller_count();
         if self.founders == 0 {
-            return Err("controllers: at least one controller must start the system".into());
+            return Err(ConfigError::NoFounder);
         }
         if count > MAX_CONTROLLERS {
-            return Err(format!(
-                "controllers + late joiners: {count} exceeds the model's maximum of {MAX_CONTROLLERS}"
-            ));
+            return Err(ConfigError::TooManyControllers { count });
         }
         if self.dead_after_rounds == 0 {
-            return Err("dead-after-rounds: must be at least 1".into());
+            return Err(ConfigError::ZeroDeadAfter);
         }
         if self.window_rounds == 0 {
-            return Err("window-rounds: must be at least 1".into());
+            return Err(ConfigError::ZeroWindow);
+        }
+        if let (Variant::Paper, Some(fix)) = (self.variant, self.reverted.first()) {
+            return Err(ConfigError::RevertInPaper {
+                fix: fix.label().to_lowercase(),
+            });
         }
         Ok(())
     }
@@ -160,6 +210,10 @@ impl Config {
             self.window_rounds,
             self.variant
         );
+        if !self.reverted.is_empty() {
+            let labels: Vec<String> = self.reverted.iter().map(|fix| fix.label()).collect();
+            line.push_str(&format!(", reverted {}", labels.join(" ")));
+        }
         if let Some(mutation) = self.mutation {
             line.push_str(&format!(", MUTATION {mutation:?}"));
         }

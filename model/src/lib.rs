@@ -5,6 +5,7 @@
 //!
 //! - [`types`]: the vocabulary shared with the implementation (roles, phases, assignments);
 //! - [`config`]: how big a check is (controllers, fault budgets, timer lengths in rounds);
+//! - [`fixes`]: the findings' fixes as switches (docs/findings.md), variants and mutations;
 //! - [`state`]: what each controller knows, the network, and the ghost history;
 //! - [`protocol`]: the rules, action by action;
 //! - [`properties`]: what must always hold and what must sometimes happen;
@@ -15,6 +16,7 @@
 //! Time is counted in rounds of one heartbeat period (docs/model.md explains why).
 
 pub mod config;
+pub mod fixes;
 pub mod properties;
 pub mod protocol;
 pub mod render;
@@ -25,8 +27,9 @@ pub mod traces;
 pub mod types;
 
 pub use config::Config;
+pub use fixes::{Fix, Mutation, Rules, Variant};
 pub use state::{Action, ActionKind, Controller, State};
-pub use types::{Assignment, Holder, Id, Life, Mutation, Phase, Role, Rules, Variant};
+pub use types::{Assignment, Holder, Id, Life, Phase, Role};
 
 use stateright::{Model, Path, Property};
 

@@ -1,13 +1,29 @@
 //! `model`: check, explore, export and walk RL's voting protocol specification.
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
-use model::properties::catalogue;
-use model::{search, simulate, traces, Config, Mutation, RlModel, Variant};
+use model::config::ConfigError;
+use model::properties::{catalogue, PropertyInfo};
+use model::traces::TraceFileError;
+use model::{search, simulate, traces, Config, Fix, Mutation, RlModel, Variant};
 use stateright::{Checker, Expectation, HasDiscoveries, Model};
 use std::collections::BTreeSet;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
+
+/// Why a command could not run (exit code 2); each names the bad argument or file.
+#[derive(Debug, thiserror::Error)]
+enum CliError {
+    /// The scope's flags describe a configuration outside the model's bounds.
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    /// `--threads 0`.
+    #[error("threads: must be at least 1")]
+    ZeroThreads,
+    /// The trace directory could not be read or written.
+    #[error(transparent)]
+    Traces(#[from] TraceFileError),
+}
 
 /// RL's voting protocol, as a checkable specification.
 ///
@@ -78,9 +94,14 @@ struct Scope {
     /// Heartbeats that may be lost in total over a run (0 = reliable heartbeats).
     #[arg(long, default_value_t = 2)]
     lost_heartbeats: u8,
-    /// Which rules: the corrected default, or the paper's text read literally.
+    /// Which rules: the corrected default, or the paper's text read literally (every fix of
+    /// docs/findings.md reverted).
     #[arg(long, value_enum, default_value_t = Variant::Default)]
     variant: Variant,
+    /// Take one fix of docs/findings.md out of the default rules (repeatable): its finding's
+    /// counterexample comes back.
+    #[arg(long, value_enum)]
+    revert: Vec<Fix>,
     /// The larger configuration: 4 controllers started together, 2 crashes, 2 restarts.
     #[arg(long)]
     full: bool,
@@ -90,7 +111,7 @@ struct Scope {
 }
 
 impl Scope {
-    fn config(&self) -> Result<Config, String> {
+    fn config(&self) -> Result<Config, ConfigError> {
         let base = if self.full {
             Config::full()
         } else {
@@ -105,6 +126,12 @@ impl Scope {
         let config = Config {
             max_lost_heartbeats: self.lost_heartbeats,
             variant: self.variant,
+            reverted: {
+                let mut fixes = self.revert.clone();
+                fixes.sort();
+                fixes.dedup();
+                fixes
+            },
             mutation: self.mutation,
             ..base
         };
@@ -144,21 +171,53 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(code) => code,
-        Err(message) => {
-            eprintln!("error: {message}");
+        Err(error) => {
+            eprintln!("error: {error}");
             ExitCode::from(2)
         }
     }
 }
 
-fn check(args: CheckArgs) -> Result<ExitCode, String> {
+type DynChecker = Box<dyn Checker<RlModel> + Send + Sync>;
+
+fn check(args: CheckArgs) -> Result<ExitCode, CliError> {
     let config = args.scope.config()?;
     if args.threads == 0 {
-        return Err("threads: must be at least 1".into());
+        return Err(CliError::ZeroThreads);
     }
     println!("checking: {}", config.summary());
     let model = RlModel::new(config.clone());
     let start = Instant::now();
+    let checker = run_checker(&model, &args, start);
+    let elapsed = start.elapsed();
+    println!();
+    let failures = print_verdicts(&config, &checker);
+    let secs = elapsed.as_secs_f64();
+    println!();
+    println!(
+        "{} unique states, {} total, max depth {}, {:.0} states/s, {:.2} s wall ({} threads, {})",
+        checker.unique_state_count(),
+        checker.state_count(),
+        checker.max_depth(),
+        checker.state_count() as f64 / secs,
+        secs,
+        args.threads,
+        match args.order {
+            Order::Bfs => "BFS",
+            Order::Dfs => "DFS",
+        }
+    );
+    if failures.is_empty() {
+        println!("result: all {} properties as expected", catalogue().len());
+        return Ok(ExitCode::SUCCESS);
+    }
+    print_shortest_paths(&model, &failures);
+    println!("result: {} properties failed", failures.len());
+    Ok(ExitCode::from(1))
+}
+
+/// Runs stateright's checker to completion, printing a progress line every 2 s.
+fn run_checker(model: &RlModel, args: &CheckArgs, start: Instant) -> DynChecker {
     let mut builder = model
         .clone()
         .checker()
@@ -169,8 +228,8 @@ fn check(args: CheckArgs) -> Result<ExitCode, String> {
         // stateright checks states within depth - 2 actions (docs/model.md); compensate.
         builder = builder.target_max_depth(depth + 2);
     }
-    let checker = match args.order {
-        Order::Bfs => Box::new(builder.spawn_bfs()) as Box<dyn Checker<RlModel> + Send + Sync>,
+    let checker: DynChecker = match args.order {
+        Order::Bfs => Box::new(builder.spawn_bfs()),
         Order::Dfs => Box::new(builder.spawn_dfs()),
     };
     let mut last = Instant::now();
@@ -192,15 +251,17 @@ fn check(args: CheckArgs) -> Result<ExitCode, String> {
             );
         }
     }
-    let checker = join(checker);
-    let elapsed = start.elapsed();
+    join(checker)
+}
+
+/// One line per property with its verdict; returns the properties that failed.
+fn print_verdicts(config: &Config, checker: &DynChecker) -> Vec<PropertyInfo> {
     let discoveries = checker.discoveries();
     let mut failures = Vec::new();
-    println!();
     for info in catalogue() {
         let found = discoveries.contains_key(info.name);
         let (verdict, ok) = match (&info.expectation, found) {
-            (Expectation::Sometimes, false) if !info.applies(&config) => ("not applicable", true),
+            (Expectation::Sometimes, false) if !info.applies(config) => ("not applicable", true),
             (Expectation::Always, false) => ("holds", true),
             (Expectation::Always, true) => ("VIOLATED", false),
             (Expectation::Sometimes, true) => ("witnessed", true),
@@ -214,8 +275,8 @@ fn check(args: CheckArgs) -> Result<ExitCode, String> {
         };
         print!("  {verdict:>15}  {kind:<9} {}", info.name);
         if verdict == "not applicable" {
-            print!(" ({})", info.needs(&config));
-            if info.losses_needed(&config) > config.max_lost_heartbeats {
+            print!(" ({})", info.needs(config));
+            if info.losses_needed(config) > config.max_lost_heartbeats {
                 print!(
                     " - see check --controllers 3 --late-joiners 0 --crashes 0 --restarts 0 \
                      --lost-heartbeats {}",
@@ -228,28 +289,13 @@ fn check(args: CheckArgs) -> Result<ExitCode, String> {
             failures.push(info);
         }
     }
-    let secs = elapsed.as_secs_f64();
-    println!();
-    println!(
-        "{} unique states, {} total, max depth {}, {:.0} states/s, {:.2} s wall ({} threads, {})",
-        checker.unique_state_count(),
-        checker.state_count(),
-        checker.max_depth(),
-        checker.state_count() as f64 / secs,
-        secs,
-        args.threads,
-        match args.order {
-            Order::Bfs => "BFS",
-            Order::Dfs => "DFS",
-        }
-    );
-    if failures.is_empty() {
-        println!("result: all {} properties as expected", catalogue().len());
-        return Ok(ExitCode::SUCCESS);
-    }
-    // stateright's discovery paths are not the shortest; search again for the shortest.
-    let explored = search::explore(&model, usize::MAX, |_, _| {});
-    for info in &failures {
+    failures
+}
+
+/// stateright's discovery paths are not the shortest; search again and print the shortest.
+fn print_shortest_paths(model: &RlModel, failures: &[PropertyInfo]) {
+    let explored = search::explore(model, usize::MAX, |_, _| {});
+    for info in failures {
         println!();
         match explored.discovery(info.name) {
             Some(path) if info.expectation == Expectation::Always => {
@@ -267,13 +313,9 @@ fn check(args: CheckArgs) -> Result<ExitCode, String> {
             ),
         }
     }
-    println!("result: {} properties failed", failures.len());
-    Ok(ExitCode::from(1))
 }
 
-fn join(
-    checker: Box<dyn Checker<RlModel> + Send + Sync>,
-) -> Box<dyn Checker<RlModel> + Send + Sync> {
+fn join(checker: DynChecker) -> DynChecker {
     let mut checker = checker;
     for handle in checker.handles() {
         let _ = handle.join();
@@ -281,52 +323,50 @@ fn join(
     checker
 }
 
-fn explore(scope: &Scope, addr: &str) -> Result<ExitCode, String> {
+fn explore(scope: &Scope, addr: &str) -> Result<ExitCode, CliError> {
     let config = scope.config()?;
     println!("explorer for {} at http://{addr}/", config.summary());
     RlModel::new(config).checker().serve(addr.to_string());
     Ok(ExitCode::SUCCESS)
 }
 
-fn write_traces(scope: &Scope, out: &std::path::Path, check: bool) -> Result<ExitCode, String> {
+fn write_traces(scope: &Scope, out: &std::path::Path, check: bool) -> Result<ExitCode, CliError> {
     // The configured scope, a persistent link failure for the minority voter's path, and
     // the paper variant's counterexamples.
-    let models = traces::standard(scope.config()?);
-    for (model, _) in &models {
-        eprintln!("exploring {} ...", model.config.summary());
+    let scopes = traces::standard(scope.config()?);
+    for scope in &scopes {
+        eprintln!("exploring {} ...", scope.model.config.summary());
     }
-    let set = traces::generate(&models, |states, edges| {
+    let set = traces::generate(&scopes, |states, edges| {
         eprintln!("  ... {states} states, {edges} edges");
     });
     println!("{}", set.coverage_report());
-    if check {
-        let differences = traces::compare(&set, out)?;
-        if differences.is_empty() {
-            println!(
-                "traces in {} match the model ({} files)",
-                out.display(),
-                set.files.len()
-            );
-            Ok(ExitCode::SUCCESS)
-        } else {
-            for difference in &differences {
-                println!("differs: {difference}");
-            }
-            println!(
-                "{} trace files differ: run `cargo run -p model -- traces --out {}` and review",
-                differences.len(),
-                out.display()
-            );
-            Ok(ExitCode::from(1))
-        }
-    } else {
+    if !check {
         traces::write(&set, out)?;
         println!("wrote {} files to {}", set.files.len(), out.display());
-        Ok(ExitCode::SUCCESS)
+        return Ok(ExitCode::SUCCESS);
     }
+    let differences = traces::compare(&set, out)?;
+    if differences.is_empty() {
+        println!(
+            "traces in {} match the model ({} files)",
+            out.display(),
+            set.files.len()
+        );
+        return Ok(ExitCode::SUCCESS);
+    }
+    for difference in &differences {
+        println!("differs: {difference}");
+    }
+    println!(
+        "{} trace files differ: run `cargo run -p model -- traces --out {}` and review",
+        differences.len(),
+        out.display()
+    );
+    Ok(ExitCode::from(1))
 }
 
-fn walk(scope: &Scope, seed: u64, steps: usize) -> Result<ExitCode, String> {
+fn walk(scope: &Scope, seed: u64, steps: usize) -> Result<ExitCode, CliError> {
     let config = scope.config()?;
     let model = RlModel::new(config);
     let path = simulate::walk(&model, seed, steps);

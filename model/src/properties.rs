@@ -23,7 +23,7 @@ impl PropertyInfo {
     pub fn losses_needed(&self, config: &crate::Config) -> u8 {
         match self.name {
             "re-vote after heartbeat loss" => config.dead_after_rounds,
-            "minority voter FAILED" => config.dead_after_rounds + config.minority_grace_rounds(),
+            "minority voter FAILED" => config.losses_to_fail_minority(),
             _ => 0,
         }
     }

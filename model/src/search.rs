@@ -115,37 +115,83 @@ fn fingerprint(state: &State) -> u64 {
 pub fn explore(
     model: &RlModel,
     state_limit: usize,
-    mut progress: impl FnMut(usize, usize),
+    progress: impl FnMut(usize, usize),
 ) -> Explored {
-    let infos: Vec<PropertyInfo> = catalogue();
+    breadth_first(
+        model,
+        state_limit,
+        true,
+        progress,
+        |explored, node, state, action, next| {
+            for class in classes(state, &action, next) {
+                *explored
+                    .coverage
+                    .entry((class.kind, class.before))
+                    .or_default() += 1;
+                explored.class_edges.entry(class).or_insert((node, action));
+            }
+            false
+        },
+    )
+}
+
+/// The shortest path whose last step satisfies `predicate(before, action, after)`, among at
+/// most `state_limit` states: a check of a transition rather than a state (finding F8's
+/// "raised to Primary strength while hearing another Primary").
+pub fn find_transition(
+    model: &RlModel,
+    state_limit: usize,
+    predicate: impl Fn(&State, &Action, &State) -> bool,
+) -> Option<Path> {
+    let mut found = None;
+    let explored = breadth_first(
+        model,
+        state_limit,
+        false,
+        |_, _| {},
+        |_, node, state, action, next| {
+            let hit = predicate(state, &action, next);
+            if hit {
+                found = Some((node, action));
+            }
+            hit
+        },
+    );
+    found.map(|(node, action)| {
+        let mut path = explored.path_to(node);
+        path.push(&explored.model, action);
+        path
+    })
+}
+
+/// Level-order search with parent links. `on_edge(explored, source node, state, action,
+/// next)` sees every edge and stops the search by returning true; `check_properties` records
+/// the first hit of every catalogue property.
+fn breadth_first(
+    model: &RlModel,
+    state_limit: usize,
+    check_properties: bool,
+    mut progress: impl FnMut(usize, usize),
+    mut on_edge: impl FnMut(&mut Explored, u32, &State, Action, &State) -> bool,
+) -> Explored {
+    let infos: Vec<PropertyInfo> = if check_properties {
+        catalogue()
+    } else {
+        Vec::new()
+    };
     let mut explored = Explored {
         model: model.clone(),
         nodes: Vec::new(),
         unique_states: 0,
         edges: 0,
         max_depth: 0,
-        hits: vec![None; infos.len()],
+        hits: vec![None; catalogue().len()],
         class_edges: BTreeMap::new(),
         coverage: BTreeMap::new(),
         truncated: false,
     };
     let mut seen: HashMap<u64, u32> = HashMap::new();
-    let mut queue: VecDeque<(u32, u32, State)> = VecDeque::new();
-    for (index, state) in model.init_states().into_iter().enumerate() {
-        if seen.contains_key(&fingerprint(&state)) {
-            continue;
-        }
-        let node = explored.push(
-            &mut seen,
-            &state,
-            Node {
-                parent: None,
-                step: Step::Init(index),
-            },
-        );
-        explored.check(&infos, node, &state);
-        queue.push_back((node, 0, state));
-    }
+    let mut queue = explored.seed(&mut seen, &infos);
     let mut actions = Vec::new();
     while let Some((node, depth, state)) = queue.pop_front() {
         explored.max_depth = explored.max_depth.max(depth as usize);
@@ -156,12 +202,9 @@ pub fn explore(
                 continue;
             };
             explored.edges += 1;
-            for class in classes(&state, &action, &next) {
-                *explored
-                    .coverage
-                    .entry((class.kind, class.before))
-                    .or_default() += 1;
-                explored.class_edges.entry(class).or_insert((node, action));
+            if on_edge(&mut explored, node, &state, action, &next) {
+                explored.unique_states = explored.nodes.len();
+                return explored;
             }
             let key = fingerprint(&next);
             if seen.contains_key(&key) {
@@ -191,6 +234,31 @@ pub fn explore(
 }
 
 impl Explored {
+    /// The initial states, as the search's first level.
+    fn seed(
+        &mut self,
+        seen: &mut HashMap<u64, u32>,
+        infos: &[PropertyInfo],
+    ) -> VecDeque<(u32, u32, State)> {
+        let mut queue = VecDeque::new();
+        for (index, state) in self.model.init_states().into_iter().enumerate() {
+            if seen.contains_key(&fingerprint(&state)) {
+                continue;
+            }
+            let node = self.push(
+                seen,
+                &state,
+                Node {
+                    parent: None,
+                    step: Step::Init(index),
+                },
+            );
+            self.check(infos, node, &state);
+            queue.push_back((node, 0, state));
+        }
+        queue
+    }
+
     fn push(&mut self, seen: &mut HashMap<u64, u32>, state: &State, node: Node) -> u32 {
         let index = self.nodes.len() as u32;
         self.nodes.push(node);

@@ -1,5 +1,5 @@
-//! The protocol's vocabulary: controller ids, roles, phases, vote assignments, and the
-//! configuration and rule variants a check runs with.
+//! The protocol's vocabulary: controller ids, roles, phases, lives and vote assignments.
+//! (The rule variants a check runs with are in [`crate::fixes`].)
 //!
 //! These names are shared (by meaning, never by code) with the implementation in `impl/`.
 
@@ -195,80 +195,4 @@ impl fmt::Display for Assignment {
         }
         Ok(())
     }
-}
-
-/// Which version of the voting rules the model runs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum)]
-#[serde(rename_all = "snake_case")]
-pub enum Variant {
-    /// The corrected algorithm that RL implements (see docs/findings.md).
-    Default,
-    /// The paper's rules read literally; the checker finds counterexamples (docs/findings.md).
-    Paper,
-}
-
-/// The individual rule choices behind a variant; each is one finding in docs/findings.md.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-pub struct Rules {
-    /// F1: a controller also recognises a running system from the phase a peer's heartbeat
-    /// carries (past initialization), not only from a durable vote (votes can arrive after
-    /// the heartbeats).
-    pub late_join_by_heartbeat: bool,
-    /// F2: a re-vote keeps every live role holder in its order (promotion by compaction);
-    /// the paper gives precedence to the Primary only and ranks the rest by id.
-    pub keep_standby_order: bool,
-    /// F3: peers are known by (id, incarnation); a restarted peer's new incarnation retires
-    /// the old one at once. The paper identifies a peer by its id only.
-    pub incarnation_aware: bool,
-    /// F4: a dissenting vote marks its sender FAILED only after it has dissented for
-    /// `dead_after_rounds` rounds (time for every voter to notice the same failure).
-    pub minority_grace: bool,
-    /// F5: agreement needs a majority of the voter's whole membership view; the paper's "two
-    /// votes in agreement" counts only the result's own members.
-    pub quorum_of_view: bool,
-    /// F6: decisions (agreement, admission of newcomers, minority) are taken at the round
-    /// boundary from the votes and results carried by that round's heartbeats, which every
-    /// controller receives at once; the paper decides as durable votes arrive, and votes of
-    /// different rounds then complete different quorums.
-    pub decide_on_heartbeats: bool,
-}
-
-impl Rules {
-    pub fn of(variant: Variant) -> Rules {
-        let corrected = variant == Variant::Default;
-        Rules {
-            late_join_by_heartbeat: corrected,
-            keep_standby_order: corrected,
-            incarnation_aware: corrected,
-            minority_grace: corrected,
-            quorum_of_view: corrected,
-            decide_on_heartbeats: corrected,
-        }
-    }
-}
-
-/// A deliberately broken rule, used by the mutation tests to show the checker notices.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum)]
-#[serde(rename_all = "snake_case")]
-pub enum Mutation {
-    /// A Secondary takes Primary as soon as it misses one heartbeat, without a vote.
-    PromoteWithoutFailure,
-    /// Dissenting votes are never marked FAILED.
-    IgnoreMinorityVote,
-    /// A restarted controller is ranked by id, taking Primary back from a live Primary.
-    Failback,
-    /// Commands are published while still initializing, before any role exists.
-    OutputBeforeRole,
-    /// The fourth controller is given the Tertiary role even when three are live.
-    AdmitFourth,
-}
-
-impl Mutation {
-    pub const ALL: [Mutation; 5] = [
-        Mutation::PromoteWithoutFailure,
-        Mutation::IgnoreMinorityVote,
-        Mutation::Failback,
-        Mutation::OutputBeforeRole,
-        Mutation::AdmitFourth,
-    ];
 }

@@ -28,15 +28,16 @@ fn committed_traces_match_the_model() {
 
 #[test]
 fn generation_is_deterministic() {
-    let models = [(
-        RlModel::new(Config {
+    let models = [traces::TraceScope::new(
+        Config {
             late_joiners: 0,
             max_crashes: 0,
             max_restarts: 0,
             max_lost_heartbeats: 0,
             ..Config::default()
-        }),
+        },
         traces::Contribution::Everything,
+        "",
     )];
     let first = traces::generate(&models, |_, _| {});
     let second = traces::generate(&models, |_, _| {});
@@ -51,4 +52,38 @@ fn simulation_is_reproducible_by_seed() {
     let c = model::simulate::walk(&model, 8, 60).actions();
     assert_eq!(a, b);
     assert_ne!(a, c);
+}
+
+#[test]
+fn committed_traces_read_back_with_the_format_types() {
+    use traces::{HeaderLine, IndexEntry, StepLine};
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../traces");
+    let index_text = std::fs::read_to_string(dir.join("index.json")).expect("index.json");
+    let index: Vec<IndexEntry> = serde_json::from_str(&index_text).expect("index entries");
+    let mut slugs = std::collections::BTreeSet::new();
+    for (position, entry) in index.iter().enumerate() {
+        // Numbers run in order from 1 and every name is the number and a slug, unique.
+        assert_eq!(entry.number, position + 1, "{}", entry.file);
+        assert_eq!(traces::number_of(&entry.file), Some(entry.number));
+        let slug = entry.file[5..].trim_end_matches(".jsonl").to_string();
+        assert!(slugs.insert(slug), "{} repeats a name", entry.file);
+        let text = std::fs::read_to_string(dir.join(&entry.file)).expect("trace file");
+        let mut lines = text.lines();
+        let header: HeaderLine =
+            serde_json::from_str(lines.next().expect("header")).expect("header line");
+        assert_eq!(header.purpose, entry.purpose);
+        assert_eq!(header.description, entry.description);
+        assert!(!header.description.is_empty() && !header.description.contains('\n'));
+        let steps: Vec<StepLine> = lines
+            .map(|line| serde_json::from_str(line).expect("step line"))
+            .collect();
+        assert_eq!(steps.len(), entry.steps, "{}", entry.file);
+        // What is read back writes the same bytes: one type per line format.
+        let first = serde_json::to_string(&header).expect("serializes");
+        assert_eq!(Some(first.as_str()), text.lines().next());
+    }
+    assert_eq!(
+        index[4].file, "0005-late-joiner-becomes-tertiary.jsonl",
+        "trace numbers must keep pointing at the same traces"
+    );
 }

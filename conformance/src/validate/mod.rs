@@ -94,6 +94,7 @@ impl Timing {
             settle_within_rounds: model::Config::default().settle_within_rounds,
             variant: Variant::Default,
             mutation: None,
+            reverted: Vec::new(),
         }
     }
 }

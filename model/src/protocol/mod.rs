@@ -1,0 +1,246 @@
+//! The voting protocol's rules: what each action does to the controllers.
+//!
+//! Every rule cites the paper section it comes from; where the default algorithm departs from
+//! the paper's literal text, a switch of [`crate::fixes::Rules`] and docs/findings.md say why.
+//! This module holds the actions (which are enabled, what each does); the rules they apply
+//! are split by what they decide:
+//!
+//! - [`round`]: the end of a round, one controller at a time ([`round_step`]): heartbeats
+//!   heard and missed, the initialization window, re-votes and the round-boundary decisions;
+//! - [`vote`]: what a controller votes for ([`compute_vote`]) and how votes are published
+//!   and delivered;
+//! - [`agreement`]: who counts (the electorate), when a result is agreed, and adopting it;
+//! - [`minority`]: marking minority voters FAILED and failing oneself.
+
+mod agreement;
+mod minority;
+mod round;
+mod vote;
+
+pub use round::round_step;
+pub use vote::compute_vote;
+
+use crate::config::Config;
+use crate::fixes::Mutation;
+use crate::state::{link_bit, Action, Controller, History, State};
+use crate::types::{Id, Life, Phase, Role, ROLE_COUNT};
+use round::tick;
+use vote::{close_window, deliver_votes, vote_superseded};
+
+/// The initial states: controllers 1..=k powered on together at system initialization (the
+/// timing assumption "they start within the window"), for every k up to the founders.
+pub fn init_states(config: &Config) -> Vec<State> {
+    let founders = usize::from(config.founders);
+    // The first k founders for every k: which ids start matters only through their order,
+    // and later ids joining covers the rest.
+    (1..=founders)
+        .map(|count| (1u32 << count) - 1)
+        .map(|started| State {
+            controllers: config
+                .ids()
+                .map(|id| {
+                    let index = usize::from(id - 1);
+                    let starts = index < founders && started & (1 << index) != 0;
+                    let mut controller =
+                        Controller::new(id, if starts { Life::Up } else { Life::NotStarted });
+                    if starts && config.mutated(Mutation::OutputBeforeRole) {
+                        controller.output = Some(Role::Tertiary.strength());
+                    }
+                    controller
+                })
+                .collect(),
+            lost_links: 0,
+            overdue_votes: 0,
+            history: History::default(),
+        })
+        .collect()
+}
+
+/// A vote from `from` that `to` has not received yet. Only without F5 are decisions taken on
+/// durable votes; with it votes travel in heartbeats and the durable copy is for late readers
+/// and tools, so its delivery is not modelled.
+pub fn vote_pending(config: &Config, state: &State, from: Id, to: Id) -> bool {
+    if config.rules().f5_decide_on_heartbeats {
+        return false;
+    }
+    let sender = state.controller(from);
+    let receiver = state.controller(to);
+    if from == to || !sender.is_up() || !receiver.is_up() {
+        return false;
+    }
+    match sender.vote {
+        Some(vote) => receiver.peer(from).vote != Some((sender.incarnation, vote)),
+        None => false,
+    }
+}
+
+/// The actions enabled in a state, in a fixed order.
+pub fn actions(config: &Config, state: &State, out: &mut Vec<Action>) {
+    let ids = config.ids();
+    let urgent_before = out.len();
+    for id in ids.clone() {
+        if window_can_expire(config, state.controller(id)) {
+            out.push(Action::ExpireWindow { controller: id });
+        }
+    }
+    for to in ids.clone() {
+        if ids
+            .clone()
+            .any(|from| vote_pending(config, state, from, to))
+        {
+            out.push(Action::DeliverVotes { to });
+        }
+    }
+    // Timing assumption: a round ends only when its due timers have fired and every vote that
+    // was already in flight at the last round's end has arrived.
+    let timer_due = out[urgent_before..]
+        .iter()
+        .any(|a| matches!(a, Action::ExpireWindow { .. }));
+    let vote_overdue = out[urgent_before..].iter().any(|a| match *a {
+        Action::DeliverVotes { to } => config.ids().any(|from| {
+            state.overdue_votes & link_bit(from, to) != 0 && vote_pending(config, state, from, to)
+        }),
+        _ => false,
+    });
+    if !timer_due && !vote_overdue && state.up().next().is_some() {
+        out.push(Action::Tick);
+    }
+    if state.history.losses < config.max_lost_heartbeats {
+        for from in ids.clone() {
+            for to in ids.clone() {
+                if from != to
+                    && state.controller(from).is_up()
+                    && state.controller(to).is_up()
+                    && state.lost_links & link_bit(from, to) == 0
+                {
+                    out.push(Action::LoseHeartbeat { from, to });
+                }
+            }
+        }
+    }
+    for id in ids {
+        let c = state.controller(id);
+        match c.life {
+            Life::Up => {
+                if state.history.crashes < config.max_crashes {
+                    out.push(Action::Crash { controller: id });
+                }
+                if c.phase == Phase::Failed && state.history.restarts < config.max_restarts {
+                    out.push(Action::Restart { controller: id });
+                }
+            }
+            Life::Down => {
+                if state.history.restarts < config.max_restarts {
+                    out.push(Action::Restart { controller: id });
+                }
+            }
+            Life::NotStarted => out.push(Action::Join { controller: id }),
+        }
+    }
+}
+
+/// The state after an action; `None` if the action is not enabled.
+pub fn next_state(config: &Config, state: &State, action: Action) -> Option<State> {
+    let mut next = state.clone();
+    match action {
+        Action::LoseHeartbeat { from, to } => {
+            next.lost_links |= link_bit(from, to);
+            next.history.losses += 1;
+            next.history.quiet_rounds = 0;
+            next.history.partition_open = true;
+        }
+        Action::Tick => tick(config, state, &mut next),
+        Action::ExpireWindow { controller } => {
+            if !window_can_expire(config, state.controller(controller)) {
+                return None;
+            }
+            close_window(config, &mut next, controller);
+        }
+        Action::DeliverVotes { to } => {
+            let senders: Vec<Id> = config
+                .ids()
+                .filter(|from| vote_pending(config, state, *from, to))
+                .collect();
+            if senders.is_empty() {
+                return None;
+            }
+            deliver_votes(config, &mut next, &senders, to);
+        }
+        Action::Crash { controller } => {
+            vote_superseded(config, &mut next, controller);
+            let c = next.controller_mut(controller);
+            let incarnation = c.incarnation;
+            *c = Controller::new(controller, Life::Down);
+            c.incarnation = incarnation;
+            forget_links(&mut next, controller);
+            next.history.crashes += 1;
+            next.history.quiet_rounds = 0;
+        }
+        Action::Restart { controller } | Action::Join { controller } => {
+            let c = next.controller_mut(controller);
+            let incarnation = match action {
+                Action::Restart { .. } => c.incarnation + 1,
+                _ => 0,
+            };
+            *c = Controller::new(controller, Life::Up);
+            c.incarnation = incarnation;
+            if matches!(action, Action::Restart { .. }) {
+                // Ghost: who held a role when it restarted (it must come in below them).
+                c.held_roles_at_restart = state
+                    .controllers
+                    .iter()
+                    .filter(|d| d.id != controller && d.is_active() && d.role.is_some())
+                    .fold(0u8, |mask, d| mask | 1 << (d.id - 1));
+            }
+            if config.mutated(Mutation::OutputBeforeRole) {
+                c.output = Some(Role::Tertiary.strength());
+            }
+            forget_links(&mut next, controller);
+            if matches!(action, Action::Restart { .. }) {
+                next.history.restarts += 1;
+            }
+            next.history.quiet_rounds = 0;
+        }
+    }
+    Some(next)
+}
+
+fn forget_links(state: &mut State, id: Id) {
+    for other in 1..=state.controllers.len() as Id {
+        let mask = !(link_bit(id, other) | link_bit(other, id));
+        state.lost_links &= mask;
+        state.overdue_votes &= mask;
+    }
+}
+
+fn window_can_expire(config: &Config, c: &Controller) -> bool {
+    c.is_up()
+        && c.phase == Phase::Initializing
+        && c.window_quiet_rounds >= config.window_rounds
+        && ready_to_vote(c)
+}
+
+/// A late joiner votes only once it can learn the running system's result: from a heartbeat
+/// (F1) or a durable vote (the paper's).
+fn ready_to_vote(c: &Controller) -> bool {
+    !c.late_joiner
+        || c.peers
+            .iter()
+            .any(|p| p.incumbent() || (p.alive.is_some() && p.vote.is_some()))
+}
+
+fn window_over(config: &Config, c: &Controller) -> bool {
+    c.window_quiet_rounds >= config.window_rounds || c.members_heard() >= ROLE_COUNT
+}
+
+impl Controller {
+    /// Distinct controllers heard (itself included), FAILED ones too: the window counts heads.
+    pub(crate) fn members_heard(&self) -> usize {
+        1 + self
+            .peers
+            .iter()
+            .enumerate()
+            .filter(|(index, p)| *index + 1 != usize::from(self.id) && p.alive.is_some())
+            .count()
+    }
+}
