@@ -4,7 +4,8 @@
 use super::compare::{abstract_one, differences};
 use super::search::{representatives, step_model, visible, Branch, Dead, Search};
 use super::Rejection;
-use model::state::History;
+use model::protocol;
+use model::state::{link_bit, History};
 use model::traces::AbstractController;
 use model::{Action, Controller, State};
 use rl::core::ControllerId;
@@ -129,8 +130,10 @@ fn combine(slots: Vec<Vec<Vec<Controller>>>) -> Vec<Branch> {
 }
 
 /// Every state controller `id` (as `candidate`) can end round in, with the others as in
-/// `reps`: one per subset of `senders` whose heartbeat to it is lost (bit i = senders[i]).
-/// Due initialization windows expire right after the round ends.
+/// `reps`: one per subset of `senders` whose heartbeat to it is lost (bit i = senders[i]),
+/// through the model's own per-controller round step (`model::protocol::round_step`, the step
+/// its `Tick` runs for every controller). Due initialization windows expire right after the
+/// round ends.
 pub fn round_end_of(
     config: &model::Config,
     reps: &State,
@@ -143,35 +146,31 @@ pub fn round_end_of(
     base.controllers[index] = candidate.clone();
     base.lost_links = 0;
     base.history = History::default();
+    if !tick_enabled(config, &base) {
+        return Vec::new();
+    }
     let mut out = Vec::new();
     for lost in 0u16..(1 << senders.len()) {
-        let mut state = base.clone();
-        let mut allowed = true;
+        let mut before = base.clone();
         for (bit, from) in senders.iter().enumerate() {
             if lost & (1 << bit) != 0 {
-                match step_model(
-                    config,
-                    &state,
-                    Action::LoseHeartbeat {
-                        from: *from,
-                        to: id,
-                    },
-                ) {
-                    Some(next) => state = next,
-                    None => allowed = false,
-                }
+                before.lost_links |= link_bit(*from, id);
             }
         }
-        if !allowed {
-            continue;
-        }
-        let Some(mut ended) = step_model(config, &state, Action::Tick) else {
-            continue;
-        };
+        let mut ended = before.clone();
+        protocol::round_step(config, &before, &mut ended, id);
+        ended.lost_links = 0;
         if let Some(expired) = step_model(config, &ended, Action::ExpireWindow { controller: id }) {
             ended = expired;
         }
         out.push((ended.controllers[index].clone(), lost));
     }
     out
+}
+
+/// The model lets the round end here (no initialization window or durable vote is due first).
+fn tick_enabled(config: &model::Config, state: &State) -> bool {
+    let mut enabled = Vec::new();
+    protocol::actions(config, state, &mut enabled);
+    enabled.contains(&Action::Tick)
 }
