@@ -17,26 +17,11 @@ use std::path::{Path, PathBuf};
 use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
+mod missing;
+use missing::Missing;
+
 const DOMAIN: u16 = 180;
 const SIZE_LIMIT_BYTES: u64 = 5_000_000;
-
-/// What a test needs and this machine lacks, and how to get it.
-struct Missing(String);
-
-impl std::fmt::Debug for Missing {
-    // The test harness prints a failed test's error with `Debug`: the message alone.
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::fmt::Display for Missing {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for Missing {}
 
 /// The aarch64 binary, or why the test cannot run.
 fn binary() -> Result<PathBuf, Missing> {

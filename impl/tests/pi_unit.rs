@@ -12,6 +12,9 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+mod missing;
+use missing::Missing;
+
 const UNIT_NAME: &str = "rl@.service";
 
 fn debian_dir() -> PathBuf {
@@ -21,24 +24,6 @@ fn debian_dir() -> PathBuf {
 fn unit_text() -> String {
     std::fs::read_to_string(debian_dir().join(UNIT_NAME)).unwrap()
 }
-
-/// What a test needs and this machine lacks, and how to get it.
-struct Missing(String);
-
-impl std::fmt::Debug for Missing {
-    // The test harness prints a failed test's error with `Debug`: the message alone.
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::fmt::Display for Missing {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for Missing {}
 
 fn systemd_analyze() -> Result<(), Missing> {
     match Command::new("systemd-analyze").arg("--version").output() {

@@ -2,18 +2,19 @@
 //! exercised, counted as the model counts them (`model/src/search.rs`, `CoverageClass`).
 //!
 //! A tick acts on every live controller; every other action on the controller it names. The
-//! stage is the actor's before the action: not started, down, or its phase. The reachable
-//! pairs are the model's: its trace generator writes the shortest path to every reachable
-//! transition class, so the union of `index.json`'s `covers` over the default-variant traces
-//! is the reachable set of the default-variant scopes (recomputing it here would take the
-//! model's full search, about a minute and over 1 GB).
+//! stage is the actor's before the action: not started, down, or its phase, taken from the
+//! cores' own status (abstracted), not from the trace. The reachable pairs are the model's:
+//! its exhaustive search of the trace set's scopes writes them to `traces/reachable.json`
+//! (recomputing them here would take the full search, about a minute and over 1 GB), so a
+//! reachable pair no replay exercises lowers the share.
 
 pub use model::search::CoverageClass;
 use model::search::Stage;
 use model::traces::{AbstractController, AbstractState};
 use model::{Action, ActionKind, Life, Phase};
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::BTreeSet;
 use std::fmt::Write;
+use std::path::Path;
 
 pub use model::traces::STAGES;
 
@@ -43,12 +44,12 @@ pub fn classes(before: &AbstractState, action: &Action) -> Vec<CoverageClass> {
         .collect()
 }
 
-/// `tick@steady`, as `index.json` names a pair.
+/// `tick@steady`, as `index.json` and `reachable.json` name a pair.
 pub fn class_name(class: CoverageClass) -> String {
-    format!("{}@{:?}", class.0.name(), class.1).to_lowercase()
+    model::traces::coverage_class_name(class.0, class.1)
 }
 
-/// The pair `index.json` names, if it is one.
+/// The pair a trace file names, if it is one.
 pub fn parse_class(name: &str) -> Option<CoverageClass> {
     ActionKind::ALL
         .iter()
@@ -56,23 +57,52 @@ pub fn parse_class(name: &str) -> Option<CoverageClass> {
         .find(|class| class_name(*class) == name)
 }
 
-/// The reachable pairs: the union of what the model says the given trace files cover.
-pub fn reachable_from_index<'a>(
-    index: &BTreeMap<String, BTreeSet<String>>,
-    files: impl IntoIterator<Item = &'a str>,
-) -> Result<BTreeSet<CoverageClass>, String> {
-    let mut reachable = BTreeSet::new();
-    for file in files {
-        let covers = index
-            .get(file)
-            .ok_or_else(|| format!("index.json has no entry for {file}"))?;
-        for name in covers {
-            reachable.insert(
-                parse_class(name).ok_or_else(|| format!("index.json: unknown pair {name:?}"))?,
-            );
-        }
-    }
-    Ok(reachable)
+/// Why the reachable set could not be read.
+#[derive(Debug, thiserror::Error)]
+pub enum ReachableError {
+    /// The file is missing or unreadable.
+    #[error("{path}: {source}")]
+    Io {
+        path: String,
+        #[source]
+        source: std::io::Error,
+    },
+    /// Not a JSON list of names.
+    #[error("{path}: {source}")]
+    Json {
+        path: String,
+        #[source]
+        source: serde_json::Error,
+    },
+    /// A name that is no (action kind x stage) pair.
+    #[error("{path}: unknown pair {name:?}")]
+    UnknownPair { path: String, name: String },
+}
+
+/// The reachable pairs the model's exhaustive search found in the trace set's scopes
+/// (`traces/reachable.json`, written by `model -- traces`): what the model can do, not what
+/// the traces happen to cover.
+pub fn reachable_from_model(trace_dir: &Path) -> Result<BTreeSet<CoverageClass>, ReachableError> {
+    let path = trace_dir.join(model::traces::REACHABLE_FILE);
+    let shown = path.display().to_string();
+    let text = std::fs::read_to_string(&path).map_err(|source| ReachableError::Io {
+        path: shown.clone(),
+        source,
+    })?;
+    let names: Vec<String> =
+        serde_json::from_str(&text).map_err(|source| ReachableError::Json {
+            path: shown.clone(),
+            source,
+        })?;
+    names
+        .into_iter()
+        .map(|name| {
+            parse_class(&name).ok_or_else(|| ReachableError::UnknownPair {
+                path: shown.clone(),
+                name,
+            })
+        })
+        .collect()
 }
 
 /// Covered against reachable pairs.

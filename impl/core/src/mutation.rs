@@ -3,7 +3,7 @@
 //! The conformance suite replays the model's traces against the core, and the DDS-level
 //! replay runs real controllers; a suite that cannot fail proves nothing, so its mutation
 //! checks configure one of these rule breaks ([`crate::CoreConfig::mutation`]) and assert that
-//! the replay then fails. They mirror the model's own mutations (`model/src/types.rs`,
+//! the replay then fails. They mirror the model's own mutations (`model/src/fixes.rs`,
 //! `Mutation`) where the core has the same rule. With no mutation configured every hook is the
 //! identity, so enabling the feature changes no behaviour by itself.
 

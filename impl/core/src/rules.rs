@@ -1,7 +1,7 @@
 //! The protocol's rules, applied to one controller's state at its round boundary.
 //!
 //! Each function is the implementation of the model's rule of the same name
-//! (`model/src/protocol.rs`, default variant); docs/protocol.md states them in prose. Decisions
+//! (`model/src/protocol/`, default variant); docs/protocol.md states them in prose. Decisions
 //! read only what this round's heartbeats carried (finding F5): nothing is decided as
 //! messages arrive.
 

@@ -71,7 +71,7 @@ fn existing(dir: &Path) -> Result<Vec<String>, TraceFileError> {
     for entry in entries {
         let entry = entry.map_err(io_error(dir))?;
         let name = entry.file_name().to_string_lossy().into_owned();
-        if name.ends_with(".jsonl") || name == "index.json" {
+        if name.ends_with(".jsonl") || name == "index.json" || name == super::REACHABLE_FILE {
             names.push(name);
         }
     }

@@ -80,7 +80,24 @@ pub fn generate(scopes: &[TraceScope], mut progress: impl FnMut(usize, usize)) -
     }
     let index_text = serde_json::to_string_pretty(&index).unwrap_or_default() + "\n";
     set.files.push(("index.json".to_string(), index_text));
+    // The reachable classes of the exhaustively searched scopes, for the conformance suite's
+    // coverage: what the model can do, not what the traces happen to cover.
+    let reachable: Vec<String> = set
+        .reachable
+        .iter()
+        .map(|&(kind, stage)| coverage_class_name(kind, stage))
+        .collect();
+    let reachable_text = serde_json::to_string_pretty(&reachable).unwrap_or_default() + "\n";
+    set.files.push((REACHABLE_FILE.to_string(), reachable_text));
     set
+}
+
+/// The file of the reachable (action kind x stage) classes: `["crash@initializing", ...]`.
+pub const REACHABLE_FILE: &str = "reachable.json";
+
+/// `tick@steady`: a coverage class as `index.json` and `reachable.json` name it.
+pub fn coverage_class_name(kind: crate::ActionKind, stage: crate::search::Stage) -> String {
+    format!("{}@{:?}", kind.name(), stage).to_lowercase()
 }
 
 /// A path chosen for the set, with what it is for.
@@ -254,7 +271,7 @@ fn write_chosen(
         for (step, (action, after)) in path.steps.iter().enumerate() {
             for class in classes(before, action, after) {
                 set.covered.insert((class.kind, class.before));
-                covers.insert(format!("{}@{:?}", class.kind.name(), class.before).to_lowercase());
+                covers.insert(coverage_class_name(class.kind, class.before));
             }
             text.push_str(&to_json(&StepLine {
                 step: step + 1,

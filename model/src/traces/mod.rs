@@ -14,7 +14,9 @@ mod files;
 mod generate;
 
 pub use files::{compare, write, TraceFileError};
-pub use generate::{generate, standard, Contribution, TraceScope};
+pub use generate::{
+    coverage_class_name, generate, standard, Contribution, TraceScope, REACHABLE_FILE,
+};
 
 use crate::search::{CoverageClass, Stage};
 use crate::state::{Action, ActionKind, State};
@@ -225,7 +227,7 @@ pub fn number_of(file_name: &str) -> Option<usize> {
 
 /// A generated trace set, ready to write or compare.
 pub struct TraceSet {
-    /// (file name, contents), in a fixed order; `index.json` last.
+    /// (file name, contents), in a fixed order; `index.json` and `reachable.json` last.
     pub files: Vec<(String, String)>,
     pub reachable: BTreeSet<CoverageClass>,
     pub covered: BTreeSet<CoverageClass>,
