@@ -256,7 +256,10 @@ impl TraceSet {
             self.reachable.len(),
             self.coverage_percent(),
             self.unique_states,
-            self.files.len().saturating_sub(1)
+            self.files
+                .iter()
+                .filter(|(name, _)| name.ends_with(".jsonl"))
+                .count()
         );
         out
     }
