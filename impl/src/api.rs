@@ -10,7 +10,7 @@
 //!     let command = rl::wire::ServoControl { pan: 500, tilt: 500, frequency: 60 };
 //!     commands.write(command)?; // written only while this controller holds a role,
 //!                               // at its role's ownership strength
-//!     if rl.status().phase == rl::core::Phase::Failed { break; }
+//!     if rl.status().report.phase == rl::core::Phase::Failed { break; }
 //! #   break;
 //! }
 //! # Ok(()) }
