@@ -230,6 +230,12 @@ pub fn validate(recording: &Recording, timing: &Timing) -> Result<Accepted, Box<
     }
 }
 
+/// Checks a recorded run against the model strictly: without the one-round lag tolerance
+/// (the DDS-level replay's recordings, whose boundaries are observed after their reports).
+pub fn validate_strict(recording: &Recording, timing: &Timing) -> Result<Accepted, Box<Rejection>> {
+    Search::new(recording, timing, false)?.run()
+}
+
 struct Search<'a> {
     timing: Timing,
     config: model::Config,

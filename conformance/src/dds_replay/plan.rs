@@ -1,7 +1,6 @@
-//! The DDS-level replay's plan: which traces it takes (a curated subset, chosen by purpose
-//! from `traces/index.json`) and, for each, what to do in which round and what to expect at
-//! every round boundary, all derived from the model. Pure: no processes here
-//! ([`crate::dds_replay`] runs the plan).
+//! The DDS-level replay's plan of one trace: what to do in which round and what to expect at
+//! every round boundary, all derived from the model. Pure: no processes here (the driver,
+//! [`super`], carries the plan out).
 //!
 //! Real processes cannot follow the model step for step: DDS discovery takes a round or two,
 //! a new process is not heard at once, and the round clock is the wall clock. So a trace is
@@ -23,154 +22,87 @@
 //! - after the trace's last step the model adds rounds without faults until nothing changes
 //!   any more (the settled end), and the run must reach that state and stay in it.
 //!
-//! A trace is replayable only if this timing cannot change its outcome, which the plan checks
-//! against the model: its states are the same under the run's round lengths (the
-//! run's window is one round longer than the model's, see `dds_replay::CONFIG_TOML`), a
-//! controller heard one
-//! round later at start changes nothing, a process started after round 0 ends in the same
-//! settled state if discovery takes one or two rounds more, and faults after a late start
-//! wait for a quiescent boundary.
+//! A trace is replayable only if this timing cannot change its outcome, which
+//! [`super::checks`] verifies against the model.
 
-use crate::trace::{self, Trace};
+use super::checks;
+use crate::trace::Trace;
 use crate::validate::Timing;
 use model::state::link_bit;
 use model::traces::{abstract_state, AbstractState};
-use model::{protocol, Action, Life, Phase, Role, State};
+use model::{protocol, Action, Life, State};
 use std::collections::BTreeSet;
 use std::fmt::Write;
-use std::path::Path;
 
 /// The most rounds the model may take to settle after a trace's last step.
 pub const SETTLE_ROUNDS_MAX: usize = 40;
 
-/// A fault kind the curated subset must replay at least once.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Need {
-    /// A controller holding this role is killed.
-    CrashOf(Role),
-    /// A controller starts again as a new process (a new incarnation).
-    Restart,
-    /// A controller comes in after the others formed: still initializing while two others are
-    /// steady with roles, and it ends with a role.
-    LateJoin,
-    /// Controller 4 starts and ends without a role.
-    FourthController,
-    /// A heartbeat lost one way (the reverse link delivers).
-    OneWayLoss,
-    /// A controller is marked FAILED for a minority vote.
-    MinorityVote,
+/// Why a trace cannot be replayed on real processes.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum PlanError {
+    /// The paper variant and model mutations are not RL's rules.
+    #[error("not a default-variant trace")]
+    NotDefaultVariant,
+    /// The trace names an initial state the model does not have.
+    #[error("its initial state index {index} is not one of the model's")]
+    UnknownInitialState { index: usize },
+    /// The run's round lengths change the initial state.
+    #[error("its initial state differs under the run's round lengths")]
+    InitialStateDiffers,
+    /// A step the model does not offer in the state it is taken in.
+    #[error("the model does not allow \"{action}\" here")]
+    NotAllowed { action: Action },
+    /// A step reaches another state under the run's round lengths.
+    #[error(
+        "step {step} ({action}) reaches another state with a {run_window_rounds}-round window \
+         (the trace was generated with {trace_window_rounds} rounds)"
+    )]
+    StateDiffers {
+        step: usize,
+        action: Action,
+        run_window_rounds: u8,
+        trace_window_rounds: u8,
+    },
+    /// Windows expire at the boundary, before anything else of the round.
+    #[error("step {step}: a window expires after another action of its round")]
+    WindowAfterOtherAction { step: usize },
+    /// `DeliverVotes` belongs to the paper variant.
+    #[error("durable-vote delivery exists only in the paper variant")]
+    PaperVariantAction,
+    /// The model keeps changing after the trace's last step.
+    #[error("does not settle within {rounds} rounds")]
+    NoSettle { rounds: usize },
+    /// Nothing to compare: the trace ends before its first round does.
+    #[error("no round ends")]
+    NoRoundEnds,
+    /// The replay aligns on the first report; without one it cannot.
+    #[error(
+        "no controller reports anything at the first round's end, so the replay cannot tell \
+         which real round it is"
+    )]
+    NoFirstReport,
+    /// Faults after a late start need a quiescent boundary to re-align at.
+    #[error(
+        "round {round} has faults after a process started late, with no quiescent boundary to \
+         re-align at"
+    )]
+    FaultsAfterLateStart { round: usize },
+    /// DDS discovery at start would change the trace's states.
+    #[error("its states change if {late} is heard one round later at start (DDS discovery)")]
+    DiscoveryAtStart { late: String },
+    /// DDS discovery of a late process would change the settled end.
+    #[error(
+        "its settled end changes if the process started in round {round} is heard {rounds} \
+         round(s) later (DDS discovery)"
+    )]
+    DiscoveryAfterLateStart { round: usize, rounds: usize },
+    /// The model refused the run with a late-discovered newcomer.
+    #[error("with {newcomers} discovered late: {cause}")]
+    LateDiscoveryRun {
+        newcomers: String,
+        cause: Box<PlanError>,
+    },
 }
-
-/// Which scope of the trace set a curated entry takes its trace from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Scope {
-    /// `check`'s default scope (`model::Config::default()`).
-    Default,
-    /// The persistent link failure (`model::Config::link_failure()`).
-    LinkFailure,
-}
-
-impl Scope {
-    fn config(self) -> model::Config {
-        match self {
-            Scope::Default => model::Config::default(),
-            Scope::LinkFailure => model::Config::link_failure(),
-        }
-    }
-}
-
-/// One entry of the curated subset: the fault it must show, the purposes (in
-/// `traces/index.json`) a trace for it may have, in order of preference, and why it is in.
-#[derive(Clone, Copy, Debug)]
-pub struct Curated {
-    pub name: &'static str,
-    pub need: Need,
-    pub scope: Scope,
-    pub purposes: &'static [&'static str],
-    /// The DDS domain its test runs on (each test its own, so they never hear each other).
-    pub domain: u16,
-    pub why: &'static str,
-}
-
-/// The curated subset: every fault kind at least once. Domains 190-197 (198 is the recorded
-/// `rl demo` of trace validation, 199 is free).
-pub const CURATED: &[Curated] = &[
-    Curated {
-        name: "crash of the Primary",
-        need: Need::CrashOf(Role::Primary),
-        scope: Scope::Default,
-        purposes: &[
-            "transition: crash by a steady controller (primary) -> down (none)",
-            "witness: Primary crash promotes the Secondary",
-        ],
-        domain: 190,
-        why: "kill -9 of the steady Primary: the survivors lose it after the dead-man \
-              deadline, re-vote, and the Secondary is promoted",
-    },
-    Curated {
-        name: "crash of the Secondary",
-        need: Need::CrashOf(Role::Secondary),
-        scope: Scope::Default,
-        purposes: &["transition: crash by a steady controller (secondary) -> down (none)"],
-        domain: 191,
-        why: "kill -9 of the steady Secondary: the Tertiary moves up, the Primary stays",
-    },
-    Curated {
-        name: "crash of the Tertiary",
-        need: Need::CrashOf(Role::Tertiary),
-        scope: Scope::Default,
-        purposes: &["transition: crash by a steady controller (tertiary) -> down (none)"],
-        domain: 192,
-        why: "kill -9 of the steady Tertiary: Primary and Secondary keep their roles",
-    },
-    Curated {
-        name: "restart",
-        need: Need::Restart,
-        scope: Scope::Default,
-        purposes: &[
-            "witness: restarted controller takes the lowest role",
-            "transition: restart by a down controller (none) -> initializing (none)",
-        ],
-        domain: 193,
-        why: "a killed controller comes back as a new process, a new incarnation that the \
-              others must not confuse with the old one, and takes the lowest role",
-    },
-    Curated {
-        name: "late join",
-        need: Need::LateJoin,
-        scope: Scope::Default,
-        purposes: &["witness: late joiner becomes Tertiary"],
-        domain: 194,
-        why: "C3 does not hear C1 while C1 and C2 form (its heartbeats dropped), then joins \
-              the running system below them",
-    },
-    Curated {
-        name: "fourth controller",
-        need: Need::FourthController,
-        scope: Scope::Default,
-        purposes: &["witness: fourth controller ignored"],
-        domain: 195,
-        why: "a fourth process joins and stays a spare: it never holds a role or commands",
-    },
-    Curated {
-        name: "one-way heartbeat loss",
-        need: Need::OneWayLoss,
-        scope: Scope::Default,
-        purposes: &["witness: re-vote after heartbeat loss"],
-        domain: 196,
-        why: "C2 drops C1's heartbeats for two rounds (C1 still hears C2): C2 loses C1, \
-              raises an alarm and re-votes, and the two reunite when the heartbeats return",
-    },
-    Curated {
-        name: "minority vote",
-        need: Need::MinorityVote,
-        scope: Scope::LinkFailure,
-        purposes: &["witness: minority voter FAILED"],
-        domain: 197,
-        why: "the link-failure scope's minority-voter witness: a link broken past the \
-              minority grace, the minority voter marked FAILED and then failing itself",
-    },
-];
 
 /// What happens during one round of the plan.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -228,6 +160,10 @@ pub struct Plan {
     pub trace_boundaries: usize,
     /// `quiescent[k]`: a round's end leaves boundary `k` unchanged (hidden state included).
     pub quiescent: Vec<bool>,
+    /// `owners_in_round[k]`: the model's actuator owner through round `k`, after the
+    /// round's crashes, restarts and joins (a crash at the round's start takes the owner's
+    /// commands away within the command deadline); for the last boundary, its own owner.
+    pub owners_in_round: Vec<Option<u8>>,
 }
 
 impl Plan {
@@ -303,14 +239,18 @@ pub fn run_config(trace: &model::Config, timing: &Timing) -> model::Config {
     }
 }
 
-fn step(config: &model::Config, state: &State, action: Action) -> Result<State, String> {
+/// One model step, if the model offers it in `state`.
+pub(super) fn step(
+    config: &model::Config,
+    state: &State,
+    action: Action,
+) -> Result<State, PlanError> {
     let mut enabled = Vec::new();
     protocol::actions(config, state, &mut enabled);
     if !enabled.contains(&action) {
-        return Err(format!("the model does not allow \"{action}\" here"));
+        return Err(PlanError::NotAllowed { action });
     }
-    protocol::next_state(config, state, action)
-        .ok_or_else(|| format!("the model does not allow \"{action}\" here"))
+    protocol::next_state(config, state, action).ok_or(PlanError::NotAllowed { action })
 }
 
 fn lost_links(state: &State) -> BTreeSet<(u8, u8)> {
@@ -327,7 +267,7 @@ fn lost_links(state: &State) -> BTreeSet<(u8, u8)> {
 }
 
 /// Expires every due window (they are urgent: the implementation fires them at the boundary).
-fn expire_due(config: &model::Config, mut state: State) -> Result<State, String> {
+fn expire_due(config: &model::Config, mut state: State) -> Result<State, PlanError> {
     for id in config.ids() {
         let action = Action::ExpireWindow { controller: id };
         let mut enabled = Vec::new();
@@ -351,11 +291,11 @@ pub fn is_quiescent(config: &model::Config, state: &State) -> bool {
 
 /// Runs the model from `start` through `rounds` (each round's lifecycle actions, losses and
 /// end), then on without faults until quiescent; returns the boundary states.
-fn run_rounds(
+pub(super) fn run_rounds(
     config: &model::Config,
     start: State,
     rounds: &[RoundPlan],
-) -> Result<Vec<State>, String> {
+) -> Result<Vec<State>, PlanError> {
     let mut state = expire_due(config, start)?;
     let mut out = vec![state.clone()];
     for round in rounds {
@@ -365,14 +305,11 @@ fn run_rounds(
         for (from, to) in &round.lost {
             // A link of a controller that is not up has nothing to lose.
             if state.controller(*from).is_up() && state.controller(*to).is_up() {
-                state = step(
-                    config,
-                    &state,
-                    Action::LoseHeartbeat {
-                        from: *from,
-                        to: *to,
-                    },
-                )?;
+                let lose = Action::LoseHeartbeat {
+                    from: *from,
+                    to: *to,
+                };
+                state = step(config, &state, lose)?;
             }
         }
         state = expire_due(config, step(config, &state, Action::Tick)?)?;
@@ -384,7 +321,9 @@ fn run_rounds(
     while !is_quiescent(config, &state) {
         extra += 1;
         if extra > SETTLE_ROUNDS_MAX {
-            return Err(format!("does not settle within {SETTLE_ROUNDS_MAX} rounds"));
+            return Err(PlanError::NoSettle {
+                rounds: SETTLE_ROUNDS_MAX,
+            });
         }
         state = expire_due(config, step(config, &state, Action::Tick)?)?;
         out.push(state.clone());
@@ -392,71 +331,109 @@ fn run_rounds(
     Ok(out)
 }
 
-/// The plan of one trace, or why it cannot be replayed on real processes.
-pub fn plan(trace: &Trace, timing: &Timing) -> Result<Plan, String> {
-    if trace.variant() != model::Variant::Default || trace.config.mutation.is_some() {
-        return Err("not a default-variant trace".into());
-    }
-    let config = run_config(&trace.config, timing);
-    let initial = protocol::init_states(&config)
-        .get(trace.initial_state_index)
-        .cloned()
-        .ok_or("its initial state index is not one of the model's")?;
-    if abstract_state(&initial) != trace.initial {
-        return Err("its initial state differs under the run's round lengths".into());
-    }
-    // Rebuild the trace under the run's round lengths, round by round.
+/// The trace rebuilt under the run's round lengths, round by round: its rounds and the
+/// boundaries between them.
+struct Rebuilt {
+    rounds: Vec<RoundPlan>,
+    boundaries: Vec<State>,
+    state: State,
+}
+
+fn rebuild(trace: &Trace, config: &model::Config, initial: State) -> Result<Rebuilt, PlanError> {
     let mut rounds = vec![RoundPlan::default()];
     let mut boundaries = vec![initial.clone()];
     let mut state = initial;
     let mut round_has_other_action = false;
-    for step_ in &trace.steps {
-        let action = step_.action;
+    for trace_step in &trace.steps {
+        let action = trace_step.action;
         match action {
             Action::Tick => {
                 if let Some(round) = rounds.last_mut() {
                     round.lost = lost_links(&state);
                 }
-                state = step(&config, &state, action)?;
+                state = step(config, &state, action)?;
                 boundaries.push(state.clone());
                 rounds.push(RoundPlan::default());
                 round_has_other_action = false;
             }
             Action::ExpireWindow { .. } => {
                 if round_has_other_action {
-                    return Err(format!(
-                        "step {}: a window expires after another action of its round",
-                        step_.number
-                    ));
+                    return Err(PlanError::WindowAfterOtherAction {
+                        step: trace_step.number,
+                    });
                 }
-                state = step(&config, &state, action)?;
+                state = step(config, &state, action)?;
                 if let Some(last) = boundaries.last_mut() {
                     *last = state.clone();
                 }
             }
-            Action::DeliverVotes { .. } => {
-                return Err("durable-vote delivery exists only in the paper variant".into())
-            }
+            Action::DeliverVotes { .. } => return Err(PlanError::PaperVariantAction),
             Action::LoseHeartbeat { .. } => {
-                state = step(&config, &state, action)?;
+                state = step(config, &state, action)?;
                 round_has_other_action = true;
             }
             Action::Crash { .. } | Action::Restart { .. } | Action::Join { .. } => {
-                state = step(&config, &state, action)?;
+                state = step(config, &state, action)?;
                 if let Some(round) = rounds.last_mut() {
                     round.lifecycle.push(action);
                 }
                 round_has_other_action = true;
             }
         }
-        if abstract_state(&state) != step_.state {
-            return Err(format!(
-                "step {} ({action}) reaches another state with a {}-round window (the trace \
-                 was generated with {} rounds)",
-                step_.number, config.window_rounds, trace.config.window_rounds
-            ));
+        if abstract_state(&state) != trace_step.state {
+            return Err(PlanError::StateDiffers {
+                step: trace_step.number,
+                action,
+                run_window_rounds: config.window_rounds,
+                trace_window_rounds: trace.config.window_rounds,
+            });
         }
     }
+    Ok(Rebuilt {
+        rounds,
+        boundaries,
+        state,
+    })
+}
+
+/// The actuator owner through each round: boundary `k`'s state after round `k`'s lifecycle
+/// actions (the last boundary's own owner for the last).
+fn owners_in_round(
+    config: &model::Config,
+    rounds: &[RoundPlan],
+    boundaries: &[State],
+) -> Result<Vec<Option<u8>>, PlanError> {
+    let mut owners = Vec::with_capacity(boundaries.len());
+    for (k, boundary) in boundaries.iter().enumerate() {
+        let mut state = boundary.clone();
+        for action in rounds.get(k).map_or(&[][..], |r| &r.lifecycle[..]) {
+            state = step(config, &state, *action)?;
+        }
+        owners.push(state.actuator_owner());
+    }
+    Ok(owners)
+}
+
+/// The plan of one trace, or why it cannot be replayed on real processes.
+pub fn plan(trace: &Trace, timing: &Timing) -> Result<Plan, PlanError> {
+    if trace.variant() != model::Variant::Default || trace.config.mutation.is_some() {
+        return Err(PlanError::NotDefaultVariant);
+    }
+    let config = run_config(&trace.config, timing);
+    let initial = protocol::init_states(&config)
+        .get(trace.initial_state_index)
+        .cloned()
+        .ok_or(PlanError::UnknownInitialState {
+            index: trace.initial_state_index,
+        })?;
+    if abstract_state(&initial) != trace.initial {
+        return Err(PlanError::InitialStateDiffers);
+    }
+    let Rebuilt {
+        mut rounds,
+        mut boundaries,
+        state,
+    } = rebuild(trace, &config, initial)?;
     // The round the trace's last steps left open, then rounds without faults until settled.
     let open = rounds.len() - 1;
     rounds[open].lost = lost_links(&state);
@@ -475,6 +452,7 @@ pub fn plan(trace: &Trace, timing: &Timing) -> Result<Plan, String> {
         .iter()
         .map(|s| is_quiescent(&config, s))
         .collect();
+    let owners_in_round = owners_in_round(&config, &rounds, &boundaries)?;
     let plan = Plan {
         file: trace.file.clone(),
         purpose: trace.purpose.clone(),
@@ -490,235 +468,14 @@ pub fn plan(trace: &Trace, timing: &Timing) -> Result<Plan, String> {
         boundaries,
         trace_boundaries,
         quiescent,
+        owners_in_round,
     };
-    check_timing(&plan)?;
+    checks::check_timing(&plan)?;
     Ok(plan)
 }
 
-/// The plan's timing assumptions, checked against the model.
-fn check_timing(plan: &Plan) -> Result<(), String> {
-    let config = &plan.config;
-    if plan.boundaries.len() < 2 {
-        return Err("no round ends".into());
-    }
-    // The replay takes the first round with reports for boundary 1: some controller must
-    // report a change there (a new phase or a peer heard), or that round is unknown.
-    let reports = |c: &model::Controller| {
-        c.is_up()
-            && (c.phase != Phase::Initializing
-                || c.peers
-                    .iter()
-                    .any(|p| p.alive.is_some() || p.alarm || p.failed))
-    };
-    if !plan.boundaries[1].controllers.iter().any(reports) {
-        return Err(
-            "no controller reports anything at the first round's end, so the replay cannot \
-             tell which real round it is"
-                .into(),
-        );
-    }
-    // Faults after a late start must wait for a quiescent boundary.
-    let modes = plan.modes();
-    for (k, round) in plan.rounds.iter().enumerate().skip(1) {
-        if !round.is_empty() && modes[k] == Mode::Free {
-            return Err(format!(
-                "round {k} has faults after a process started late, with no quiescent \
-                 boundary to re-align at"
-            ));
-        }
-    }
-    // Discovery at start: a controller may be heard one round later than the trace says
-    // (it then counts one more quiet round of its window). Every combination must lead to
-    // the same states.
-    let expected: Vec<AbstractState> = plan.boundaries.iter().map(abstract_state).collect();
-    let starters: Vec<u8> = {
-        let mut ids = plan.initial_up.clone();
-        for action in &plan.rounds[0].lifecycle {
-            if let Action::Join { controller } | Action::Restart { controller } = action {
-                ids.push(*controller);
-            }
-        }
-        ids.sort_unstable();
-        ids.dedup();
-        ids
-    };
-    for mask in 1u32..(1 << starters.len()) {
-        let mut start = plan.boundaries[0].clone();
-        for action in &plan.rounds[0].lifecycle {
-            start = step(config, &start, *action)?;
-        }
-        for (bit, id) in starters.iter().enumerate() {
-            let c = start.controller_mut(*id);
-            if mask & (1 << bit) != 0 && c.is_up() && c.phase == Phase::Initializing {
-                c.window_quiet_rounds = 1.min(config.window_rounds);
-            }
-        }
-        let mut rest = plan.rounds.clone();
-        rest[0].lifecycle.clear();
-        let states = run_rounds(config, start, &rest)?;
-        let got: Vec<AbstractState> = states.iter().map(abstract_state).collect();
-        // Boundary 0 is before round 0's starts and crashes; compare from boundary 1.
-        if got.get(1..) != expected.get(1..) {
-            let late: Vec<String> = starters
-                .iter()
-                .enumerate()
-                .filter(|(bit, _)| mask & (1 << bit) != 0)
-                .map(|(_, id)| format!("C{id}"))
-                .collect();
-            return Err(format!(
-                "its states change if {} is heard one round later at start (DDS discovery)",
-                late.join(", ")
-            ));
-        }
-    }
-    // A process started after round 0 is heard once discovered: not in the round it starts
-    // (as the model's join is), but one or two rounds later; it must settle the same way.
-    let last = plan.expected(plan.last());
-    for k in 1..plan.rounds.len() {
-        let newcomers: Vec<u8> = plan.rounds[k]
-            .lifecycle
-            .iter()
-            .filter_map(|a| match a {
-                Action::Join { controller } | Action::Restart { controller } => Some(*controller),
-                _ => None,
-            })
-            .collect();
-        if newcomers.is_empty() {
-            continue;
-        }
-        for delay in 0..=1usize {
-            let mut rounds: Vec<RoundPlan> = plan.rounds[k..].to_vec();
-            let mut muted = RoundPlan::default();
-            for newcomer in &newcomers {
-                for other in config.ids().filter(|o| o != newcomer) {
-                    muted.lost.insert((*newcomer, other));
-                    muted.lost.insert((other, *newcomer));
-                }
-            }
-            // The start's own round and `delay` more rounds without the newcomer's links.
-            let mut first = rounds.remove(0);
-            first.lost.extend(muted.lost.iter().copied());
-            let mut delayed = vec![first];
-            for _ in 0..delay {
-                delayed.push(muted.clone());
-            }
-            delayed.extend(rounds);
-            let states = run_rounds(config, plan.boundaries[k].clone(), &delayed)
-                .map_err(|e| format!("with C{newcomers:?} discovered late: {e}"))?;
-            let settled = states.last().map(abstract_state);
-            if settled.as_ref() != Some(&last) {
-                return Err(format!(
-                    "its settled end changes if the process started in round {k} is heard \
-                     {} round(s) later (DDS discovery)",
-                    delay + 1
-                ));
-            }
-        }
-    }
-    Ok(())
-}
-
-/// Whether a plan shows the fault a curated entry needs.
-pub fn shows(plan: &Plan, need: Need) -> bool {
-    let lifecycle = || {
-        plan.rounds
-            .iter()
-            .enumerate()
-            .flat_map(|(k, r)| r.lifecycle.iter().map(move |a| (k, *a)))
-    };
-    let last = &plan.boundaries[plan.last()];
-    match need {
-        Need::CrashOf(role) => lifecycle().any(|(k, action)| match action {
-            Action::Crash { controller } => {
-                plan.boundaries[k].controller(controller).role == Some(role)
-            }
-            _ => false,
-        }),
-        Need::Restart => lifecycle().any(|(_, a)| matches!(a, Action::Restart { .. })),
-        Need::LateJoin => plan.boundaries.iter().any(|s| {
-            s.controllers.iter().any(|late| {
-                late.is_up()
-                    && late.phase == Phase::Initializing
-                    && s.controllers
-                        .iter()
-                        .filter(|c| c.is_up() && c.phase == Phase::Steady && c.role.is_some())
-                        .count()
-                        >= 2
-                    && last.controller(late.id).role.is_some()
-            })
-        }),
-        Need::FourthController => {
-            lifecycle().any(|(_, a)| a == Action::Join { controller: 4 })
-                && last
-                    .controllers
-                    .get(3)
-                    .is_some_and(|c| c.is_up() && c.role.is_none())
-        }
-        Need::OneWayLoss => plan.rounds.iter().any(|r| {
-            r.lost
-                .iter()
-                .any(|(from, to)| !r.lost.contains(&(*to, *from)))
-        }),
-        Need::MinorityVote => plan.boundaries.iter().any(|s| {
-            s.up()
-                .any(|c| c.phase == Phase::Failed || c.peers.iter().any(|p| p.failed))
-        }),
-    }
-}
-
-/// A curated entry resolved to a trace.
-#[derive(Clone, Debug)]
-pub struct Selected {
-    pub curated: Curated,
-    pub trace: Trace,
-    pub plan: Plan,
-}
-
-/// Resolves one curated entry: the first trace (in `index.json` order) with one of its
-/// purposes, from its scope, that can be replayed and shows its fault.
-pub fn select(traces_dir: &Path, curated: &Curated, timing: &Timing) -> Result<Selected, String> {
-    let entries =
-        trace::read_index_entries(&traces_dir.join("index.json")).map_err(|e| e.to_string())?;
-    let mut tried = Vec::new();
-    for purpose in curated.purposes {
-        for entry in entries.iter().filter(|e| e.purpose == *purpose) {
-            let trace =
-                trace::read_trace(&traces_dir.join(&entry.file)).map_err(|e| e.to_string())?;
-            if trace.config != curated.scope.config() {
-                tried.push(format!("{}: from another scope", entry.file));
-                continue;
-            }
-            match plan(&trace, timing) {
-                Ok(plan) if shows(&plan, curated.need) => {
-                    return Ok(Selected {
-                        curated: *curated,
-                        trace,
-                        plan,
-                    })
-                }
-                Ok(_) => tried.push(format!("{}: does not show {:?}", entry.file, curated.need)),
-                Err(reason) => tried.push(format!("{}: not replayable: {reason}", entry.file)),
-            }
-        }
-    }
-    Err(format!(
-        "the DDS-level replay's \"{}\" needs a trace in {}/index.json with one of the purposes \
-         {:?} (scope {:?}) that can be replayed on real processes; {}. If the trace set was \
-         regenerated with other purposes, update conformance/src/dds_plan.rs (CURATED).",
-        curated.name,
-        traces_dir.display(),
-        curated.purposes,
-        curated.scope,
-        if tried.is_empty() {
-            "no entry has these purposes".to_string()
-        } else {
-            format!("tried: {}", tried.join("; "))
-        }
-    ))
-}
-
 /// The run's timing as the DDS-level replay configures `rl` (the model's period and
-/// dead-man deadline; a window one round longer, see `dds_replay::CONFIG_TOML`).
+/// dead-man deadline; a window one round longer, see [`super::CONFIG_TOML`]).
 pub fn replay_timing() -> Timing {
     Timing {
         period_ms: 250,
@@ -729,20 +486,27 @@ pub fn replay_timing() -> Timing {
 
 #[cfg(test)]
 mod tests {
+    use super::super::curated::{curated, select};
     use super::*;
 
     #[test]
-    fn every_curated_entry_resolves_to_a_replayable_trace() {
-        let dir = trace::default_dir();
-        let mut files = BTreeSet::new();
-        for curated in CURATED {
-            let selected =
-                select(&dir, curated, &replay_timing()).unwrap_or_else(|e| panic!("{e}"));
-            assert!(shows(&selected.plan, curated.need));
-            files.insert(selected.trace.file.clone());
-        }
-        assert_eq!(files.len(), CURATED.len(), "one trace per entry");
-        let domains: BTreeSet<u16> = CURATED.iter().map(|c| c.domain).collect();
-        assert_eq!(domains.len(), CURATED.len(), "one domain per entry");
+    fn the_owner_through_a_crash_round_is_the_survivors() {
+        let family = curated("crash of the Primary").expect("a curated family");
+        let selected = select(&crate::trace::default_dir(), family, &replay_timing())
+            .unwrap_or_else(|e| panic!("{e}"));
+        let plan = selected.plan;
+        let k = plan
+            .rounds
+            .iter()
+            .position(|r| !r.lifecycle.is_empty())
+            .expect("the Primary crashes");
+        assert_eq!(plan.expected(k).actuator_owner, Some(1), "at the boundary");
+        assert_eq!(plan.owners_in_round[k], Some(2), "through the round");
+        let last = plan.last();
+        assert_eq!(
+            plan.owners_in_round[last],
+            plan.expected(last).actuator_owner
+        );
+        assert_eq!(plan.owners_in_round.len(), plan.boundaries.len());
     }
 }
