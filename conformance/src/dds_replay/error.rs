@@ -169,16 +169,17 @@ pub enum Problem {
     /// where the owner must be settled.
     #[error(
         "at boundary {boundary} (real round {real}) the servo has no single owner between \
-         {from_ms} and {until_ms} ms into the round, where the model's owner is {}: it \
-         accepted commands from {commands}",
-        owner_name(*expected)
+         {from_ms} and {until_ms} ms into the round, where the model allows {}: it accepted \
+         commands from {commands}",
+        owners_allowed(expected)
     )]
     OwnerUnsettled {
         boundary: usize,
         real: u64,
         from_ms: u64,
         until_ms: u64,
-        expected: Option<ControllerId>,
+        /// Who the model allows (the strongest; several with a tie).
+        expected: Vec<ControllerId>,
         commands: String,
     },
     /// A process the plan did not kill exited.
@@ -243,4 +244,13 @@ pub enum Problem {
 /// `C2`, or `none`.
 pub fn owner_name(owner: Option<ControllerId>) -> String {
     owner.map_or("none".to_string(), |id| format!("C{id}"))
+}
+
+/// `C2`, `C1 or C2` (a tie), or `none`.
+pub fn owners_allowed(owners: &[ControllerId]) -> String {
+    if owners.is_empty() {
+        return "none".to_string();
+    }
+    let names: Vec<String> = owners.iter().map(|id| format!("C{id}")).collect();
+    names.join(" or ")
 }

@@ -160,10 +160,10 @@ pub struct Plan {
     pub trace_boundaries: usize,
     /// `quiescent[k]`: a round's end leaves boundary `k` unchanged (hidden state included).
     pub quiescent: Vec<bool>,
-    /// `owners_in_round[k]`: the model's actuator owner through round `k`, after the
-    /// round's crashes, restarts and joins (a crash at the round's start takes the owner's
-    /// commands away within the command deadline); for the last boundary, its own owner.
-    pub owners_in_round: Vec<Option<u8>>,
+    /// `owners_in_round[k]`: who may own the actuator through round `k`, after the round's
+    /// crashes, restarts and joins (a crash at the round's start takes the owner's commands
+    /// away within the command deadline); for the last boundary, its own ([`owners`]).
+    pub owners_in_round: Vec<Vec<u8>>,
 }
 
 impl Plan {
@@ -396,22 +396,35 @@ fn rebuild(trace: &Trace, config: &model::Config, initial: State) -> Result<Rebu
     })
 }
 
-/// The actuator owner through each round: boundary `k`'s state after round `k`'s lifecycle
-/// actions (the last boundary's own owner for the last).
+/// Who may own the actuator in `state`: the live controllers commanding at the highest
+/// strength. The model's owner is the lowest id among them (it takes DDS's tie-break, the
+/// lowest writer GUID, for the lowest id); RL's writer GUIDs are not in id order, so with a
+/// tie the actuator may follow any of them. Empty when nobody commands.
+pub fn owners(state: &State) -> Vec<u8> {
+    let top = state.up().filter_map(|c| c.output).max();
+    state
+        .up()
+        .filter(|c| top.is_some() && c.output == top)
+        .map(|c| c.id)
+        .collect()
+}
+
+/// Who may own the actuator through each round: boundary `k`'s state after round `k`'s
+/// lifecycle actions (the last boundary's own for the last).
 fn owners_in_round(
     config: &model::Config,
     rounds: &[RoundPlan],
     boundaries: &[State],
-) -> Result<Vec<Option<u8>>, PlanError> {
-    let mut owners = Vec::with_capacity(boundaries.len());
+) -> Result<Vec<Vec<u8>>, PlanError> {
+    let mut out = Vec::with_capacity(boundaries.len());
     for (k, boundary) in boundaries.iter().enumerate() {
         let mut state = boundary.clone();
         for action in rounds.get(k).map_or(&[][..], |r| &r.lifecycle[..]) {
             state = step(config, &state, *action)?;
         }
-        owners.push(state.actuator_owner());
+        out.push(owners(&state));
     }
-    Ok(owners)
+    Ok(out)
 }
 
 /// The plan of one trace, or why it cannot be replayed on real processes.
@@ -501,12 +514,27 @@ mod tests {
             .position(|r| !r.lifecycle.is_empty())
             .expect("the Primary crashes");
         assert_eq!(plan.expected(k).actuator_owner, Some(1), "at the boundary");
-        assert_eq!(plan.owners_in_round[k], Some(2), "through the round");
+        assert_eq!(plan.owners_in_round[k], vec![2], "through the round");
         let last = plan.last();
-        assert_eq!(
-            plan.owners_in_round[last],
-            plan.expected(last).actuator_owner
-        );
+        assert_eq!(owners(&plan.boundaries[last]), plan.owners_in_round[last]);
         assert_eq!(plan.owners_in_round.len(), plan.boundaries.len());
+    }
+
+    #[test]
+    fn with_a_tie_any_of_the_strongest_may_own_the_actuator() {
+        let config = model::Config::default();
+        let mut state = protocol::init_states(&config)[0].clone();
+        assert!(owners(&state).is_empty(), "nobody commands yet");
+        for (id, output) in [(1, Some(30)), (2, Some(30)), (3, Some(10))] {
+            let c = state.controller_mut(id);
+            c.life = Life::Up;
+            c.output = output;
+        }
+        assert_eq!(owners(&state), vec![1, 2]);
+        assert_eq!(
+            state.actuator_owner(),
+            Some(1),
+            "the model names the lowest id"
+        );
     }
 }

@@ -9,9 +9,9 @@ use super::config::{
     SETTLE_TIMEOUT,
 };
 use super::drops::DropBook;
-use super::error::{owner_name, Failure, Problem};
+use super::error::{owner_name, owners_allowed, Failure, Problem};
 use super::lives::{self, Life};
-use super::plan::{Plan, RoundPlan};
+use super::plan::{owners, Plan, RoundPlan};
 use super::processes::{Line, Processes, SERVO};
 use super::servo::{describe_counts, OwnerSeen, ServoView};
 use super::transcript::Output;
@@ -28,10 +28,28 @@ use std::fmt::Write as _;
 use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
-/// What a boundary is compared against: the plan's state with the owner of the round.
+/// What a boundary is compared against: the plan's state, and who may own the actuator
+/// ([`super::plan::owners`]: with a tie, any of the strongest).
 pub(super) struct Expected {
     pub boundary: usize,
     pub state: AbstractState,
+    pub owners: Vec<ControllerId>,
+}
+
+impl Expected {
+    /// The state to compare with one whose owner is `observed`: with the observed owner if
+    /// the model allows it, else with the model's own.
+    fn against(&self, observed: Option<ControllerId>) -> AbstractState {
+        let mut state = self.state.clone();
+        let allowed = match observed {
+            Some(id) => self.owners.contains(&id),
+            None => self.owners.is_empty(),
+        };
+        if allowed {
+            state.actuator_owner = observed;
+        }
+        state
+    }
 }
 
 pub(super) struct Run<'a> {
@@ -126,8 +144,13 @@ impl<'a> Run<'a> {
     /// start: the owner is the one through the round, after its crashes.
     pub fn expected_in_lockstep(&self, k: usize) -> Expected {
         let mut state = self.plan.expected(k);
-        state.actuator_owner = self.plan.owners_in_round[k];
-        Expected { boundary: k, state }
+        let owners = self.plan.owners_in_round[k].clone();
+        state.actuator_owner = owners.first().copied();
+        Expected {
+            boundary: k,
+            state,
+            owners,
+        }
     }
 
     /// Boundary `k` as waited for: no faults in the rounds it is observed in.
@@ -135,6 +158,7 @@ impl<'a> Run<'a> {
         Expected {
             boundary: k,
             state: self.plan.expected(k),
+            owners: owners(&self.plan.boundaries[k]),
         }
     }
 
@@ -148,7 +172,7 @@ impl<'a> Run<'a> {
             self.sleep_until(real * self.period_ms() + OBSERVE_OFFSET_MS);
             let (observed, owner) = self.observe(real)?;
             let settled = !matches!(owner, OwnerSeen::Unsettled(_));
-            if settled && observed == expected.state {
+            if settled && observed == expected.against(observed.actuator_owner) {
                 run += 1;
                 if run >= times {
                     return Ok(real);
@@ -163,8 +187,8 @@ impl<'a> Run<'a> {
                     } else {
                         "quiescent, faults follow"
                     };
-                    let mut diff =
-                        state_diff("processes", "the processes'", &expected.state, &observed);
+                    let model = expected.against(observed.actuator_owner);
+                    let mut diff = state_diff("processes", "the processes'", &model, &observed);
                     if let OwnerSeen::Unsettled(counts) = owner {
                         let _ = writeln!(diff, "  the servo: {}", describe_counts(&counts));
                     }
@@ -198,23 +222,25 @@ impl<'a> Run<'a> {
                 real,
                 from_ms: self.timing.owner_from_ms,
                 until_ms: OBSERVE_OFFSET_MS,
-                expected: expected.state.actuator_owner,
+                expected: expected.owners.clone(),
                 commands: describe_counts(&counts),
             };
             return Err(self.failure(false, problem));
         }
-        if observed == expected.state {
+        let model = expected.against(observed.actuator_owner);
+        if observed == model {
             return Ok(());
         }
-        let mut diff = state_diff("processes", "the processes'", &expected.state, &observed);
-        if observed.actuator_owner != expected.state.actuator_owner {
+        let mut diff = state_diff("processes", "the processes'", &model, &observed);
+        if observed.actuator_owner != model.actuator_owner {
             let _ = writeln!(
                 diff,
                 "  (the owner is the servo's: every command it accepted {}-{} ms into the \
-                 round came from {})",
+                 round came from {}; the model allows {})",
                 self.timing.owner_from_ms,
                 OBSERVE_OFFSET_MS,
-                owner_name(observed.actuator_owner)
+                owner_name(observed.actuator_owner),
+                owners_allowed(&expected.owners)
             );
         }
         let problem = Problem::StateDiffers {
