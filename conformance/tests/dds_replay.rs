@@ -17,7 +17,7 @@
 //! the broken rule. The families no mutation can change are listed in docs/conformance.md
 //! with the reason.
 //!
-//! Every replayable trace, not only this subset, is a command, not a test (about 7 minutes):
+//! Every replayable trace, not only this subset, is a command, not a test (about 6.5 minutes):
 //! `cargo run --release -p conformance --bin dds-replay-all`.
 
 use conformance::dds_replay::{self, Need, Problem, ReplayError, Selected, Setup, CURATED};

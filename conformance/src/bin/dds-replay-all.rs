@@ -1,6 +1,6 @@
 //! `dds-replay-all [--mutation NAME] [TRACE.jsonl ...]`: the DDS-level replay of every trace
 //! the plan can time on real processes, not only the curated subset `tests/dds_replay.rs`
-//! replays (about 100 traces, some 7 minutes), each recording then validated strictly
+//! replays (105 traces, about 6.5 minutes), each recording then validated strictly
 //! (docs/conformance.md, "DDS-level replay"). Given trace file names, only those.
 //! `--mutation NAME` runs the controllers with `RL_MUTATION=NAME` (a deliberately broken
 //! rule: `promote-without-failure`, `ignore-minority-vote`, `failback`, `admit-fourth`), to
