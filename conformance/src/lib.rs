@@ -16,14 +16,12 @@
 //!   reported at every round boundary;
 //! - [`validate`]: trace validation, the other direction: a recorded run checked to be a
 //!   behaviour the model allows;
-//! - [`dds_plan`]: which traces the DDS-level replay takes and how each is timed on real
-//!   processes (pure, from the model);
-//! - [`dds_replay`]: the DDS-level replay: real `rl controller` processes over DDS, faults
-//!   applied for real.
+//! - [`dds_replay`]: the DDS-level replay: which traces it takes and how each is timed on
+//!   real processes (pure, from the model), and the run itself: real `rl controller`
+//!   processes and an `rl servo` over DDS, faults applied for real.
 
 pub mod abstraction;
 pub mod core_replay;
-pub mod dds_plan;
 pub mod dds_replay;
 pub mod diff;
 pub mod record;

@@ -3,7 +3,8 @@
 //!
 //! A recording is what `rl demo --record DIR` and the DDS-level replay leave behind: one log
 //! per process (`C1.log`, `C3#1.log`, ...) whose controller events are `started`, `status`,
-//! `output`, `vote`, `alarm`, `leds`, `stopped`, each with `t_ms` (the controller's round
+//! `output`, `vote`, `alarm`, `leds`, `stopped` (and `heartbeat_dropped` from a
+//! fault-injection build), each with `t_ms` (the controller's round
 //! clock: wall-clock milliseconds, rounds are multiples of the heartbeat period), `id` and
 //! `incarnation` (docs/architecture.md). Other lines (servo and camera events, log text) are
 //! skipped. Both the DDS-level replay and trace validation read a controller's state from here,
@@ -159,15 +160,20 @@ impl Recording {
         Ok(recording)
     }
 
-    /// Builds a recording from lines already in memory, `(source, line)`.
+    /// Builds a recording from lines already in memory, `(source, line)`; an error names the
+    /// source as its path.
     pub fn from_lines<'a>(
         lines: impl IntoIterator<Item = (&'a str, &'a str)>,
-    ) -> Result<Recording, String> {
+    ) -> Result<Recording, RecordError> {
         let mut recording = Recording::default();
         for (source, line) in lines {
             recording
                 .add_lines(source, std::iter::once(line))
-                .map_err(|(_, message)| format!("{source}: {message}"))?;
+                .map_err(|(_, message)| RecordError {
+                    path: source.into(),
+                    line: None,
+                    message,
+                })?;
         }
         recording.finish();
         Ok(recording)
@@ -297,6 +303,7 @@ pub fn describe_event(event: &EventLine, number: Option<u8>) -> String {
             role.map_or("no-role", |r| r.name()),
             strength.map_or("silent".to_string(), |v| v.to_string())
         ),
+        Event::HeartbeatDropped { from } => format!("from C{from}"),
         _ => String::new(),
     };
     format!("{who} {} {detail}", event.event.kind())
@@ -348,6 +355,7 @@ mod tests {
             r#""event":"status","status":{"phase":"dancing"}"#,
         );
         let error = Recording::from_lines([("C2.log", bad.as_str())]).expect_err("bad status");
-        assert!(error.contains("does not parse"), "{error}");
+        assert!(error.message.contains("does not parse"), "{error}");
+        assert_eq!(error.to_string().split(':').next(), Some("C2.log"));
     }
 }

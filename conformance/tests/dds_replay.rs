@@ -1,23 +1,29 @@
 //! The DDS-level replay (docs/conformance.md, "DDS-level replay"): a curated subset of the
 //! model's traces, every fault kind at least once, replayed against real
 //! `rl controller --json-events` processes over DDS on loopback, with real faults (`kill -9`,
-//! new processes, heartbeats dropped by the fault-injection control). Each run's recorded
-//! events are then checked by trace validation.
+//! new processes, heartbeats dropped by the fault-injection control) and the actuator's owner
+//! read from a real `rl servo --json`. Each run's recording is then validated strictly.
 //!
-//! The subset is `conformance::dds_plan::CURATED`, resolved by purpose from
-//! `traces/index.json`; each test has its own DDS domain (190-197, in that table) and the
-//! tests take turns (they are timed on the wall clock, and this machine has 2 cores). The
-//! `rl` binary with the `fault-injection` feature is built once into
-//! `target/fault-injection`; the recordings are kept in `target/tmp/dds-replay/NNNN/`.
+//! The subset is `conformance::dds_replay::CURATED`, resolved by purpose from
+//! `traces/index.json`; each test has its own DDS domain (190-197 and 220, in that table; 199
+//! the broken replay; 221-224 the mutation checks) and the tests take turns (they are timed on
+//! the wall clock, and this machine has 2 cores). The `rl` binary with the `fault-injection`
+//! and `mutation` features is built once into `target/fault-injection`; the recordings are
+//! kept in `target/tmp/dds-replay/`.
 //!
-//! Every replayable trace, not only this subset, is a command, not a test (about 6 minutes):
+//! The mutation checks: a suite that cannot fail proves nothing. Each curated family that one
+//! of the core's deliberately broken rules can change is replayed with the controllers
+//! running that rule (`RL_MUTATION`), and must fail at a boundary with a diff row that shows
+//! the broken rule. The families no mutation can change are listed in docs/conformance.md
+//! with the reason.
+//!
+//! Every replayable trace, not only this subset, is a command, not a test (about 6.5 minutes):
 //! `cargo run --release -p conformance --bin dds-replay-all`.
 
-use conformance::dds_plan::{self, CURATED};
-use conformance::dds_replay;
-use conformance::record::Recording;
+use conformance::dds_replay::{self, Need, Problem, ReplayError, Selected, Setup, CURATED};
+use conformance::diff::{NAME_WIDTH, VALUE_WIDTH};
 use conformance::trace;
-use conformance::validate;
+use rl::core::mutation::Mutation;
 use std::path::PathBuf;
 use std::sync::Mutex;
 use std::time::Instant;
@@ -25,59 +31,63 @@ use std::time::Instant;
 /// One replay at a time.
 static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
 
+fn selected(name: &str) -> Selected {
+    let curated = dds_replay::curated(name).unwrap_or_else(|| panic!("no curated entry {name:?}"));
+    let timing = dds_replay::timing().unwrap_or_else(|e| panic!("{e}"));
+    dds_replay::select(&trace::default_dir(), curated, &timing).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn record_dir(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+        .join("dds-replay")
+        .join(name)
+}
+
+/// Replays `selected` on `domain` with `mutation` (if any); the recording goes to
+/// `target/tmp/dds-replay/<record>`.
+fn replay(
+    selected: &Selected,
+    domain: u16,
+    mutation: Option<Mutation>,
+    record: &str,
+) -> Result<dds_replay::Replayed, ReplayError> {
+    let exe = dds_replay::fault_injection_rl().unwrap_or_else(|e| panic!("{e}"));
+    let record_dir = record_dir(record);
+    let setup = Setup {
+        exe: &exe,
+        domain,
+        record_dir: &record_dir,
+        mutation: mutation.map(|m| m.name().to_string()),
+    };
+    dds_replay::replay(&selected.plan, &setup)
+}
+
 fn replay_curated(name: &str) {
     let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
-    let curated = CURATED
-        .iter()
-        .find(|c| c.name == name)
-        .unwrap_or_else(|| panic!("no curated entry {name:?}"));
-    let timing = dds_replay::timing().unwrap_or_else(|e| panic!("replay configuration: {e}"));
-    let selected =
-        dds_plan::select(&trace::default_dir(), curated, &timing).unwrap_or_else(|e| panic!("{e}"));
-    let exe = dds_replay::fault_injection_rl().unwrap_or_else(|e| panic!("{e}"));
-    let stem = selected.plan.file.trim_end_matches(".jsonl").to_string();
-    let record_dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
-        .join("dds-replay")
-        .join(&stem);
+    let selected = selected(name);
     let started = Instant::now();
-    let replayed = dds_replay::replay(&selected, &exe, curated.domain, &record_dir)
-        .unwrap_or_else(|e| panic!("{e}"));
+    let stem = selected.plan.file.trim_end_matches(".jsonl").to_string();
+    let domain = selected.curated.domain;
+    let replayed = replay(&selected, domain, None, &stem).unwrap_or_else(|e| panic!("{e}"));
     println!(
-        "{}: traces/{} ({}) conforms over DDS on domain {}: lockstep boundaries {}, real \
-         rounds {}, attempt {}, {:.1} s",
-        curated.name,
+        "{name}: traces/{} ({}) conforms over DDS on domain {domain}: lockstep boundaries {}, \
+         real rounds {}, attempt {}, {:.1} s\n  its recording ({}), validated strictly: {}",
         replayed.file,
         selected.plan.purpose,
-        curated.domain,
         replayed.lockstep_boundaries,
         replayed.rounds,
         replayed.attempts,
-        started.elapsed().as_secs_f64()
+        started.elapsed().as_secs_f64(),
+        replayed.record_dir.display(),
+        replayed.validation
     );
-    let recording = Recording::read_dir(&record_dir).unwrap_or_else(|e| panic!("{e}"));
-    let (timing, _) = validate::run_timing(&record_dir, None).unwrap_or_else(|e| panic!("{e}"));
-    let validated = Instant::now();
-    match validate::validate(&recording, &timing) {
-        Ok(accepted) => println!(
-            "  its recording ({}) is a behaviour of the model: {accepted} in {:.2} s",
-            record_dir.display(),
-            validated.elapsed().as_secs_f64()
-        ),
-        Err(rejection) => panic!(
-            "the recording of the replay of traces/{} ({}) is not a behaviour of the model:\n{rejection}",
-            replayed.file,
-            record_dir.display()
-        ),
-    }
 }
 
 #[test]
 fn the_curated_subset_shows_every_fault_kind() {
-    let timing = dds_replay::timing().expect("the replay configuration is valid");
     println!("{:<24} {:<12} {:<6} why", "fault", "trace", "domain");
     for curated in CURATED {
-        let selected = dds_plan::select(&trace::default_dir(), curated, &timing)
-            .unwrap_or_else(|e| panic!("{e}"));
+        let selected = selected(curated.name);
         println!(
             "{:<24} {:<12} {:<6} {} [{}]",
             curated.name,
@@ -89,19 +99,32 @@ fn the_curated_subset_shows_every_fault_kind() {
     }
 }
 
+/// The rows of a failure's diff marked as different: (field, model value, processes' value).
+fn differing_rows(message: &str) -> Vec<(String, String, String)> {
+    message
+        .lines()
+        .filter_map(|line| line.strip_prefix("  >> "))
+        .filter_map(|rest| {
+            let observed_column = NAME_WIDTH + VALUE_WIDTH;
+            let name = rest.get(..NAME_WIDTH)?.trim().to_string();
+            let model_value = rest.get(NAME_WIDTH..observed_column)?.trim().to_string();
+            let observed_value = rest.get(observed_column..)?.trim().to_string();
+            Some((name, model_value, observed_value))
+        })
+        .collect()
+}
+
 /// A suite that cannot fail proves nothing: the Primary-crash replay with the `kill -9` left
 /// out must fail at the first boundary where the model has the Primary down, with a diff.
 /// Domain 199.
 #[test]
 fn a_replay_that_departs_from_the_trace_fails_with_a_diff() {
     let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
-    let timing = dds_replay::timing().expect("the replay configuration is valid");
     let curated = CURATED
         .iter()
-        .find(|c| c.need == dds_plan::Need::CrashOf(model::Role::Primary))
+        .find(|c| c.need == Need::CrashOf(model::Role::Primary))
         .expect("the subset has a crash of the Primary");
-    let mut selected =
-        dds_plan::select(&trace::default_dir(), curated, &timing).unwrap_or_else(|e| panic!("{e}"));
+    let mut selected = selected(curated.name);
     let crash_round = selected
         .plan
         .rounds
@@ -109,24 +132,22 @@ fn a_replay_that_departs_from_the_trace_fails_with_a_diff() {
         .position(|r| !r.lifecycle.is_empty())
         .expect("the trace crashes a controller");
     selected.plan.rounds[crash_round].lifecycle.clear();
-    let exe = dds_replay::fault_injection_rl().unwrap_or_else(|e| panic!("{e}"));
-    let record_dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
-        .join("dds-replay")
-        .join("departing");
-    let message = dds_replay::replay(&selected, &exe, 199, &record_dir)
+    let error = replay(&selected, 199, None, "departing")
         .expect_err("the processes keep the Primary alive; the model has it killed");
+    let message = error.to_string();
     println!("{message}");
-    let expected_row = format!("boundary {} of", crash_round + 1);
-    assert!(
-        message.contains(&expected_row),
-        "fails right after the missing crash: {message}"
+    let Some(Problem::StateDiffers { boundary, .. }) = error.problem() else {
+        panic!("a state difference, not: {message}");
+    };
+    // The model's owner through the crash round is the Secondary; the servo still takes the
+    // Primary's commands.
+    assert_eq!(
+        *boundary, crash_round,
+        "fails in the round of the missing crash: {message}"
     );
     assert!(
-        message.lines().any(|line| {
-            let row: Vec<&str> = line.split_whitespace().collect();
-            row == [">>", "life", "down", "up"]
-        }),
-        "the diff shows C1 up where the model has it down: {message}"
+        message.contains(">> actuator owner: model C2, processes C1"),
+        "the diff shows the Primary still owning the actuator: {message}"
     );
 }
 
@@ -176,4 +197,105 @@ fn one_way_heartbeat_loss() {
 #[test]
 fn minority_vote() {
     replay_curated("minority vote");
+}
+
+// Domain 220.
+#[test]
+fn lone_lost_heartbeat() {
+    replay_curated("lone lost heartbeat");
+}
+
+/// Replays a curated family with the controllers running `mutation` on `domain`; the replay
+/// must fail, and some row of its diff must show `field` differing as `shows` accepts (model
+/// value, processes' value).
+fn assert_caught(
+    family: &str,
+    mutation: Mutation,
+    domain: u16,
+    field: &str,
+    shows: impl Fn(&str, &str) -> bool,
+) {
+    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let selected = selected(family);
+    let started = Instant::now();
+    let record = format!(
+        "{}-{}",
+        selected.plan.file.trim_end_matches(".jsonl"),
+        mutation.name()
+    );
+    let error = match replay(&selected, domain, Some(mutation), &record) {
+        Ok(replayed) => panic!(
+            "{family} (traces/{}) conforms with RL_MUTATION={}: the replay cannot see this \
+             rule broken; its recording: {}",
+            replayed.file,
+            mutation.name(),
+            replayed.validation
+        ),
+        Err(error) => error,
+    };
+    let problem = error
+        .problem()
+        .unwrap_or_else(|| panic!("a departure from the model, not: {error}"))
+        .to_string();
+    println!(
+        "{family} with RL_MUTATION={} fails in {:.1} s:\n{problem}",
+        mutation.name(),
+        started.elapsed().as_secs_f64()
+    );
+    assert!(
+        differing_rows(&problem)
+            .iter()
+            .any(|(name, model_value, observed)| name == field && shows(model_value, observed)),
+        "{family} with RL_MUTATION={}: no diff row shows the expected {field} difference:\n{error}",
+        mutation.name()
+    );
+}
+
+/// The Secondary takes Primary when the crashed Primary misses its first heartbeat, a round
+/// before the dead-man deadline lets the model promote it. Domain 221.
+#[test]
+fn promote_without_failure_breaks_the_crash_of_the_primary() {
+    assert_caught(
+        "crash of the Primary",
+        Mutation::PromoteWithoutFailure,
+        221,
+        "role",
+        |model, processes| model == "secondary" && processes == "primary",
+    );
+}
+
+/// The same broken rule turns one lost heartbeat into a takeover. Domain 222.
+#[test]
+fn promote_without_failure_breaks_the_lone_lost_heartbeat() {
+    assert_caught(
+        "lone lost heartbeat",
+        Mutation::PromoteWithoutFailure,
+        222,
+        "role",
+        |model, processes| model == "secondary" && processes == "primary",
+    );
+}
+
+/// The fourth controller votes itself in as Tertiary. Domain 223.
+#[test]
+fn admit_fourth_breaks_the_fourth_controller() {
+    assert_caught(
+        "fourth controller",
+        Mutation::AdmitFourth,
+        223,
+        "vote",
+        |model, processes| processes.contains("T=4") && !model.contains("T=4"),
+    );
+}
+
+/// The minority voter is never marked FAILED. Domain 224.
+#[test]
+fn ignore_minority_vote_breaks_the_minority_vote() {
+    assert_caught(
+        "minority vote",
+        Mutation::IgnoreMinorityVote,
+        224,
+        "failed",
+        |model, processes| model != "{}" && processes == "{}",
+    );
 }

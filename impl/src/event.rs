@@ -49,6 +49,10 @@ pub enum Event {
     },
     /// The status LEDs now show this pattern (its console form).
     Leds { leds: String },
+    /// A heartbeat of peer `from` arrived and was dropped by the fault-injection control (a
+    /// `fault-injection` build only): the DDS-level replay checks every loss it injects
+    /// against these, so an injected loss is told apart from a real one.
+    HeartbeatDropped { from: ControllerId },
     /// The voting thread stopped cleanly.
     Stopped,
 }
@@ -63,6 +67,7 @@ impl Event {
             Event::Vote { .. } => "vote",
             Event::Alarm { .. } => "alarm",
             Event::Leds { .. } => "leds",
+            Event::HeartbeatDropped { .. } => "heartbeat_dropped",
             Event::Stopped => "stopped",
         }
     }
@@ -128,6 +133,10 @@ mod tests {
             r#"{"t_ms":1000,"id":2,"incarnation":77,"event":"alarm","about":1,"reason":"lost","raised":true}"#
         );
         assert_eq!(
+            line(Event::HeartbeatDropped { from: 1 }).to_json(),
+            r#"{"t_ms":1000,"id":2,"incarnation":77,"event":"heartbeat_dropped","from":1}"#
+        );
+        assert_eq!(
             line(Event::Vote { vote: None }).to_json(),
             r#"{"t_ms":1000,"id":2,"incarnation":77,"event":"vote","vote":null}"#
         );
@@ -170,6 +179,7 @@ mod tests {
             Event::Leds {
                 leds: "[P:off S:green T:off | own:green]".into(),
             },
+            Event::HeartbeatDropped { from: 3 },
             Event::Stopped,
         ];
         for event in events {

@@ -261,6 +261,10 @@ impl Voting {
         for heartbeat in self.endpoints.heartbeats_in.take() {
             #[cfg(feature = "fault-injection")]
             if fault_injection::dropped(heartbeat.value.id) {
+                // Logged: an injected loss must be told apart from a real one.
+                self.event(Event::HeartbeatDropped {
+                    from: heartbeat.value.id,
+                });
                 continue;
             }
             self.step(Input::Heartbeat(heartbeat.value));
@@ -422,7 +426,8 @@ impl Voting {
 }
 
 /// Test-only fault injection (feature `fault-injection`): heartbeats from the peers named on
-/// stdin are dropped on arrival, as if the network lost them one way; `stall-voting-loop <ms>`
+/// stdin are dropped on arrival, as if the network lost them one way, each drop logged as a
+/// `heartbeat_dropped` event (with `--json-events`); `stall-voting-loop <ms>`
 /// blocks the voting loop once for that long, as a hung loop would (the watchdog test).
 #[cfg(feature = "fault-injection")]
 mod fault_injection {

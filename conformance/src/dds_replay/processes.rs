@@ -1,0 +1,209 @@
+//! The replay's child processes: `rl controller --json-events` with its stdin piped (the
+//! fault-injection control), and `rl servo --json`. Every line they print reaches one channel,
+//! stamped with the wall clock when it was read. The children are kept here, not in
+//! `rl::procs::Fleet`, so the replay can tell a process that exited on its own
+//! ([`Processes::exited`], `try_wait`) from one it killed.
+
+use rl::core::ControllerId;
+use rl::procs::wall_ms;
+use std::io::{BufRead, BufReader, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Child, ChildStdin, Command, ExitStatus, Stdio};
+use std::sync::mpsc::{self, Receiver, Sender};
+use std::time::{Duration, Instant};
+
+/// The source name of the servo's lines.
+pub const SERVO: &str = "servo";
+
+/// A line a child printed: its source (`C1`, `C3#1`, `servo`; `C1!` for stderr), its text,
+/// and the wall-clock milliseconds when it was read.
+#[derive(Clone, Debug)]
+pub struct Line {
+    pub wall_ms: u64,
+    pub source: String,
+    pub text: String,
+}
+
+struct Process {
+    source: String,
+    child: Child,
+    stdin: Option<ChildStdin>,
+    /// Killed on purpose (the plan's crash): its exit is no failure.
+    killed: bool,
+    /// Its exit was already reported.
+    exit_reported: bool,
+}
+
+/// The children of one attempt, stopped when dropped.
+pub struct Processes {
+    exe: PathBuf,
+    config: PathBuf,
+    domain: u16,
+    /// Environment for controllers only (`RL_MUTATION`).
+    controller_env: Vec<(String, String)>,
+    processes: Vec<Process>,
+    lines: Sender<Line>,
+}
+
+impl Processes {
+    /// Children of `exe` on `domain` with configuration `config`; controllers run with
+    /// `RL_MUTATION=<mutation>` if one is given. Every line goes to the returned channel.
+    pub fn new(
+        exe: &Path,
+        config: &Path,
+        domain: u16,
+        mutation: Option<&str>,
+    ) -> (Processes, Receiver<Line>) {
+        let (lines, receiver) = mpsc::channel();
+        let controller_env = mutation
+            .map(|name| vec![("RL_MUTATION".to_string(), name.to_string())])
+            .unwrap_or_default();
+        let processes = Processes {
+            exe: exe.to_path_buf(),
+            config: config.to_path_buf(),
+            domain,
+            controller_env,
+            processes: Vec::new(),
+            lines,
+        };
+        (processes, receiver)
+    }
+
+    fn command(&self, args: &[&str]) -> Command {
+        let mut command = Command::new(&self.exe);
+        command
+            .args(args)
+            .arg("--config")
+            .arg(&self.config)
+            .arg("--domain")
+            .arg(self.domain.to_string())
+            .env("RUST_LOG", "warn")
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped());
+        command
+    }
+
+    /// Starts `rl controller --id <id> --json-events` tagged `source`, its stdin piped.
+    pub fn start_controller(&mut self, id: ControllerId, source: &str) -> std::io::Result<()> {
+        let id_text = id.to_string();
+        let mut command = self.command(&["controller", "--id", &id_text, "--json-events"]);
+        command.stdin(Stdio::piped());
+        for (key, value) in &self.controller_env {
+            command.env(key, value);
+        }
+        self.spawn(command, source)
+    }
+
+    /// Starts `rl servo --json`.
+    pub fn start_servo(&mut self) -> std::io::Result<()> {
+        let command = self.command(&["servo", "--json"]);
+        self.spawn(command, SERVO)
+    }
+
+    fn spawn(&mut self, mut command: Command, source: &str) -> std::io::Result<()> {
+        let mut child = command.spawn()?;
+        if let Some(stdout) = child.stdout.take() {
+            read_lines(stdout, source.to_string(), self.lines.clone());
+        }
+        if let Some(stderr) = child.stderr.take() {
+            read_lines(stderr, format!("{source}!"), self.lines.clone());
+        }
+        let stdin = child.stdin.take();
+        self.processes.push(Process {
+            source: source.to_string(),
+            child,
+            stdin,
+            killed: false,
+            exit_reported: false,
+        });
+        Ok(())
+    }
+
+    fn find(&mut self, source: &str) -> Option<&mut Process> {
+        self.processes.iter_mut().find(|p| p.source == source)
+    }
+
+    /// `kill -9` and reap.
+    pub fn kill(&mut self, source: &str) -> std::io::Result<()> {
+        if let Some(process) = self.find(source) {
+            process.killed = true;
+            process.stdin = None;
+            if process.child.try_wait()?.is_none() {
+                process.child.kill()?;
+            }
+            process.child.wait()?;
+        }
+        Ok(())
+    }
+
+    /// Writes `text` to a controller's stdin (the fault-injection control).
+    pub fn send(&mut self, source: &str, text: &str) -> std::io::Result<()> {
+        let stdin = self
+            .find(source)
+            .and_then(|p| p.stdin.as_mut())
+            .ok_or_else(|| std::io::Error::other("no stdin (not started, or killed)"))?;
+        stdin.write_all(text.as_bytes())?;
+        stdin.flush()
+    }
+
+    /// Children that exited although nobody killed them, each reported once: `(source,
+    /// status)`.
+    pub fn exited(&mut self) -> Vec<(String, ExitStatus)> {
+        let mut out = Vec::new();
+        for process in &mut self.processes {
+            if process.killed || process.exit_reported {
+                continue;
+            }
+            if let Ok(Some(status)) = process.child.try_wait() {
+                process.exit_reported = true;
+                out.push((process.source.clone(), status));
+            }
+        }
+        out
+    }
+
+    /// SIGTERM to every child still running, then SIGKILL whoever is left after a second.
+    pub fn stop_all(&mut self) {
+        for process in &mut self.processes {
+            process.stdin = None;
+            if matches!(process.child.try_wait(), Ok(None)) {
+                let _ = rl::procs::signal(process.child.id(), libc::SIGTERM);
+            }
+        }
+        let deadline = Instant::now() + Duration::from_secs(1);
+        for process in &mut self.processes {
+            while Instant::now() < deadline {
+                if !matches!(process.child.try_wait(), Ok(None)) {
+                    break;
+                }
+                std::thread::sleep(Duration::from_millis(10));
+            }
+            let _ = process.child.kill();
+            let _ = process.child.wait();
+        }
+        self.processes.clear();
+    }
+}
+
+impl Drop for Processes {
+    fn drop(&mut self) {
+        self.stop_all();
+    }
+}
+
+/// A thread that sends each line of `input` until it or the channel closes.
+fn read_lines(input: impl std::io::Read + Send + 'static, source: String, to: Sender<Line>) {
+    std::thread::spawn(move || {
+        for text in BufReader::new(input).lines().map_while(Result::ok) {
+            let line = Line {
+                wall_ms: wall_ms(),
+                source: source.clone(),
+                text,
+            };
+            if to.send(line).is_err() {
+                break;
+            }
+        }
+    });
+}

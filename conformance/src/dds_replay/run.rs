@@ -1,0 +1,498 @@
+//! One attempt's processes and what they printed, and the steps the driver ([`super`]) takes
+//! with them: start, apply a round's faults on time, wait for and compare a boundary. Every
+//! observation first checks the processes' health: a process the plan did not kill must
+//! still run, and the heartbeat drops logged so far must be the injected ones
+//! ([`super::drops`]).
+
+use super::config::{
+    RunTiming, APPLY_LATEST_MS, APPLY_OFFSET_MS, FIRST_REPORT_TIMEOUT, OBSERVE_OFFSET_MS,
+    SETTLE_TIMEOUT,
+};
+use super::drops::DropBook;
+use super::error::{owner_name, owners_allowed, Failure, Problem};
+use super::lives::{self, Life};
+use super::plan::{owners, Plan, RoundPlan};
+use super::processes::{Line, Processes, SERVO};
+use super::servo::{describe_counts, OwnerSeen, ServoView};
+use super::transcript::Output;
+use super::Setup;
+use crate::diff::state_diff;
+use crate::record::{describe_event, round_of};
+use model::traces::AbstractState;
+use model::Action;
+use rl::core::ControllerId;
+use rl::event::{Event, EventLine};
+use rl::procs::{parse_servo_event, wall_ms};
+use std::collections::BTreeSet;
+use std::fmt::Write as _;
+use std::sync::mpsc::Receiver;
+use std::time::{Duration, Instant};
+
+/// What a boundary is compared against: the plan's state, and who may own the actuator
+/// ([`super::plan::owners`]: with a tie, any of the strongest).
+pub(super) struct Expected {
+    pub boundary: usize,
+    pub state: AbstractState,
+    pub owners: Vec<ControllerId>,
+}
+
+impl Expected {
+    /// The state to compare with one whose owner is `observed`: with the observed owner if
+    /// the model allows it, else with the model's own.
+    fn against(&self, observed: Option<ControllerId>) -> AbstractState {
+        let mut state = self.state.clone();
+        let allowed = match observed {
+            Some(id) => self.owners.contains(&id),
+            None => self.owners.is_empty(),
+        };
+        if allowed {
+            state.actuator_owner = observed;
+        }
+        state
+    }
+}
+
+pub(super) struct Run<'a> {
+    pub plan: &'a Plan,
+    pub timing: RunTiming,
+    processes: Processes,
+    lines: Receiver<Line>,
+    lives: Vec<Life>,
+    servo: ServoView,
+    drops: DropBook,
+    output: Output,
+    /// The real round of the first boundary, once known.
+    first_round: Option<u64>,
+}
+
+impl<'a> Run<'a> {
+    pub fn new(plan: &'a Plan, setup: &Setup, timing: RunTiming, config: &std::path::Path) -> Self {
+        let (processes, lines) =
+            Processes::new(setup.exe, config, setup.domain, setup.mutation.as_deref());
+        Run {
+            plan,
+            timing,
+            processes,
+            lines,
+            lives: Vec::new(),
+            servo: ServoView::default(),
+            drops: DropBook::default(),
+            output: Output::default(),
+            first_round: None,
+        }
+    }
+
+    pub fn period_ms(&self) -> u64 {
+        self.timing.rounds.period_ms
+    }
+
+    /// Real round `start`: the servo, the trace's initial controllers and round 0's faults.
+    pub fn start(&mut self, start: u64) -> Result<(), Failure> {
+        if let Err(source) = self.processes.start_servo() {
+            let what = "rl servo --json".to_string();
+            return Err(self.failure(false, Problem::Spawn { what, source }));
+        }
+        let plan = self.plan;
+        for &id in &plan.initial_up {
+            self.spawn(id, start)?;
+        }
+        self.apply(&plan.rounds[0], start)
+    }
+
+    /// Waits for the first reports: their round is the trace's boundary 1 (compared in the
+    /// lockstep, where a difference means the start did not line up with the trace).
+    pub fn await_first_reports(&mut self) -> Result<u64, Failure> {
+        let deadline = Instant::now() + FIRST_REPORT_TIMEOUT;
+        let first = loop {
+            self.pump(Duration::from_millis(5));
+            let earliest = self
+                .lives
+                .iter()
+                .flat_map(|l| l.log.events.iter())
+                .filter(|e| matches!(e.event, Event::Status { .. }))
+                .map(|e| e.t_ms)
+                .min();
+            if let Some(t_ms) = earliest {
+                break round_of(t_ms, self.period_ms());
+            }
+            self.check_exits(round_of(wall_ms(), self.period_ms()))?;
+            if Instant::now() >= deadline {
+                let timeout = FIRST_REPORT_TIMEOUT;
+                return Err(self.failure(false, Problem::NoFirstReports { timeout }));
+            }
+        };
+        self.first_round = Some(first);
+        let late_ms = wall_ms().saturating_sub(first * self.period_ms());
+        if late_ms > APPLY_LATEST_MS && self.plan.rounds.get(1).is_some_and(|r| !r.is_empty()) {
+            return Err(self.failure(true, Problem::FirstReportsLate { late_ms }));
+        }
+        // Discovery: every process started in round 0 must be heard from the trace's round 0
+        // or the round before (the plan checked that both lead to the same states).
+        let late = self
+            .lives
+            .iter()
+            .filter(|l| l.is_running())
+            .map(|l| (l.log.id, (first - 1).saturating_sub(l.spawned_round)))
+            .find(|(_, rounds)| *rounds > 1);
+        if let Some((id, rounds)) = late {
+            return Err(self.failure(true, Problem::DiscoveredLate { id, rounds }));
+        }
+        Ok(first)
+    }
+
+    /// Boundary `k` as compared in the lockstep, where round `k`'s faults were applied at its
+    /// start: the owner is the one through the round, after its crashes.
+    pub fn expected_in_lockstep(&self, k: usize) -> Expected {
+        let mut state = self.plan.expected(k);
+        let owners = self.plan.owners_in_round[k].clone();
+        state.actuator_owner = owners.first().copied();
+        Expected {
+            boundary: k,
+            state,
+            owners,
+        }
+    }
+
+    /// Boundary `k` as waited for: no faults in the rounds it is observed in.
+    pub fn expected_at_rest(&self, k: usize) -> Expected {
+        Expected {
+            boundary: k,
+            state: self.plan.expected(k),
+            owners: owners(&self.plan.boundaries[k]),
+        }
+    }
+
+    /// Waits until `expected` is observed at `times` consecutive boundaries; returns the real
+    /// round of the last.
+    pub fn await_state(&mut self, expected: &Expected, times: u64) -> Result<u64, Failure> {
+        let deadline = Instant::now() + SETTLE_TIMEOUT;
+        let mut run = 0;
+        let mut real = round_of(wall_ms(), self.period_ms());
+        loop {
+            self.sleep_until(real * self.period_ms() + OBSERVE_OFFSET_MS);
+            let (observed, owner) = self.observe(real)?;
+            let settled = !matches!(owner, OwnerSeen::Unsettled(_));
+            if settled && observed == expected.against(observed.actuator_owner) {
+                run += 1;
+                if run >= times {
+                    return Ok(real);
+                }
+            } else {
+                run = 0;
+                if Instant::now() >= deadline {
+                    let k = expected.boundary;
+                    let last = self.plan.last();
+                    let what = if k == last {
+                        "the settled end"
+                    } else {
+                        "quiescent, faults follow"
+                    };
+                    let model = expected.against(observed.actuator_owner);
+                    let mut diff = state_diff("processes", "the processes'", &model, &observed);
+                    if let OwnerSeen::Unsettled(counts) = owner {
+                        let _ = writeln!(diff, "  the servo: {}", describe_counts(&counts));
+                    }
+                    let timeout = SETTLE_TIMEOUT;
+                    let problem = Problem::NotReached {
+                        boundary: k,
+                        last,
+                        what,
+                        timeout,
+                        real,
+                        diff,
+                    };
+                    return Err(self.failure(false, problem));
+                }
+            }
+            real += 1;
+        }
+    }
+
+    /// Compares the boundary observed in real round `real` with `expected`.
+    pub fn compare(
+        &mut self,
+        expected: &Expected,
+        real: u64,
+        how: &'static str,
+    ) -> Result<(), Failure> {
+        let (observed, owner) = self.observe(real)?;
+        if let OwnerSeen::Unsettled(counts) = owner {
+            let problem = Problem::OwnerUnsettled {
+                boundary: expected.boundary,
+                real,
+                from_ms: self.timing.owner_from_ms,
+                until_ms: OBSERVE_OFFSET_MS,
+                expected: expected.owners.clone(),
+                commands: describe_counts(&counts),
+            };
+            return Err(self.failure(false, problem));
+        }
+        let model = expected.against(observed.actuator_owner);
+        if observed == model {
+            return Ok(());
+        }
+        let mut diff = state_diff("processes", "the processes'", &model, &observed);
+        if observed.actuator_owner != model.actuator_owner {
+            let _ = writeln!(
+                diff,
+                "  (the owner is the servo's: every command it accepted {}-{} ms into the \
+                 round came from {}; the model allows {})",
+                self.timing.owner_from_ms,
+                OBSERVE_OFFSET_MS,
+                owner_name(observed.actuator_owner),
+                owners_allowed(&expected.owners)
+            );
+        }
+        let problem = Problem::StateDiffers {
+            boundary: expected.boundary,
+            last: self.plan.last(),
+            how,
+            real,
+            since_first: real - self.first_round.unwrap_or(real),
+            diff,
+        };
+        Err(self.failure(false, problem))
+    }
+
+    /// The controllers' reports at the boundary of real round `real`, with the servo's owner
+    /// in the round's owner window; the processes' health checked first.
+    fn observe(&mut self, real: u64) -> Result<(AbstractState, OwnerSeen), Failure> {
+        self.check_exits(real)?;
+        let period_ms = self.period_ms();
+        let dead_after_rounds = u64::from(self.timing.rounds.dead_after_rounds);
+        if let Err(problem) = self
+            .drops
+            .check(&self.lives, real, period_ms, dead_after_rounds)
+        {
+            return Err(self.failure(false, problem));
+        }
+        let count = self.plan.boundaries[0].controllers.len();
+        let mut observed = lives::observe(&self.lives, count, real, period_ms)
+            .map_err(|e| self.failure(false, e.into()))?;
+        let boundary_ms = real * period_ms;
+        let owner = self.servo.owner_between(
+            boundary_ms + self.timing.owner_from_ms,
+            boundary_ms + OBSERVE_OFFSET_MS,
+        );
+        observed.actuator_owner = match owner {
+            OwnerSeen::One(id) => Some(id),
+            OwnerSeen::Nobody | OwnerSeen::Unsettled(_) => None,
+        };
+        Ok((observed, owner))
+    }
+
+    /// A process that exited without the plan killing it is a failure.
+    fn check_exits(&mut self, real: u64) -> Result<(), Failure> {
+        let exited = self.processes.exited();
+        let Some((source_name, status)) = exited.into_iter().next() else {
+            return Ok(());
+        };
+        // Its last lines may still be in the pipe.
+        self.pump(Duration::from_millis(100));
+        let tail = self.output.process_tail(&source_name);
+        let problem = Problem::ProcessExited {
+            source_name,
+            status,
+            real,
+            tail,
+        };
+        Err(self.failure(false, problem))
+    }
+
+    /// Round `k`'s faults, at the start of real round `real`: on time or not at all. Its
+    /// losses must each show a logged drop.
+    pub fn apply_on_time(&mut self, k: usize, round: &RoundPlan, real: u64) -> Result<(), Failure> {
+        let boundary_ms = real * self.period_ms();
+        self.sleep_until(boundary_ms + APPLY_OFFSET_MS);
+        let late_ms = wall_ms().saturating_sub(boundary_ms);
+        if late_ms > APPLY_LATEST_MS && !round.is_empty() {
+            return Err(self.failure(true, Problem::HarnessLate { real, late_ms }));
+        }
+        self.drops.require(k, real, &round.lost);
+        self.apply(round, real)
+    }
+
+    /// Whether some process still drops heartbeats.
+    pub fn dropping(&self) -> bool {
+        self.lives
+            .iter()
+            .any(|l| l.is_running() && !l.dropping.is_empty())
+    }
+
+    /// Starts, kills, and sets every live process's dropped peers to the round's losses.
+    fn apply(&mut self, round: &RoundPlan, real: u64) -> Result<(), Failure> {
+        self.check_exits(real)?;
+        for action in &round.lifecycle {
+            match *action {
+                Action::Crash { controller } => self.kill(controller, real)?,
+                Action::Join { controller } | Action::Restart { controller } => {
+                    self.spawn(controller, real)?;
+                }
+                _ => {}
+            }
+        }
+        for index in 0..self.lives.len() {
+            let life = &self.lives[index];
+            if !life.is_running() {
+                continue;
+            }
+            let id = life.log.id;
+            let wanted: BTreeSet<ControllerId> = round
+                .lost
+                .iter()
+                .filter(|(_, to)| *to == id)
+                .map(|(from, _)| *from)
+                .collect();
+            let mut commands = String::new();
+            for from in wanted.difference(&life.dropping) {
+                let _ = writeln!(commands, "drop-heartbeats-from {from}");
+            }
+            for from in life.dropping.difference(&wanted) {
+                let _ = writeln!(commands, "accept-heartbeats-from {from}");
+            }
+            if commands.is_empty() {
+                continue;
+            }
+            let source_name = life.log.source.clone();
+            if let Err(source) = self.processes.send(&source_name, &commands) {
+                self.check_exits(real)?;
+                return Err(self.failure(
+                    false,
+                    Problem::Control {
+                        source_name,
+                        source,
+                    },
+                ));
+            }
+            self.drops.written(&source_name, wall_ms(), &wanted);
+            self.lives[index].dropping = wanted;
+        }
+        Ok(())
+    }
+
+    fn kill(&mut self, id: ControllerId, real: u64) -> Result<(), Failure> {
+        let Some(life) = lives::current_mut(&mut self.lives, id) else {
+            return Ok(());
+        };
+        life.killed_round = Some(real);
+        let source_name = life.log.source.clone();
+        if let Err(source) = self.processes.kill(&source_name) {
+            return Err(self.failure(false, Problem::Kill { id, source }));
+        }
+        Ok(())
+    }
+
+    fn spawn(&mut self, id: ControllerId, real: u64) -> Result<(), Failure> {
+        let life = Life::new(id, lives::lives_of(&self.lives, id), real, wall_ms());
+        if let Err(source) = self.processes.start_controller(id, &life.log.source) {
+            let what = format!("rl controller --id {id}");
+            return Err(self.failure(false, Problem::Spawn { what, source }));
+        }
+        self.lives.push(life);
+        Ok(())
+    }
+
+    /// Takes in what the processes printed, waiting up to `wait` for the first line.
+    fn pump(&mut self, wait: Duration) {
+        let mut first = true;
+        loop {
+            let line = if first {
+                self.lines.recv_timeout(wait).ok()
+            } else {
+                self.lines.try_recv().ok()
+            };
+            first = false;
+            let Some(line) = line else {
+                break;
+            };
+            self.take(line);
+        }
+    }
+
+    fn take(&mut self, line: Line) {
+        let round = round_of(line.wall_ms, self.period_ms());
+        let relative = self.first_round.map_or(String::new(), |f| {
+            format!(" ({:+})", round as i64 - f as i64)
+        });
+        let shown = if line.source == SERVO {
+            parse_servo_event(&line.text).map_or(Some(line.text.clone()), |event| {
+                self.servo.take(line.wall_ms, &event);
+                super::servo::describe(&event)
+            })
+        } else if let Some(event) = EventLine::parse(&line.text) {
+            let is_leds = matches!(event.event, Event::Leds { .. });
+            let shown = (!is_leds).then(|| describe_event(&event, None));
+            if let Some(life) = self.lives.iter_mut().find(|l| l.log.source == line.source) {
+                if !life.stamped {
+                    life.log.incarnation = event.incarnation;
+                    life.stamped = true;
+                }
+                life.log.events.push(event);
+            }
+            shown
+        } else {
+            Some(super::transcript::without_terminal_colours(&line.text))
+        };
+        if let Some(shown) = shown {
+            let source = &line.source;
+            let text = format!("{} round {round}{relative} {source}: {shown}", line.wall_ms);
+            self.output.show(text);
+        }
+        self.output.keep(&line.source, &line.text);
+    }
+
+    pub fn sleep_until(&mut self, target_ms: u64) {
+        loop {
+            let now = wall_ms();
+            if now >= target_ms {
+                self.pump(Duration::ZERO);
+                return;
+            }
+            self.pump(Duration::from_millis((target_ms - now).min(20)));
+        }
+    }
+
+    /// A problem with the run's context: the plan, the processes, their last lines.
+    pub fn failure(&self, retry: bool, problem: Problem) -> Failure {
+        let mut context = String::new();
+        let _ = writeln!(context, "\n  plan: {}", self.plan.describe());
+        let lives: Vec<String> = self
+            .lives
+            .iter()
+            .map(|l| {
+                let killed = l
+                    .killed_round
+                    .map_or(String::new(), |k| format!(", killed round {k}"));
+                format!(
+                    "{} (started round {}{killed})",
+                    l.log.source, l.spawned_round
+                )
+            })
+            .collect();
+        let _ = writeln!(context, "  processes: {}, servo", lives.join(", "));
+        let _ = writeln!(
+            context,
+            "  --- the last {} lines the processes printed (wall ms, round, rounds since the \
+             first reports; leds events and servo commands left out) ---",
+            super::transcript::TAIL_LINES
+        );
+        for line in self.output.transcript_tail() {
+            let _ = writeln!(context, "  {line}");
+        }
+        Failure {
+            problem,
+            retry,
+            context,
+        }
+    }
+
+    /// Stops every process (SIGTERM, then SIGKILL) and takes in their last lines.
+    pub fn stop(&mut self) {
+        self.processes.stop_all();
+        self.pump(Duration::from_millis(200));
+    }
+
+    pub fn output(&self) -> &Output {
+        &self.output
+    }
+}
