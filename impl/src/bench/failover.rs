@@ -129,11 +129,11 @@ pub fn failover(
         let phase_ms = phases.below(period_ms);
         let sample = kill_once(setup, &mut fleet, &mut watch, kill, phase_ms)?;
         eprintln!(
-            "deadline {deadline_ms} ms, kill {kill}/{kills}: C{} killed {} ms into the round, gap {:?} ms ({GAP_READER}), promotion {:?} ms{}",
+            "deadline {deadline_ms} ms, kill {kill}/{kills}: C{} killed {} ms into the round, gap {} ms ({GAP_READER}), promotion {} ms{}",
             sample.killed.map_or("-".into(), |id| id.to_string()),
             sample.phase_ms.map_or("-".into(), |p| p.to_string()),
-            sample.gap_ms,
-            sample.promotion_ms,
+            super::formation::shown_ms(sample.gap_ms),
+            super::formation::shown_ms(sample.promotion_ms),
             sample
                 .failure
                 .map(|f| format!(", FAILED: {f:?}"))

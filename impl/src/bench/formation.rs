@@ -87,10 +87,10 @@ pub fn formation(setup: &Setup, runs: u32) -> Result<FormationResult, BenchError
     for run in 1..=runs {
         let sample = form_once(setup, &config, &mut heartbeats, run)?;
         eprintln!(
-            "formation {run}/{runs}: primary {:?} ms, all {:?} ms, after the first heartbeat {:?} ms{}",
-            sample.primary_ms,
-            sample.all_steady_ms,
-            sample.primary_after_first_heartbeat_ms,
+            "formation {run}/{runs}: primary {} ms, all {} ms, after the first heartbeat {} ms{}",
+            shown_ms(sample.primary_ms),
+            shown_ms(sample.all_steady_ms),
+            shown_ms(sample.primary_after_first_heartbeat_ms),
             sample
                 .failure
                 .map(|f| format!(", FAILED: {f:?}"))
@@ -178,4 +178,9 @@ mod tests {
         assert_eq!(result.primary_ms.count, 1);
         assert_eq!(result.primary_after_first_heartbeat_over_period_p50, 1.6);
     }
+}
+
+/// A measured duration, or `-` where it was not measured.
+pub(super) fn shown_ms(ms: Option<u64>) -> String {
+    ms.map_or("-".into(), |ms| ms.to_string())
 }
