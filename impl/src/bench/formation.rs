@@ -153,6 +153,11 @@ fn form_once(
     })
 }
 
+/// A measured duration, or `-` where it was not measured.
+pub(super) fn shown_ms(ms: Option<u64>) -> String {
+    ms.map_or("-".into(), |ms| ms.to_string())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -178,9 +183,4 @@ mod tests {
         assert_eq!(result.primary_ms.count, 1);
         assert_eq!(result.primary_after_first_heartbeat_over_period_p50, 1.6);
     }
-}
-
-/// A measured duration, or `-` where it was not measured.
-pub(super) fn shown_ms(ms: Option<u64>) -> String {
-    ms.map_or("-".into(), |ms| ms.to_string())
 }
