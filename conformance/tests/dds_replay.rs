@@ -177,6 +177,11 @@ fn restart() {
 
 // Domain 194.
 #[test]
+fn restart_of_a_low_id() {
+    replay_curated("restart of a low id");
+}
+
+#[test]
 fn late_join() {
     replay_curated("late join");
 }
@@ -273,6 +278,18 @@ fn promote_without_failure_breaks_the_lone_lost_heartbeat() {
         222,
         "role",
         |model, processes| model == "secondary" && processes == "primary",
+    );
+}
+
+/// The restarted C1 is ranked by its id and takes Primary back from the live C2. Domain 226.
+#[test]
+fn failback_breaks_the_restart_of_a_low_id() {
+    assert_caught(
+        "restart of a low id",
+        Mutation::Failback,
+        226,
+        "role",
+        |model, processes| model != "primary" && processes == "primary",
     );
 }
 

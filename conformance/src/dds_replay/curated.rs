@@ -60,9 +60,9 @@ pub struct Curated {
     pub why: &'static str,
 }
 
-/// The curated subset: every fault kind at least once. Domains 190-197 and 220 (198 is the
-/// recorded `rl demo` of trace validation, 199 the broken replay and `dds-replay-all`, 221-229
-/// the mutation checks).
+/// The curated subset: every fault kind at least once. Domains 190-197, 220 and 225 (198 is
+/// the recorded `rl demo` of trace validation, 199 the broken replay and `dds-replay-all`,
+/// 221-224 and 226 the mutation checks).
 pub const CURATED: &[Curated] = &[
     Curated {
         name: "crash of the Primary",
@@ -103,6 +103,21 @@ pub const CURATED: &[Curated] = &[
         domain: 193,
         why: "a killed controller comes back as a new process, a new incarnation that the \
               others must not confuse with the old one, and takes the lowest role",
+    },
+    Curated {
+        name: "restart of a low id",
+        need: Need::Restart,
+        scope: Scope::Default,
+        purposes: &[
+            "random walk, seed 3",
+            "random walk, seed 6",
+            "random walk, seed 12",
+        ],
+        domain: 225,
+        why: "a random walk (the curated restart's C3 holds its role by id anyway): C1 is \
+              killed early and comes back after C2, C3 and C4 have formed without it; its new \
+              incarnation stays a spare below them (P=2 S=3 T=4) instead of taking Primary by \
+              its id",
     },
     Curated {
         name: "late join",
