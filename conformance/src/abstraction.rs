@@ -123,6 +123,29 @@ pub fn abstract_state(
     })
 }
 
+/// A controller that knows nothing: not running (`phase: None`), or a life that has just
+/// started (`Some(Initializing)`).
+pub fn blank(
+    id: ControllerId,
+    life: Life,
+    incarnation: u8,
+    phase: Option<Phase>,
+) -> AbstractController {
+    AbstractController {
+        id,
+        life,
+        incarnation,
+        phase,
+        role: None,
+        strength: None,
+        sees: vec![],
+        failed: vec![],
+        alarms: vec![],
+        agreed: None,
+        vote: None,
+    }
+}
+
 /// One controller's abstract state.
 pub fn abstract_controller(
     id: ControllerId,
@@ -138,19 +161,7 @@ pub fn abstract_controller(
                 incarnation,
             })
     };
-    let not_up = |life: Life, incarnation: u8| AbstractController {
-        id,
-        life,
-        incarnation,
-        phase: None,
-        role: None,
-        strength: None,
-        sees: vec![],
-        failed: vec![],
-        alarms: vec![],
-        agreed: None,
-        vote: None,
-    };
+    let not_up = |life: Life, incarnation: u8| blank(id, life, incarnation, None);
     let status = match observed {
         Observed::NotStarted => return Ok(not_up(Life::NotStarted, 0)),
         Observed::Down { incarnation } => {

@@ -41,19 +41,12 @@ pub fn command_problems(
 }
 
 fn fresh_life(now: &AbstractController) -> AbstractController {
-    AbstractController {
-        id: now.id,
-        life: Life::Up,
-        incarnation: now.incarnation,
-        phase: Some(model::Phase::Initializing),
-        role: None,
-        strength: None,
-        sees: vec![],
-        failed: vec![],
-        alarms: vec![],
-        agreed: None,
-        vote: None,
-    }
+    abstraction::blank(
+        now.id,
+        Life::Up,
+        now.incarnation,
+        Some(model::Phase::Initializing),
+    )
 }
 
 fn role_name(role: Option<model::Role>) -> String {
