@@ -2,8 +2,8 @@
 //! adopting it does (role, command strength, the ghost history of role changes).
 
 use crate::config::Config;
-use crate::fixes::Mutation;
-use crate::state::{Controller, History, State};
+use crate::fixes::{Mutation, Rules};
+use crate::state::{Controller, History, Peer, State};
 use crate::types::{Assignment, Holder, Id, Phase, Role};
 
 /// Where the votes a decision counts come from.
@@ -13,6 +13,24 @@ pub(super) enum Source {
     Heartbeats,
     /// The latest durable votes received (without F5, as the paper decides).
     DurableVotes,
+}
+
+impl Source {
+    /// A peer's vote as this source has it: the one its heartbeat carried, or its latest
+    /// durable vote (with F3, only one of the incarnation believed alive).
+    pub(super) fn vote_of(self, rules: &Rules, peer: &Peer) -> Option<Assignment> {
+        match self {
+            Source::Heartbeats => peer.heard_vote,
+            Source::DurableVotes => match (peer.alive, peer.vote) {
+                (Some(alive), Some((incarnation, vote)))
+                    if !rules.f3_incarnation_aware || alive == incarnation =>
+                {
+                    Some(vote)
+                }
+                _ => None,
+            },
+        }
+    }
 }
 
 /// Who decides. With F4, while a running system exists only its incumbents' votes count, so
@@ -46,18 +64,7 @@ pub(super) fn electorate(config: &Config, c: &Controller, source: Source) -> Ele
             continue;
         }
         size += 1;
-        let vote = match source {
-            Source::Heartbeats => peer.heard_vote,
-            Source::DurableVotes => match (peer.alive, peer.vote) {
-                (Some(alive), Some((incarnation, vote)))
-                    if !rules.f3_incarnation_aware || alive == incarnation =>
-                {
-                    Some(vote)
-                }
-                _ => None,
-            },
-        };
-        if let Some(vote) = vote {
+        if let Some(vote) = source.vote_of(&rules, peer) {
             votes.push((id, vote));
         }
     }

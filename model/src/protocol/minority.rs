@@ -74,17 +74,7 @@ fn outvoted(config: &Config, c: &Controller, own: Assignment, source: Source) ->
         .filter(|(index, peer)| *index + 1 != usize::from(c.id) && peer.alive.is_some())
         .filter(|(_, peer)| rules.f7_judge_self_by_every_vote || !peer.failed)
         .filter(|(_, peer)| !rules.f4_quorum_of_view || peer.heard_agreed.is_some())
-        .filter_map(|(_, peer)| match source {
-            Source::Heartbeats => peer.heard_vote,
-            Source::DurableVotes => match (peer.alive, peer.vote) {
-                (Some(alive), Some((incarnation, vote)))
-                    if !rules.f3_incarnation_aware || alive == incarnation =>
-                {
-                    Some(vote)
-                }
-                _ => None,
-            },
-        })
+        .filter_map(|(_, peer)| source.vote_of(&rules, peer))
         .collect();
     others.iter().any(|vote| {
         let count = others.iter().filter(|v| *v == vote).count();
