@@ -24,6 +24,12 @@ pub struct Config {
     pub max_restarts: u8,
     /// Lost heartbeats in total over a run (0 = reliable heartbeats).
     pub max_lost_heartbeats: u8,
+    /// Pauses (a stopped process that resumes with its memory) in total over a run.
+    #[serde(default)]
+    pub max_pauses: u8,
+    /// Cuts of one controller from its peers (the actuator still hears it) over a run.
+    #[serde(default)]
+    pub max_isolations: u8,
     /// A peer is declared lost after this many rounds without its heartbeat (deadline 2x period).
     pub dead_after_rounds: u8,
     /// The initialization window closes after this many rounds without a new peer (paper: 10 s;
@@ -69,6 +75,8 @@ impl Default for Config {
             max_crashes: 1,
             max_restarts: 1,
             max_lost_heartbeats: 2,
+            max_pauses: 0,
+            max_isolations: 0,
             dead_after_rounds: 2,
             window_rounds: 2,
             settle_within_rounds: 8,
@@ -87,6 +95,20 @@ impl Config {
             late_joiners: 0,
             max_crashes: 2,
             max_restarts: 2,
+            ..Config::default()
+        }
+    }
+
+    /// A stalled or cut-off controller that comes back: three controllers, no crash, one
+    /// pause and one cut (the scope of "a returning controller never takes the Primary back").
+    pub fn returns() -> Config {
+        Config {
+            late_joiners: 0,
+            max_crashes: 0,
+            max_restarts: 0,
+            max_lost_heartbeats: 0,
+            max_pauses: 1,
+            max_isolations: 1,
             ..Config::default()
         }
     }
@@ -200,12 +222,14 @@ impl Config {
     pub fn summary(&self) -> String {
         let mut line = format!(
             "{} controllers + {} late joiner(s), crashes {}, restarts {}, lost heartbeats {}, \
-             dead after {} rounds, window {} rounds, variant {:?}",
+             pauses {}, cuts {}, dead after {} rounds, window {} rounds, variant {:?}",
             self.founders,
             self.late_joiners,
             self.max_crashes,
             self.max_restarts,
             self.max_lost_heartbeats,
+            self.max_pauses,
+            self.max_isolations,
             self.dead_after_rounds,
             self.window_rounds,
             self.variant

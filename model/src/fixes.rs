@@ -2,7 +2,8 @@
 //! the deliberately broken rules of the mutation tests.
 //!
 //! Every rule fix of docs/findings.md is one [`Fix`] and one boolean of [`Rules`], numbered as
-//! there (F1..F8, F10). The default variant carries every fix, `--variant paper` reverts them
+//! there (F1..F8, F10..F13). The default variant carries every fix, `--variant v1` leaves out the
+//! actuator-level ones (F11..F13), `--variant paper` reverts them
 //! all, and `--revert fN` reverts exactly one, so each finding's counterexample can be shown to
 //! come back without its fix (model/tests/findings.rs). F9 states what loss can and cannot be
 //! protected against; it is not a rule, so it has no switch.
@@ -15,6 +16,9 @@ use serde::{Deserialize, Serialize};
 pub enum Variant {
     /// The corrected algorithm that RL implements: every fix of docs/findings.md.
     Default,
+    /// Protocol v1: fixes F1..F10 without the actuator-level ones (F11 epochs, F12 self-fencing,
+    /// F13 ordered raises); the checker shows failback after a pause and a tie blip.
+    V1,
     /// The paper's rules read literally: every fix reverted; the checker finds
     /// counterexamples (docs/findings.md).
     Paper,
@@ -80,10 +84,29 @@ pub enum Fix {
     #[serde(rename = "f10")]
     #[value(name = "f10")]
     MinorityGrace,
+    /// F11: agreed results carry an epoch that advances only with a majority of the last
+    /// backed result's members; the newest epoch ranks first in a merge, and a result agreed
+    /// without that majority is provisional (its Primary commands at 15, its standbys are
+    /// silent); reverted, a merge ranks the lower id first and every result commands fully.
+    #[serde(rename = "f11")]
+    #[value(name = "f11")]
+    EpochMerge,
+    /// F12: a controller that resumes from a stall (its round clock jumped by a peer deadline
+    /// or more) sends no commands until it has heard a full round and re-voted; reverted, it
+    /// goes on commanding with what it knew before the stall.
+    #[serde(rename = "f12")]
+    #[value(name = "f12")]
+    SelfFence,
+    /// F13: a controller raises its command strength only once every controller above it in
+    /// the agreed result reports (in its heartbeat) an established strength above the new
+    /// one; reverted, it raises as soon as it adopts its role.
+    #[serde(rename = "f13")]
+    #[value(name = "f13")]
+    OrderedRaise,
 }
 
 impl Fix {
-    pub const ALL: [Fix; 9] = [
+    pub const ALL: [Fix; 12] = [
         Fix::LateJoinByHeartbeat,
         Fix::KeepStandbyOrder,
         Fix::IncarnationAware,
@@ -93,6 +116,9 @@ impl Fix {
         Fix::JudgeSelfByEveryVote,
         Fix::HoldPrimaryStrength,
         Fix::MinorityGrace,
+        Fix::EpochMerge,
+        Fix::SelfFence,
+        Fix::OrderedRaise,
     ];
 
     /// The finding's number in docs/findings.md.
@@ -107,6 +133,9 @@ impl Fix {
             Fix::JudgeSelfByEveryVote => 7,
             Fix::HoldPrimaryStrength => 8,
             Fix::MinorityGrace => 10,
+            Fix::EpochMerge => 11,
+            Fix::SelfFence => 12,
+            Fix::OrderedRaise => 13,
         }
     }
 
@@ -154,12 +183,20 @@ pub struct Rules {
     /// `Config::minority_grace_rounds` rounds (time for every voter to notice the same
     /// failure); the paper marks a minority voter at once.
     pub f10_minority_grace: bool,
+    /// F11: epochs in agreed results, newest first in a merge; results without a majority of
+    /// the last backed result are provisional.
+    pub f11_epochs: bool,
+    /// F12: a controller resuming from a stall is fenced until it has heard a round.
+    pub f12_self_fence: bool,
+    /// F13: strength raises ordered by the roles above.
+    pub f13_ordered_raise: bool,
 }
 
 impl Rules {
     /// Every fix in (the default variant) or every fix out (the paper's).
     pub fn of(variant: Variant) -> Rules {
-        let fixed = variant == Variant::Default;
+        let fixed = variant != Variant::Paper;
+        let v2 = variant == Variant::Default;
         Rules {
             f1_late_join_by_heartbeat: fixed,
             f2_keep_standby_order: fixed,
@@ -170,6 +207,9 @@ impl Rules {
             f7_judge_self_by_every_vote: fixed,
             f8_hold_primary_strength: fixed,
             f10_minority_grace: fixed,
+            f11_epochs: v2,
+            f12_self_fence: v2,
+            f13_ordered_raise: v2,
         }
     }
 
@@ -185,6 +225,9 @@ impl Rules {
             Fix::JudgeSelfByEveryVote => &mut self.f7_judge_self_by_every_vote,
             Fix::HoldPrimaryStrength => &mut self.f8_hold_primary_strength,
             Fix::MinorityGrace => &mut self.f10_minority_grace,
+            Fix::EpochMerge => &mut self.f11_epochs,
+            Fix::SelfFence => &mut self.f12_self_fence,
+            Fix::OrderedRaise => &mut self.f13_ordered_raise,
         }
     }
 

@@ -94,6 +94,16 @@ struct Scope {
     /// Heartbeats that may be lost in total over a run (0 = reliable heartbeats).
     #[arg(long, default_value_t = 2)]
     lost_heartbeats: u8,
+    /// Pauses (SIGSTOP, a stall: the process resumes with its memory) over a run.
+    #[arg(long, default_value_t = 0)]
+    pauses: u8,
+    /// Cuts of one controller from its peers (the actuator still hears it) over a run.
+    #[arg(long, default_value_t = 0)]
+    cuts: u8,
+    /// The scope of a controller that comes back: 3 controllers, one pause and one cut, no
+    /// crash or lost heartbeat (overrides the fault flags).
+    #[arg(long, conflicts_with = "full")]
+    returns: bool,
     /// Which rules: the corrected default, or the paper's text read literally (every fix of
     /// docs/findings.md reverted).
     #[arg(long, value_enum, default_value_t = Variant::Default)]
@@ -114,17 +124,21 @@ impl Scope {
     fn config(&self) -> Result<Config, ConfigError> {
         let base = if self.full {
             Config::full()
+        } else if self.returns {
+            Config::returns()
         } else {
             Config {
                 founders: self.controllers,
                 late_joiners: self.late_joiners,
                 max_crashes: self.crashes,
                 max_restarts: self.restarts,
+                max_pauses: self.pauses,
+                max_isolations: self.cuts,
+                max_lost_heartbeats: self.lost_heartbeats,
                 ..Config::default()
             }
         };
         let config = Config {
-            max_lost_heartbeats: self.lost_heartbeats,
             variant: self.variant,
             reverted: {
                 let mut fixes = self.revert.clone();

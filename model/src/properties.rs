@@ -36,6 +36,9 @@ impl PropertyInfo {
                 config.max_crashes >= 1 && config.max_restarts >= 1
             }
             "fourth controller ignored" => config.controller_count() >= 4,
+            "returning controller comes back below" => {
+                config.max_pauses + config.max_isolations >= 1
+            }
             _ => true,
         };
         faults && config.max_lost_heartbeats >= self.losses_needed(config)
@@ -44,7 +47,7 @@ impl PropertyInfo {
     /// Why `applies` is false, for the report.
     pub fn needs(&self, config: &crate::Config) -> String {
         match self.losses_needed(config) {
-            0 => "needs a crash, a restart or a fourth controller in scope".to_string(),
+            0 => "needs a crash, a restart, a pause or a fourth controller in scope".to_string(),
             n => format!("needs {n} lost heartbeats"),
         }
     }
@@ -63,12 +66,21 @@ pub fn catalogue() -> Vec<PropertyInfo> {
           "two steady controllers that agree on the result never hold the same role",
           roles_unique_among_agreeing),
         p("actuator has a single owner", Always,
-          "never two live controllers command at Primary strength (DDS would pick one by GUID, not by vote), \
-           outside a partition (from a lost heartbeat until the controllers settle again)",
+          "the actuator never knows two writers at Primary strength (DDS would pick one by GUID, not by vote), \
+           outside a partition (from a live controller declared lost until the controllers settle again)",
           single_owner),
         p("no command output without a role", Always,
-          "a controller publishes commands only with a role, at its role's strength (a new Primary: 20 until the old one yields), once a Primary exists",
+          "a controller publishes commands only with a role, never above its role's strength, once a Primary exists",
           output_needs_role),
+        p("one owner change per fault", Always,
+          "the actuator changes owner at most once per fault (crash, pause, cut, lost heartbeat): no failback, no blip",
+          one_change_per_fault),
+        p("owner changes only to the next Primary", Always,
+          "every owner change between two settled states goes to the Primary that settles (or back to the owner before)",
+          no_stray_owner),
+        p("a returning controller never takes the Primary back", Always,
+          "a controller back from a pause or a cut never takes Primary from a Primary that stayed with the system",
+          primary_not_taken_back),
         p("a live Primary is never demoted", Always,
           "outside a partition a live Primary keeps its role (no oscillation, no failback)",
           heard_primary_never_demoted),
@@ -117,6 +129,9 @@ pub fn catalogue() -> Vec<PropertyInfo> {
         p("re-vote after heartbeat loss", Sometimes,
           "lost heartbeats of a live peer cause a re-vote, and the system settles again",
           revote_after_loss),
+        p("returning controller comes back below", Sometimes,
+          "a controller back from a pause or a cut settles below the Primary elected meanwhile",
+          returned_below),
         p("restarted controller takes the lowest role", Sometimes,
           "a restarted controller settles in the lowest held role, below two others",
           restart_lowest_role),
@@ -153,10 +168,20 @@ pub fn settled(state: &State) -> Option<Assignment> {
     // Every member commands at its role's strength (a new Primary may still be holding 20).
     let members_active = agreed.members().all(|id| {
         let c = state.controller(id);
-        c.is_active() && c.output == c.role.map(Role::strength)
+        c.is_active() && c.output == full_strength(c)
     });
     let room = agreed.len() == count || agreed.len() == crate::types::ROLE_COUNT;
     (members_active && room).then_some(agreed)
+}
+
+/// The strength a settled controller commands at: its role's, or for a provisional result
+/// (F11) 15 for its Primary and nothing for its standbys.
+fn full_strength(c: &crate::Controller) -> Option<u8> {
+    match (c.provisional, c.role) {
+        (true, Some(Role::Primary)) => Some(crate::types::PROVISIONAL_PRIMARY_STRENGTH),
+        (true, _) => None,
+        (false, role) => role.map(Role::strength),
+    }
 }
 
 fn roles_unique_among_agreeing(_: &RlModel, s: &State) -> bool {
@@ -180,10 +205,27 @@ pub fn partitioned(_: &RlModel, s: &State) -> bool {
 
 fn single_owner(model: &RlModel, s: &State) -> bool {
     partitioned(model, s)
-        || s.up()
-            .filter(|c| c.output == Some(Role::Primary.strength()))
+        || s.controllers
+            .iter()
+            .filter(|c| c.visible_strength() == Some(Role::Primary.strength()))
             .count()
             <= 1
+}
+
+fn one_change_per_fault(_: &RlModel, s: &State) -> bool {
+    s.history.owner_changes <= s.history.faults
+}
+
+fn no_stray_owner(_: &RlModel, s: &State) -> bool {
+    !s.history.stray_owner
+}
+
+fn primary_not_taken_back(_: &RlModel, s: &State) -> bool {
+    !s.history.primary_taken_back
+}
+
+fn returned_below(_: &RlModel, s: &State) -> bool {
+    s.history.returned_below
 }
 
 fn output_needs_role(_: &RlModel, s: &State) -> bool {
@@ -191,10 +233,7 @@ fn output_needs_role(_: &RlModel, s: &State) -> bool {
         None => true,
         Some(strength) => {
             matches!(c.phase, Phase::Voting | Phase::Steady)
-                && c.role.is_some_and(|r| {
-                    r.strength() == strength
-                        || (r == Role::Primary && strength == Role::Secondary.strength())
-                })
+                && c.role.is_some_and(|r| strength <= r.strength())
                 && c.agreed.is_some_and(|a| a.holder(Role::Primary).is_some())
         }
     })
@@ -236,6 +275,11 @@ fn restart_enters_below(_: &RlModel, s: &State) -> bool {
 }
 
 fn actuator_follows_primary(_: &RlModel, s: &State) -> bool {
+    // A writer created this round may not be discovered yet (the timing assumption gives
+    // discovery until the round ends).
+    if s.up().any(|c| c.undiscovered) {
+        return true;
+    }
     match settled(s) {
         Some(agreed) => s.actuator_owner() == agreed.holder(Role::Primary),
         None => true,
@@ -244,6 +288,7 @@ fn actuator_follows_primary(_: &RlModel, s: &State) -> bool {
 
 fn settles_after_faults(model: &RlModel, s: &State) -> bool {
     s.history.quiet_rounds < model.config.settle_within_rounds
+        || s.isolated != 0
         || s.up().all(|c| c.phase == Phase::Failed)
         || settled(s).is_some()
 }

@@ -18,6 +18,7 @@ pub fn controller_line(c: &Controller) -> String {
             return line;
         }
         Life::Up => {}
+        Life::Paused => line.push_str("PAUSED "),
     }
     let _ = write!(line, "up#{} {}", c.incarnation, c.phase.name());
     match c.role {
@@ -33,6 +34,18 @@ pub fn controller_line(c: &Controller) -> String {
         }
         None => line.push_str(" silent"),
     }
+    if let Some(old) = c.retiring {
+        let _ = write!(line, " (old writer {old} retiring)");
+    }
+    if c.undiscovered {
+        line.push_str(" (writer undiscovered)");
+    }
+    if c.fenced {
+        line.push_str(" fenced");
+    }
+    if c.provisional {
+        line.push_str(" provisional");
+    }
     if c.late_joiner {
         line.push_str(" late-joiner");
     }
@@ -41,6 +54,9 @@ pub fn controller_line(c: &Controller) -> String {
     }
     if let Some(agreed) = c.agreed {
         let _ = write!(line, " agreed[{agreed}]");
+        if c.epoch > 0 {
+            let _ = write!(line, "@e{}", c.epoch);
+        }
     }
     if let Some(vote) = c.vote {
         let _ = write!(line, " vote[{vote}]");
@@ -100,11 +116,19 @@ pub fn network_line(s: &State) -> String {
         }
         None => line.push_str(" actuator idle |"),
     }
+    if s.isolated != 0 {
+        let cut: Vec<String> = (1..=n)
+            .filter(|id| s.isolated & (1 << (id - 1)) != 0)
+            .map(|id| format!("C{id}"))
+            .collect();
+        let _ = write!(line, " cut off {} |", cut.join(" "));
+    }
     let h = &s.history;
     let _ = write!(
         line,
-        " faults: losses {} crashes {} restarts {}, quiet rounds {}",
-        h.losses, h.crashes, h.restarts, h.quiet_rounds
+        " faults: losses {} crashes {} restarts {} pauses {} cuts {}, owner changes {}, \
+         quiet rounds {}",
+        h.losses, h.crashes, h.restarts, h.pauses, h.isolations, h.owner_changes, h.quiet_rounds
     );
     line
 }
@@ -229,5 +253,11 @@ fn short(action: &Action) -> String {
         Action::Crash { .. } => "crash".into(),
         Action::Restart { .. } => "restart".into(),
         Action::Join { .. } => "join".into(),
+        Action::Pause { .. } => "pause".into(),
+        Action::Resume { .. } => "resume".into(),
+        Action::Isolate { .. } => "cut off".into(),
+        Action::Heal { .. } => "reconnected".into(),
+        Action::DiscoverWriter { .. } => "writer found".into(),
+        Action::TieBreak { .. } => "tie broken".into(),
     }
 }

@@ -21,6 +21,7 @@ use std::hash::{Hash, Hasher};
 pub enum Stage {
     NotStarted,
     Down,
+    Paused,
     Initializing,
     Voting,
     Steady,
@@ -33,6 +34,7 @@ impl Stage {
         match c.life {
             Life::NotStarted => Stage::NotStarted,
             Life::Down => Stage::Down,
+            Life::Paused => Stage::Paused,
             Life::Up => match c.phase {
                 Phase::Initializing => Stage::Initializing,
                 Phase::Voting => Stage::Voting,

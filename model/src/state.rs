@@ -28,6 +28,20 @@ pub enum Action {
     Restart { controller: Id },
     /// A controller that never ran starts.
     Join { controller: Id },
+    /// A controller's process stops (SIGSTOP, a stall) with its memory intact.
+    Pause { controller: Id },
+    /// A paused controller runs again: its round clock jumped.
+    Resume { controller: Id },
+    /// A controller is cut off from its peers (every heartbeat to and from it lost) while the
+    /// actuator still hears it.
+    Isolate { controller: Id },
+    /// The cut-off controller's links work again.
+    Heal { controller: Id },
+    /// The actuator discovers a controller's newest command writer.
+    DiscoverWriter { controller: Id },
+    /// Two writers tie at the top strength and DDS's GUID order (which no controller
+    /// chooses) hands the actuator to this controller.
+    TieBreak { to: Id },
 }
 
 /// The action kinds, for transition coverage.
@@ -41,10 +55,16 @@ pub enum ActionKind {
     Crash,
     Restart,
     Join,
+    Pause,
+    Resume,
+    Isolate,
+    Heal,
+    DiscoverWriter,
+    TieBreak,
 }
 
 impl ActionKind {
-    pub const ALL: [ActionKind; 7] = [
+    pub const ALL: [ActionKind; 13] = [
         ActionKind::LoseHeartbeat,
         ActionKind::Tick,
         ActionKind::ExpireWindow,
@@ -52,6 +72,12 @@ impl ActionKind {
         ActionKind::Crash,
         ActionKind::Restart,
         ActionKind::Join,
+        ActionKind::Pause,
+        ActionKind::Resume,
+        ActionKind::Isolate,
+        ActionKind::Heal,
+        ActionKind::DiscoverWriter,
+        ActionKind::TieBreak,
     ];
 
     pub fn name(self) -> &'static str {
@@ -63,6 +89,12 @@ impl ActionKind {
             ActionKind::Crash => "crash",
             ActionKind::Restart => "restart",
             ActionKind::Join => "join",
+            ActionKind::Pause => "pause",
+            ActionKind::Resume => "resume",
+            ActionKind::Isolate => "isolate",
+            ActionKind::Heal => "heal",
+            ActionKind::DiscoverWriter => "discover_writer",
+            ActionKind::TieBreak => "tie_break",
         }
     }
 }
@@ -77,6 +109,12 @@ impl Action {
             Action::Crash { .. } => ActionKind::Crash,
             Action::Restart { .. } => ActionKind::Restart,
             Action::Join { .. } => ActionKind::Join,
+            Action::Pause { .. } => ActionKind::Pause,
+            Action::Resume { .. } => ActionKind::Resume,
+            Action::Isolate { .. } => ActionKind::Isolate,
+            Action::Heal { .. } => ActionKind::Heal,
+            Action::DiscoverWriter { .. } => ActionKind::DiscoverWriter,
+            Action::TieBreak { .. } => ActionKind::TieBreak,
         }
     }
 
@@ -89,8 +127,13 @@ impl Action {
             Action::ExpireWindow { controller }
             | Action::Crash { controller }
             | Action::Restart { controller }
-            | Action::Join { controller } => Some(controller),
-            Action::DeliverVotes { to } => Some(to),
+            | Action::Join { controller }
+            | Action::Pause { controller }
+            | Action::Resume { controller }
+            | Action::Isolate { controller }
+            | Action::Heal { controller }
+            | Action::DiscoverWriter { controller } => Some(controller),
+            Action::DeliverVotes { to } | Action::TieBreak { to } => Some(to),
         }
     }
 }
@@ -109,6 +152,16 @@ impl fmt::Display for Action {
             Action::Crash { controller } => write!(f, "C{controller} crashes"),
             Action::Restart { controller } => write!(f, "C{controller} restarts"),
             Action::Join { controller } => write!(f, "C{controller} joins"),
+            Action::Pause { controller } => write!(f, "C{controller} pauses"),
+            Action::Resume { controller } => write!(f, "C{controller} resumes"),
+            Action::Isolate { controller } => {
+                write!(f, "C{controller} cut off from its peers (not from the actuator)")
+            }
+            Action::Heal { controller } => write!(f, "C{controller} reconnected to its peers"),
+            Action::DiscoverWriter { controller } => {
+                write!(f, "actuator discovers C{controller}'s new command writer")
+            }
+            Action::TieBreak { to } => write!(f, "tie at the top strength broken to C{to}"),
         }
     }
 }
@@ -135,6 +188,10 @@ pub struct Peer {
     pub heard_vote: Option<Assignment>,
     /// Its last heartbeat said it commands at Primary strength.
     pub claims_primary: bool,
+    /// The epoch of the agreed result its last heartbeat carried (F11).
+    pub heard_epoch: u8,
+    /// The established command strength its last heartbeat reported (F13).
+    pub heard_strength: Option<u8>,
 }
 
 impl Peer {
@@ -169,6 +226,21 @@ pub struct Controller {
     pub self_dissent_rounds: u8,
     /// Indexed by id - 1; its own entry is unused.
     pub peers: [Peer; MAX_CONTROLLERS],
+    /// F11: the epoch of its agreed result.
+    pub epoch: u8,
+    /// F11: bit `id - 1` for each member of the last result agreed with a majority.
+    pub quorum_base: u8,
+    /// F11: its agreed result lacks a majority of `quorum_base`.
+    pub provisional: bool,
+    /// The previous, weaker command writer that keeps writing while the actuator discovers
+    /// the new one (a raise re-creates the writer; RustDDS cannot change its strength).
+    pub retiring: Option<u8>,
+    /// The newest writer was created this round: heartbeats still report the old strength.
+    pub fresh_writer: bool,
+    /// The actuator has not discovered the newest writer yet.
+    pub undiscovered: bool,
+    /// F12: resumed from a stall and not yet re-voted; silent until it has heard a round.
+    pub fenced: bool,
 }
 
 impl Controller {
@@ -187,7 +259,51 @@ impl Controller {
             held_roles_at_restart: 0,
             self_dissent_rounds: 0,
             peers: [Peer::default(); MAX_CONTROLLERS],
+            epoch: 0,
+            quorum_base: 0,
+            provisional: false,
+            retiring: None,
+            fresh_writer: false,
+            undiscovered: false,
+            fenced: false,
         }
+    }
+
+    /// The command strength its heartbeat reports: a writer created this round is not yet
+    /// established (the actuator may not know it), so the previous one is reported.
+    pub fn established_strength(&self) -> Option<u8> {
+        if self.fresh_writer {
+            self.retiring
+        } else {
+            self.output
+        }
+    }
+
+    /// The strongest of its writers the actuator knows, while its process runs.
+    pub fn visible_strength(&self) -> Option<u8> {
+        if !self.is_up() {
+            return None;
+        }
+        let newest = self.output.filter(|_| !self.undiscovered);
+        newest.max(self.retiring)
+    }
+
+    /// Changes the command strength the way the DDS adapter does: a raise creates the new
+    /// writer and keeps the old one writing until the actuator has discovered the new one; a
+    /// lowering or silence drops the old writer at once.
+    pub fn set_output(&mut self, strength: Option<u8>) {
+        if strength == self.output {
+            return;
+        }
+        let raise = matches!((self.output, strength), (Some(old), Some(new)) if new > old);
+        self.retiring = if raise {
+            self.output.max(self.retiring)
+        } else {
+            None
+        };
+        self.output = strength;
+        self.fresh_writer = strength.is_some();
+        self.undiscovered = strength.is_some();
     }
 
     pub fn is_up(&self) -> bool {
@@ -240,6 +356,26 @@ pub struct History {
     pub secondary_promoted: bool,
     /// A controller re-voted because of lost heartbeats of a peer that was still up (witness).
     pub revoted_after_loss: bool,
+    pub pauses: u8,
+    pub isolations: u8,
+    /// Crashes, pauses, isolations and lost heartbeats: each may move the actuator once.
+    pub faults: u8,
+    /// Owner changes at the actuator (saturates one above `faults`).
+    pub owner_changes: u8,
+    /// Bit `id - 1` for each controller the actuator changed to since the last settled state.
+    pub change_targets: u8,
+    /// The actuator's owner at the last settled state.
+    pub settled_owner: Option<Id>,
+    /// The actuator changed to a controller that was neither the owner at the last settled
+    /// state nor the next settled Primary.
+    pub stray_owner: bool,
+    /// Bit `id - 1` for each controller paused or cut off since the last settled state.
+    pub away: u8,
+    /// A controller back from a pause or a cut took the Primary role from a Primary that
+    /// stayed with the majority.
+    pub primary_taken_back: bool,
+    /// A witness: a paused or cut-off controller came back below a Primary elected meanwhile.
+    pub returned_below: bool,
 }
 
 #[derive(Clone, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -250,6 +386,11 @@ pub struct State {
     /// Bit `link_bit(from, to)`: `from`'s vote has been undelivered to `to` for a whole round;
     /// it must arrive before the round ends (the timing assumption).
     pub overdue_votes: u16,
+    /// Bit `id - 1`: the controller is cut off from its peers (`Action::Isolate`).
+    pub isolated: u8,
+    /// The controller whose commands the actuator follows (the last one, while none is
+    /// visible).
+    pub owner: Option<Id>,
     pub history: History,
 }
 
@@ -270,13 +411,16 @@ impl State {
         self.controllers.iter().filter(|c| c.is_up())
     }
 
-    /// The controller the actuator accepts commands from: DDS exclusive ownership picks the
-    /// highest strength among live writers; equal strengths are broken by GUID (lowest id).
+    /// The controller the actuator accepts commands from (`crate::protocol::actuator`).
     pub fn actuator_owner(&self) -> Option<Id> {
-        self.up()
-            .filter_map(|c| c.output.map(|strength| (std::cmp::Reverse(strength), c.id)))
-            .min()
-            .map(|(_, id)| id)
+        self.owner
+    }
+
+    /// Whether the heartbeat from `from` to `to` is lost this round (a one-round loss or a
+    /// cut).
+    pub fn link_lost(&self, from: Id, to: Id) -> bool {
+        self.lost_links & link_bit(from, to) != 0
+            || (self.isolated & (1 << (from - 1) | 1 << (to - 1))) != 0
     }
 }
 

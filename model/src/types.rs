@@ -15,6 +15,10 @@ pub const MAX_CONTROLLERS: usize = 4;
 /// The number of roles; a controller beyond this many is ignored.
 pub const ROLE_COUNT: usize = 3;
 
+/// The strength of a Primary whose result was agreed without a majority of the last backed
+/// result's members (F11): below every standby of a majority, above every Tertiary.
+pub const PROVISIONAL_PRIMARY_STRENGTH: u8 = 15;
+
 /// A voted role. The order is the order of precedence: Primary drives the actuator.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -36,7 +40,8 @@ impl Role {
         self as usize
     }
 
-    /// DDS ownership strength of the command writer for this role (paper: 30/20/10).
+    /// DDS ownership strength of the command writer for this role (paper: 30/20/10). A
+    /// provisional result's Primary commands at [`PROVISIONAL_PRIMARY_STRENGTH`] instead.
     pub fn strength(self) -> u8 {
         match self {
             Role::Primary => 30,
@@ -93,6 +98,9 @@ pub enum Life {
     /// Not started yet: a late joiner before it joins.
     NotStarted,
     Up,
+    /// Stopped (SIGSTOP, a stall) with its memory intact: it neither sends nor receives nor
+    /// commands until it resumes.
+    Paused,
     /// Crashed; may restart as a new incarnation.
     Down,
 }

@@ -4,7 +4,7 @@
 use crate::config::Config;
 use crate::fixes::{Mutation, Rules};
 use crate::state::{Controller, History, Peer, State};
-use crate::types::{Assignment, Holder, Id, Phase, Role};
+use crate::types::{Assignment, Holder, Id, Phase, Role, PROVISIONAL_PRIMARY_STRENGTH};
 
 /// Where the votes a decision counts come from.
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -105,6 +105,36 @@ pub(super) fn try_agree(config: &Config, next: &mut State, id: Id, source: Sourc
     }
 }
 
+fn members_mask(agreed: Assignment) -> u8 {
+    agreed.members().fold(0, |mask, id| mask | 1 << (id - 1))
+}
+
+/// F11: the epoch and standing of a newly agreed result. It advances the epoch only when the
+/// controller's view (itself and the live peers it has not marked FAILED) is more than half
+/// as many as the last backed result's members; otherwise the result is provisional (a side that lost
+/// its majority), and a merge ranks it below the majority's newer epoch.
+fn take_epoch(c: &mut Controller, agreed: Assignment) {
+    let known = c
+        .peers
+        .iter()
+        .filter(|p| p.incumbent())
+        .map(|p| p.heard_epoch)
+        .chain(std::iter::once(c.epoch))
+        .max()
+        .unwrap_or(0);
+    let view = c.members().fold(0u8, |mask, id| mask | 1 << (id - 1));
+    // A majority by count: newcomers make up for crashed members (two joiners on two sides
+    // of a partition are beyond what this rule protects; docs/findings.md, F11).
+    let backed = view.count_ones() * 2 > c.quorum_base.count_ones();
+    c.provisional = !backed;
+    if backed {
+        c.epoch = known.saturating_add(1);
+        c.quorum_base = members_mask(agreed);
+    } else {
+        c.epoch = known;
+    }
+}
+
 fn adopt(config: &Config, next: &mut State, id: Id, agreed: Assignment) {
     // Ghost: a restarted controller's first role lands above a live controller that held a
     // role when it restarted (failback).
@@ -130,44 +160,89 @@ fn adopt(config: &Config, next: &mut State, id: Id, agreed: Assignment) {
     if config.mutated(Mutation::AdmitFourth) && new_role.is_none() {
         new_role = Some(Role::Tertiary);
     }
+    if config.rules().f11_epochs {
+        take_epoch(c, agreed);
+    }
     c.agreed = Some(agreed);
     c.phase = Phase::Steady;
+    c.fenced = false;
     c.role = new_role;
-    // No command output before a Primary exists and the controller holds a role.
-    c.output = match (new_role, agreed.holder(Role::Primary)) {
-        (Some(role), Some(_)) => Some(role.strength()),
-        _ => None,
-    };
-    hold_primary_strength(config, c);
-    note_role_change(&mut next.history, old_role, new_role);
+    apply_output(config, c);
+    note_role_change(&mut next.history, id, old_role, new_role);
     if jumped_queue && !next.history.partition_open {
         next.history.restart_jumped_queue = true;
     }
 }
 
-/// A new Primary keeps its previous strength while another live controller still claims
-/// Primary in its heartbeats (a Primary the majority voted out has not yet noticed): two
-/// writers at Primary strength would let DDS, not the vote, pick the commander.
-pub(super) fn hold_primary_strength(config: &Config, c: &mut Controller) {
-    if !config.rules().f8_hold_primary_strength || c.role != Some(Role::Primary) {
-        return;
+/// The strength a controller's role and result entitle it to now. None before a Primary
+/// exists, without a role, or while fenced (F12). F11: a provisional result's Primary
+/// commands at 15 and its standbys are silent. F8: a new Primary commands at 20 while another live controller still claims Primary in its heartbeats (a
+/// Primary the majority voted out has not yet noticed): two writers at Primary strength would
+/// let DDS, not the vote, pick the commander.
+pub(super) fn entitled_strength(config: &Config, c: &Controller) -> Option<u8> {
+    let rules = config.rules();
+    let role = c.role?;
+    if !matches!(c.phase, Phase::Voting | Phase::Steady) || c.fenced {
+        return None;
+    }
+    c.agreed?.holder(Role::Primary)?;
+    if rules.f11_epochs && c.provisional {
+        return (role == Role::Primary).then_some(PROVISIONAL_PRIMARY_STRENGTH);
     }
     let contested = c
         .peers
         .iter()
         .any(|p| p.alive.is_some() && p.claims_primary);
-    if contested {
-        c.output = c
-            .output
-            .filter(|strength| *strength < Role::Primary.strength())
-            .or(Some(Role::Secondary.strength()));
+    if role == Role::Primary && rules.f8_hold_primary_strength && contested {
+        return Some(Role::Secondary.strength());
     }
+    Some(role.strength())
+}
+
+/// Moves the command output to the entitled strength. F13: a raise waits until every
+/// controller above it in the agreed result reports an established strength above the new
+/// one, so a tie can never hand the actuator to a lower role; lowering is immediate.
+pub(super) fn apply_output(config: &Config, c: &mut Controller) {
+    let target = entitled_strength(config, c);
+    let raise = match (c.output, target) {
+        (old, Some(new)) => old.is_none_or(|old| new > old),
+        _ => false,
+    };
+    if raise && config.rules().f13_ordered_raise {
+        let new = target.unwrap_or_default();
+        if !above_established(c, new) {
+            return;
+        }
+    }
+    c.set_output(target);
+}
+
+/// Every live holder of a role above `c`'s in its agreed result reported a strength above
+/// `strength` in its last heartbeat.
+fn above_established(c: &Controller, strength: u8) -> bool {
+    let (Some(agreed), Some(role)) = (c.agreed, c.role) else {
+        return true;
+    };
+    Role::ALL[..role.rank()].iter().all(|above| {
+        agreed.holder(*above).is_none_or(|holder| {
+            holder == c.id
+                || c.peer(holder)
+                    .heard_strength
+                    .is_some_and(|reported| reported > strength)
+        })
+    })
 }
 
 /// Records the history the properties read. A demotion outside a partition (see
-/// `properties::partitioned`) is a violation: roles then only ever move up.
-pub(super) fn note_role_change(history: &mut History, old: Option<Role>, new: Option<Role>) {
-    let partitioned = history.partition_open;
+/// `properties::partitioned`) of a controller that was not away (paused or cut off) is a
+/// violation: roles then only ever move up.
+pub(super) fn note_role_change(
+    history: &mut History,
+    id: Id,
+    old: Option<Role>,
+    new: Option<Role>,
+) {
+    let partitioned = history.partition_open || history.away & (1 << (id - 1)) != 0;
     let Some(old) = old else {
         return;
     };

@@ -111,8 +111,8 @@ fn fail_self(config: &Config, next: &mut State, id: Id) {
     let old_role = c.role;
     c.phase = Phase::Failed;
     c.role = None;
-    c.output = None;
+    c.set_output(None);
     c.vote = None;
     c.agreed = None;
-    note_role_change(&mut next.history, old_role, None);
+    note_role_change(&mut next.history, id, old_role, None);
 }

@@ -10,8 +10,10 @@
 //! - [`vote`]: what a controller votes for ([`compute_vote`]) and how votes are published
 //!   and delivered;
 //! - [`agreement`]: who counts (the electorate), when a result is agreed, and adopting it;
-//! - [`minority`]: marking minority voters FAILED and failing oneself.
+//! - [`minority`]: marking minority voters FAILED and failing oneself;
+//! - [`actuator`]: which controller's commands the actuator follows, at DDS-writer granularity.
 
+pub mod actuator;
 mod agreement;
 mod minority;
 mod round;
@@ -51,6 +53,8 @@ pub fn init_states(config: &Config) -> Vec<State> {
                 .collect(),
             lost_links: 0,
             overdue_votes: 0,
+            isolated: 0,
+            owner: None,
             history: History::default(),
         })
         .collect()
@@ -118,12 +122,24 @@ pub fn actions(config: &Config, state: &State, out: &mut Vec<Action>) {
             }
         }
     }
-    for id in ids {
+    for id in ids.clone() {
         let c = state.controller(id);
         match c.life {
             Life::Up => {
                 if state.history.crashes < config.max_crashes {
                     out.push(Action::Crash { controller: id });
+                }
+                // Pauses and cuts hit a running system that has settled (a split at formation
+                // has no majority anywhere: F9 in docs/findings.md).
+                let running = crate::properties::settled(state).is_some();
+                if running && state.history.pauses < config.max_pauses {
+                    out.push(Action::Pause { controller: id });
+                }
+                if running
+                    && state.isolated == 0
+                    && state.history.isolations < config.max_isolations
+                {
+                    out.push(Action::Isolate { controller: id });
                 }
                 if c.phase == Phase::Failed && state.history.restarts < config.max_restarts {
                     out.push(Action::Restart { controller: id });
@@ -134,8 +150,18 @@ pub fn actions(config: &Config, state: &State, out: &mut Vec<Action>) {
                     out.push(Action::Restart { controller: id });
                 }
             }
+            Life::Paused => out.push(Action::Resume { controller: id }),
             Life::NotStarted => out.push(Action::Join { controller: id }),
         }
+        if state.isolated & (1 << (id - 1)) != 0 {
+            out.push(Action::Heal { controller: id });
+        }
+        if c.is_up() && c.undiscovered {
+            out.push(Action::DiscoverWriter { controller: id });
+        }
+    }
+    for to in actuator::tie_break_targets(state) {
+        out.push(Action::TieBreak { to });
     }
 }
 
@@ -146,8 +172,8 @@ pub fn next_state(config: &Config, state: &State, action: Action) -> Option<Stat
         Action::LoseHeartbeat { from, to } => {
             next.lost_links |= link_bit(from, to);
             next.history.losses += 1;
+            next.history.faults += 1;
             next.history.quiet_rounds = 0;
-            next.history.partition_open = true;
         }
         Action::Tick => tick(config, state, &mut next),
         Action::ExpireWindow { controller } => {
@@ -174,8 +200,15 @@ pub fn next_state(config: &Config, state: &State, action: Action) -> Option<Stat
             c.incarnation = incarnation;
             forget_links(&mut next, controller);
             next.history.crashes += 1;
+            next.history.faults += 1;
             next.history.quiet_rounds = 0;
         }
+        Action::Pause { .. }
+        | Action::Resume { .. }
+        | Action::Isolate { .. }
+        | Action::Heal { .. }
+        | Action::DiscoverWriter { .. }
+        | Action::TieBreak { .. } => interrupt(config, &mut next, action),
         Action::Restart { controller } | Action::Join { controller } => {
             let c = next.controller_mut(controller);
             let incarnation = match action {
@@ -202,7 +235,58 @@ pub fn next_state(config: &Config, state: &State, action: Action) -> Option<Stat
             next.history.quiet_rounds = 0;
         }
     }
+    actuator::arbitrate(&mut next);
+    actuator::note_primary_taken_back(state, &mut next);
+    if next.isolated == 0 && next.controllers.iter().all(|c| c.life != Life::Paused) {
+        actuator::settle_bookkeeping(&mut next);
+    }
     Some(next)
+}
+
+/// Pauses, cuts and the actuator's own events.
+fn interrupt(config: &Config, next: &mut State, action: Action) {
+    match action {
+        Action::Pause { controller } => {
+            next.controller_mut(controller).life = Life::Paused;
+            next.history.pauses += 1;
+            next.history.faults += 1;
+            next.history.quiet_rounds = 0;
+            next.history.away |= 1 << (controller - 1);
+        }
+        Action::Resume { controller } => {
+            next.history.quiet_rounds = 0;
+            let c = next.controller_mut(controller);
+            c.life = Life::Up;
+            if config.rules().f12_self_fence && matches!(c.phase, Phase::Voting | Phase::Steady) {
+                // Its round clock jumped: silent, without a role, until it has heard a round
+                // and voted again.
+                let old_role = c.role;
+                c.fenced = true;
+                c.set_output(None);
+                c.role = None;
+                c.phase = Phase::Voting;
+                c.vote = None;
+                vote_superseded(config, next, controller);
+                agreement::note_role_change(&mut next.history, controller, old_role, None);
+            }
+        }
+        Action::Isolate { controller } => {
+            next.isolated |= 1 << (controller - 1);
+            next.history.isolations += 1;
+            next.history.faults += 1;
+            next.history.quiet_rounds = 0;
+            next.history.away |= 1 << (controller - 1);
+        }
+        Action::Heal { controller } => {
+            next.isolated &= !(1 << (controller - 1));
+            next.history.quiet_rounds = 0;
+        }
+        Action::DiscoverWriter { controller } => {
+            next.controller_mut(controller).undiscovered = false;
+        }
+        Action::TieBreak { to } => actuator::change_owner(next, to),
+        _ => {}
+    }
 }
 
 fn forget_links(state: &mut State, id: Id) {

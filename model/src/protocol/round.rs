@@ -6,7 +6,7 @@
 //! [`round_step`] is one controller's part of that; `tick` runs it for every controller and
 //! then does the bookkeeping that belongs to the whole state.
 
-use super::agreement::{hold_primary_strength, try_agree, Source};
+use super::agreement::{apply_output, try_agree, Source};
 use super::minority::judge_minority;
 use super::vote::{close_window, compute_vote, revote};
 use super::{ready_to_vote, vote_pending};
@@ -25,6 +25,13 @@ pub(super) fn tick(config: &Config, before: &State, next: &mut State) {
                 next.overdue_votes |= link_bit(from, to);
             }
         }
+    }
+    // The writers created last round are established now: the actuator has discovered
+    // them and the retired ones are gone (discovery within a round, the timing assumption).
+    for c in next.controllers.iter_mut() {
+        c.fresh_writer = false;
+        c.undiscovered = false;
+        c.retiring = None;
     }
     for &id in &ids {
         round_step(config, before, next, id);
@@ -63,11 +70,12 @@ pub fn round_step(config: &Config, before: &State, next: &mut State, id: Id) {
         Phase::Initializing => end_initializing_round(config, next, id, heard.new_peer),
         Phase::Voting | Phase::Steady => {
             // Re-vote whenever what it knows gives another vote: a peer lost or new, or
-            // (F6) another incumbent's result, which comes with the heartbeats.
+            // (F6) another incumbent's result, which comes with the heartbeats; and (F12)
+            // once after a stall, having now heard a round.
             let c = next.controller(id);
             let knowledge_changed =
                 config.rules().f6_vote_from_knowledge && Some(compute_vote(config, c)) != c.vote;
-            if heard.membership_changed || knowledge_changed {
+            if heard.membership_changed || knowledge_changed || c.fenced {
                 revote(config, next, id);
             }
         }
@@ -77,9 +85,10 @@ pub fn round_step(config: &Config, before: &State, next: &mut State, id: Id) {
         try_agree(config, next, id, Source::Heartbeats);
         judge_minority(config, next, id, Source::Heartbeats);
         let c = next.controller_mut(id);
-        if c.role == Some(Role::Primary) && c.is_active() {
-            c.output = Some(Role::Primary.strength());
-            hold_primary_strength(config, c);
+        if c.is_active() {
+            // The strength follows the role: a held Primary (F8) rises once uncontested, a
+            // raise waits for the roles above (F13).
+            apply_output(config, c);
         }
     }
 }
@@ -96,7 +105,7 @@ fn hear_round(config: &Config, before: &State, next: &mut State, id: Id) -> Hear
     let mut round = HeartbeatOutcome::default();
     for peer_id in config.ids().filter(|peer_id| *peer_id != id) {
         let sender = before.controller(peer_id);
-        let heard = sender.is_up() && before.lost_links & link_bit(peer_id, id) == 0;
+        let heard = sender.is_up() && !before.link_lost(peer_id, id);
         if heard {
             let outcome = receive_heartbeat(config, next, id, sender);
             round.membership_changed |= outcome.membership_changed;
@@ -150,7 +159,9 @@ fn miss_heartbeat(config: &Config, before: &State, next: &mut State, id: Id, pee
             ..Default::default()
         };
         if sender.is_up() && Some(sender.incarnation) == old_incarnation {
+            // A live peer declared lost: the two sides may now act apart.
             next.history.revoted_after_loss = true;
+            next.history.partition_open = true;
         }
         return was_member;
     }
@@ -161,7 +172,7 @@ fn miss_heartbeat(config: &Config, before: &State, next: &mut State, id: Id, pee
             .is_some_and(|a| a.holder(Role::Primary) == Some(peer_id))
     {
         receiver.role = Some(Role::Primary);
-        receiver.output = Some(Role::Primary.strength());
+        receiver.set_output(Some(Role::Primary.strength()));
     }
     false
 }
@@ -215,6 +226,12 @@ fn receive_heartbeat(
     }
     if rules.f8_hold_primary_strength {
         peer.claims_primary = sender.output == Some(Role::Primary.strength());
+    }
+    if rules.f11_epochs {
+        peer.heard_epoch = sender.epoch;
+    }
+    if rules.f13_ordered_raise {
+        peer.heard_strength = sender.established_strength();
     }
     if sender.phase == Phase::Failed && !peer.failed {
         // It announced its own failure: every voter excludes it.

@@ -1,0 +1,133 @@
+//! The actuator at DDS-writer granularity: which controller's commands it follows.
+//!
+//! DDS exclusive ownership (DDS 1.4 §2.2.3.9) gives the instance to the strongest writer the
+//! reader knows and hears; when the owner falls silent (crash, pause) the strongest of the
+//! rest takes over within the deadline, abstracted here as at once. A raise re-creates the
+//! writer: until the actuator discovers the new one, the old one keeps writing
+//! (`Controller::set_output`). Equal strengths are broken by GUID, an order no controller
+//! chooses: the model keeps the owner or the lowest id and offers `Action::TieBreak` to every
+//! other writer tied at the top, so the checker tries each order.
+//!
+//! The ghost history of owner changes lives here too: each change is counted against the
+//! faults, and the controllers it went to are checked when the system next settles.
+
+use crate::properties::settled;
+use crate::state::State;
+use crate::types::{Id, Role};
+
+/// Every controller whose writer the actuator knows, with its strongest visible strength.
+fn visible(state: &State) -> Vec<(Id, u8)> {
+    state
+        .controllers
+        .iter()
+        .filter_map(|c| c.visible_strength().map(|strength| (c.id, strength)))
+        .collect()
+}
+
+/// The controllers tied at the top visible strength other than the owner, when the owner is
+/// one of them: the GUID order may hand the actuator to any of them.
+pub(super) fn tie_break_targets(state: &State) -> Vec<Id> {
+    let writers = visible(state);
+    let Some(top) = writers.iter().map(|(_, strength)| *strength).max() else {
+        return Vec::new();
+    };
+    let owner_on_top = writers
+        .iter()
+        .any(|(id, strength)| Some(*id) == state.owner && *strength == top);
+    if !owner_on_top {
+        return Vec::new();
+    }
+    writers
+        .iter()
+        .filter(|(id, strength)| *strength == top && Some(*id) != state.owner)
+        .map(|(id, _)| *id)
+        .collect()
+}
+
+/// Re-evaluates the owner after an action: it stays while it is among the strongest visible
+/// writers; otherwise the strongest (lowest id among equals) takes over. With no writer
+/// visible the actuator keeps its last owner (it has nothing else to follow).
+pub(super) fn arbitrate(next: &mut State) {
+    let writers = visible(next);
+    let Some(top) = writers.iter().map(|(_, strength)| *strength).max() else {
+        return;
+    };
+    let owner_on_top = writers
+        .iter()
+        .any(|(id, strength)| Some(*id) == next.owner && *strength == top);
+    if owner_on_top {
+        return;
+    }
+    let strongest = writers
+        .iter()
+        .filter(|(_, strength)| *strength == top)
+        .map(|(id, _)| *id)
+        .min();
+    if let Some(to) = strongest {
+        change_owner(next, to);
+    }
+}
+
+/// The actuator now follows `to`; a change from another owner is counted.
+pub(super) fn change_owner(next: &mut State, to: Id) {
+    if next.owner == Some(to) {
+        return;
+    }
+    if next.owner.is_some() {
+        let history = &mut next.history;
+        history.owner_changes = (history.owner_changes + 1).min(history.faults + 1);
+        history.change_targets |= 1 << (to - 1);
+    }
+    next.owner = Some(to);
+}
+
+/// At a settled state: every owner change since the last settled state must have gone to the
+/// owner of then or to the Primary now settled; the away marks are cleared.
+pub(super) fn settle_bookkeeping(next: &mut State) {
+    let Some(agreed) = settled(next) else {
+        return;
+    };
+    let mut allowed = 0u8;
+    for id in agreed
+        .holder(Role::Primary)
+        .into_iter()
+        .chain(next.history.settled_owner)
+    {
+        allowed |= 1 << (id - 1);
+    }
+    let history = &mut next.history;
+    if history.change_targets & !allowed != 0 {
+        history.stray_owner = true;
+    }
+    history.change_targets = 0;
+    history.settled_owner = next.owner;
+    if history.away != 0 {
+        let back_below = next.controllers.iter().any(|c| {
+            history.away & (1 << (c.id - 1)) != 0
+                && c.role.is_some_and(|role| role != Role::Primary)
+        });
+        history.returned_below |= back_below;
+        history.away = 0;
+    }
+}
+
+/// A Primary that stayed with the system loses the role (between `before` and `next`) while
+/// a controller back from a pause or a cut holds Primary: the failback the paper rules out
+/// ("once a role is selected, it should be maintained unless the controller with that role
+/// fails").
+pub(super) fn note_primary_taken_back(before: &State, next: &mut State) {
+    let away = next.history.away;
+    let returner_holds_primary = next.controllers.iter().any(|c| {
+        away & (1 << (c.id - 1)) != 0 && c.is_up() && c.role == Some(Role::Primary)
+    });
+    let stayer_lost_primary = before.controllers.iter().any(|b| {
+        away & (1 << (b.id - 1)) == 0
+            && b.is_active()
+            && b.role == Some(Role::Primary)
+            && next.controller(b.id).is_active()
+            && next.controller(b.id).role != Some(Role::Primary)
+    });
+    if returner_holds_primary && stayer_lost_primary {
+        next.history.primary_taken_back = true;
+    }
+}
