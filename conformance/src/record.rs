@@ -62,7 +62,7 @@ impl LifeLog {
     pub fn stopped_ms(&self) -> Option<u64> {
         self.events
             .iter()
-            .find(|e| e.event == Event::Stopped)
+            .find(|e| matches!(e.event, Event::Stopped { .. }))
             .map(|e| e.t_ms)
     }
 

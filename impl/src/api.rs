@@ -21,6 +21,11 @@
 //! role and state ([`Redundancy::status`], [`Redundancy::role`]), the raised alarms, reports
 //! its own faults ([`Redundancy::report_fault`]), and writes commands through a
 //! [`CommandWriter`] whose ownership strength always follows the role.
+//!
+//! A controller that votes itself FAILED stays FAILED for the rest of its life, so the layer
+//! stops by itself `timing.failed_exit_delay_ms` after it failed ([`Redundancy::is_finished`]
+//! turns true, [`Redundancy::stop`] returns [`crate::Error::Failed`]); the application should
+//! then exit with [`crate::Error::exit_code`] to be restarted (crate::failed_exit).
 
 use crate::config::{AperiodicPolicy, Config};
 use crate::core::types::{AlarmReason, ControllerId, Role};
@@ -139,12 +144,14 @@ impl Redundancy {
         })
     }
 
-    /// The voting thread ended (an error, or `stop`).
+    /// The voting thread ended (an error, `stop`, or the controller failed itself and its
+    /// `timing.failed_exit_delay_ms` is over).
     pub fn is_finished(&self) -> bool {
         self.thread.as_ref().is_none_or(JoinHandle::is_finished)
     }
 
-    /// Stops the voting thread and returns how it ended.
+    /// Stops the voting thread and returns how it ended: [`crate::Error::Failed`] if it
+    /// stopped because the controller failed itself.
     pub fn stop(mut self) -> Result<(), crate::Error> {
         self.shared.stop.store(true, Ordering::SeqCst);
         match self.thread.take() {

@@ -28,16 +28,22 @@ pub enum Error {
     /// The demo stopped early.
     #[error(transparent)]
     Demo(#[from] crate::demo::DemoError),
+    /// The controller failed itself (outvoted, or its application reported a fault) and
+    /// left, to be restarted as a new incarnation (crate::failed_exit).
+    #[error("{0}; exits with status {status} to be restarted", status = crate::failed_exit::EXIT_STATUS)]
+    Failed(Box<crate::failed_exit::Failure>),
     /// Anything else that ends a command.
     #[error("{0}")]
     Runtime(String),
 }
 
 impl Error {
-    /// 2 for bad input (configuration, flags), 1 for everything else.
+    /// 2 for bad input (configuration, flags), 75 for a controller that failed itself (the
+    /// service manager restarts it), 1 for everything else.
     pub fn exit_code(&self) -> u8 {
         match self {
             Error::Config(_) | Error::Usage(_) | Error::Mutation { .. } => 2,
+            Error::Failed(_) => crate::failed_exit::EXIT_STATUS,
             _ => 1,
         }
     }

@@ -13,6 +13,7 @@
 //! know.
 
 use crate::core::{AlarmReason, Assignment, ControllerId, Incarnation, Role, Status};
+use crate::failed_exit::{Failure, FailureCause, EXIT_STATUS};
 use serde::{Deserialize, Serialize};
 
 /// One line of `rl controller --json-events`: who, when, and what happened.
@@ -53,8 +54,18 @@ pub enum Event {
     /// `fault-injection` build only): the DDS-level replay checks every loss it injects
     /// against these, so an injected loss is told apart from a real one.
     HeartbeatDropped { from: ControllerId },
-    /// The voting thread stopped cleanly.
-    Stopped,
+    /// The voting thread stopped cleanly: asked to (no other fields), or on its own after the
+    /// controller failed itself. Then `reason` says why (`outvoted`, `local_fault`),
+    /// `disagreed_with` lists the peers whose votes differed from its own, and `exit_status`
+    /// is what `rl controller` exits with to be restarted (crate::failed_exit).
+    Stopped {
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        reason: Option<FailureCause>,
+        #[serde(default, skip_serializing_if = "Vec::is_empty")]
+        disagreed_with: Vec<ControllerId>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        exit_status: Option<u8>,
+    },
 }
 
 impl Event {
@@ -68,7 +79,25 @@ impl Event {
             Event::Alarm { .. } => "alarm",
             Event::Leds { .. } => "leds",
             Event::HeartbeatDropped { .. } => "heartbeat_dropped",
-            Event::Stopped => "stopped",
+            Event::Stopped { .. } => "stopped",
+        }
+    }
+
+    /// `stopped`, as asked to.
+    pub fn stopped() -> Event {
+        Event::Stopped {
+            reason: None,
+            disagreed_with: Vec::new(),
+            exit_status: None,
+        }
+    }
+
+    /// `stopped` after failing itself, to be restarted.
+    pub fn stopped_failed(failure: &Failure) -> Event {
+        Event::Stopped {
+            reason: Some(failure.cause),
+            disagreed_with: failure.disagreed_with.clone(),
+            exit_status: Some(EXIT_STATUS),
         }
     }
 }
@@ -140,6 +169,21 @@ mod tests {
             line(Event::Vote { vote: None }).to_json(),
             r#"{"t_ms":1000,"id":2,"incarnation":77,"event":"vote","vote":null}"#
         );
+        assert_eq!(
+            line(Event::stopped()).to_json(),
+            r#"{"t_ms":1000,"id":2,"incarnation":77,"event":"stopped"}"#
+        );
+        let failure = Failure {
+            id: 2,
+            cause: FailureCause::Outvoted,
+            disagreed_with: vec![1, 3],
+            own_vote: None,
+            their_vote: None,
+        };
+        assert_eq!(
+            line(Event::stopped_failed(&failure)).to_json(),
+            r#"{"t_ms":1000,"id":2,"incarnation":77,"event":"stopped","reason":"outvoted","disagreed_with":[1,3],"exit_status":75}"#
+        );
     }
 
     #[test]
@@ -180,7 +224,12 @@ mod tests {
                 leds: "[P:off S:green T:off | own:green]".into(),
             },
             Event::HeartbeatDropped { from: 3 },
-            Event::Stopped,
+            Event::stopped(),
+            Event::Stopped {
+                reason: Some(FailureCause::LocalFault),
+                disagreed_with: Vec::new(),
+                exit_status: Some(EXIT_STATUS),
+            },
         ];
         for event in events {
             let written = line(event);

@@ -16,7 +16,8 @@
 //! - [`tracker`]: the paper's application (pan/tilt from the camera's circle).
 //! - [`leds`], [`config`], [`sim`], [`status`], [`demo`], [`bench`]: status LEDs, configuration,
 //!   camera and actuator simulators, the live status view, the demo and the benchmarks.
-//! - [`service`], [`logging`]: running under systemd (readiness, watchdog, journald).
+//! - [`service`], [`logging`]: running under systemd (readiness, watchdog, journald);
+//!   [`failed_exit`]: a controller that votes itself FAILED leaves, to be restarted.
 //!
 //! docs/architecture.md draws the layout and the RL API on one page.
 
@@ -31,6 +32,7 @@ pub mod dds;
 pub mod demo;
 pub mod error;
 pub mod event;
+pub mod failed_exit;
 pub mod leds;
 pub mod logging;
 pub mod procs;

@@ -1,7 +1,8 @@
 //! The `rl` command: controllers, simulators, status, demo and benchmarks.
 //!
 //! Exit codes: 0 success, 1 runtime failure, 2 bad arguments or configuration (the message
-//! names the field).
+//! names the field), 75 a controller that voted itself FAILED and left to be restarted
+//! (`timing.failed_exit_delay_ms`; the systemd unit restarts on it).
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;

@@ -8,6 +8,10 @@
 //! warning, and the controller goes on with console LEDs: the LEDs help an operator, and a
 //! controller without them still votes and commands.
 //!
+//! A controller whose core reports FAILED stops the thread `timing.failed_exit_delay_ms`
+//! later, once a heartbeat has announced FAILED, and the thread ends with
+//! [`crate::Error::Failed`]: `rl controller` exits to be restarted (crate::failed_exit).
+//!
 //! The core's clock: milliseconds of the wall clock read once at start, advanced by the
 //! monotonic clock. Controllers whose wall clocks agree (NTP) share round boundaries, and a
 //! wall-clock step while running cannot stall or rush the rounds.
@@ -15,10 +19,11 @@
 use crate::api::{Options, Shared};
 use crate::config::{Config, LedBackend};
 use crate::core::{
-    AlarmReason, Command, ControllerId, Core, CoreConfig, Input, Status, VoteRecord,
+    AlarmReason, Command, ControllerId, Core, CoreConfig, Input, Phase, Status, VoteRecord,
 };
 use crate::dds::{Reader, Session, Writer};
 use crate::event::{Event, EventLine};
+use crate::failed_exit::{Failure, PendingExit};
 use crate::leds::{ConsoleLeds, LedBank, LedPattern};
 use crate::wire::{AlarmSample, ControllerAlarm, HeartbeatSample, VoteSample};
 use rustdds::mio::{Events, Poll, PollOpt, Ready, Token};
@@ -121,6 +126,7 @@ pub(crate) fn spawn(
         stop: AtomicBool::new(false),
     });
     let thread_shared = Arc::clone(&shared);
+    let failed_exit_delay_ms = config.timing.failed_exit_delay_ms;
     let thread = std::thread::Builder::new()
         .name(format!("rl-voting-{id}"))
         .spawn(move || {
@@ -134,6 +140,8 @@ pub(crate) fn spawn(
                 leds,
                 shown_status,
                 shown_leds: LedPattern::ALL_OFF,
+                failed_exit_delay_ms,
+                pending_exit: None,
             };
             voting.run()
         })
@@ -208,6 +216,10 @@ struct Voting {
     shown_status: Status,
     /// The LEDs last shown.
     shown_leds: LedPattern,
+    /// How long it stays up after failing itself (`timing.failed_exit_delay_ms`).
+    failed_exit_delay_ms: u64,
+    /// Set when the core reported FAILED: why, and when the thread stops.
+    pending_exit: Option<PendingExit>,
 }
 
 impl Voting {
@@ -224,6 +236,7 @@ impl Voting {
         #[cfg(feature = "fault-injection")]
         fault_injection::listen_on_stdin();
         let progress = self.options.voting_progress.clone();
+        let mut failed = None;
         while !self.shared.stop.load(Ordering::SeqCst) {
             if let Some(progress) = &progress {
                 progress.mark();
@@ -239,11 +252,18 @@ impl Voting {
             while let Some(timer) = self.core.due_timer(self.clock.now_ms()) {
                 self.step(Input::Timer(timer));
             }
+            let now_ms = self.clock.now_ms();
+            if let Some(exit) = self.pending_exit.take_if(|exit| exit.is_due(now_ms)) {
+                failed = Some(exit.failure);
+                break;
+            }
+            let exit_wait_ms = self.pending_exit.as_ref().and_then(|e| e.wait_ms(now_ms));
             let wait_ms = self
                 .core
                 .next_deadline()
                 .at_ms
-                .saturating_sub(self.clock.now_ms())
+                .saturating_sub(now_ms)
+                .min(exit_wait_ms.unwrap_or(FLAG_CHECK_MS))
                 .min(FLAG_CHECK_MS);
             match poll.poll(&mut events, Some(Duration::from_millis(wait_ms))) {
                 Ok(_) => {}
@@ -252,8 +272,16 @@ impl Voting {
                 Err(e) => return Err(crate::Error::io("waiting for DDS samples", e)),
             }
         }
-        self.event(Event::Stopped);
-        Ok(())
+        match failed {
+            Some(failure) => {
+                self.event(Event::stopped_failed(&failure));
+                Err(crate::Error::Failed(Box::new(failure)))
+            }
+            None => {
+                self.event(Event::stopped());
+                Ok(())
+            }
+        }
     }
 
     /// Drains both readers (edge-triggered: whatever woke the poll).
@@ -276,10 +304,26 @@ impl Voting {
 
     fn step(&mut self, input: Input) {
         let now = self.clock.now_ms();
+        let vote_before = self.core.state().vote;
+        let local_fault = input == Input::LocalFault;
         for command in self.core.step(input, now) {
             self.perform(command);
         }
         self.show(self.core.status());
+        if self.pending_exit.is_none() && self.core.state().phase == Phase::Failed {
+            let failure = Failure::observe(self.core.state(), vote_before, local_fault);
+            // The delay counts from after the FAILED status went out.
+            self.failed(failure, self.clock.now_ms());
+        }
+    }
+
+    /// The core has just reported FAILED: say why, and when it exits.
+    fn failed(&mut self, failure: Failure, now_ms: u64) {
+        let exit = PendingExit::new(failure, now_ms, self.failed_exit_delay_ms);
+        // A warning: the terminal (stderr) shows it under the FAILED console line, and
+        // `journalctl -p warning` finds it.
+        warn!("{}", exit.notice(now_ms));
+        self.pending_exit = Some(exit);
     }
 
     /// What a person sees follows the status: the status event and console line when it
@@ -334,6 +378,11 @@ impl Voting {
             Command::PublishHeartbeat(heartbeat) => {
                 if let Err(error) = self.endpoints.heartbeats_out.write(&heartbeat) {
                     warn!("heartbeat not sent: {error}");
+                }
+                if heartbeat.phase == Phase::Failed {
+                    if let Some(exit) = &mut self.pending_exit {
+                        exit.announced();
+                    }
                 }
                 // The ROS 2 status goes out with every heartbeat too, so a ROS 2 tool that
                 // starts late sees it within a period.

@@ -45,7 +45,8 @@ pub const ATTEMPTS: usize = 3;
 /// The `rl` configuration the replay runs with: the model's heartbeat period and dead-man
 /// deadline, an initialization window one round longer than the model's (3 rounds, not 2),
 /// and the command deadline and republish period written out (the owner window depends on
-/// them). With a 2-round window, DDS discovery of a late process decides in which round its
+/// them). A controller that fails itself stays up for the longest delay allowed: in the model
+/// it stays up until a restart, which is a fault of its own. With a 2-round window, DDS discovery of a late process decides in which round its
 /// window expires, which the late-join and fourth-controller traces depend on; the plan
 /// checks against the model that every replayed trace reaches the same states with 3.
 pub const CONFIG_TOML: &str = "\
@@ -56,6 +57,8 @@ peer_deadline_ms = 500
 init_window_ms = 750
 command_deadline_ms = 100
 command_republish_ms = 10
+# In the model a FAILED controller stays up until a restart (a fault of its own), so here too.
+failed_exit_delay_ms = 3600000
 ";
 
 /// The run's timing: its rounds (as trace validation reads them) and where in a round the

@@ -22,7 +22,48 @@ fn defaults_are_valid_and_match_the_paper() {
     assert_eq!(config.timing.window_rounds(), 40);
     assert_eq!(config.timing.rounds().minority_grace_rounds(), 3);
     assert_eq!(config.timing.command_deadline(), Duration::from_millis(100));
+    assert_eq!(
+        config.timing.failed_exit_delay(),
+        Duration::ZERO,
+        "exits at once"
+    );
     assert_eq!(config.dds.domain, 53);
+}
+
+#[test]
+fn failed_exit_delay_parses_and_is_bounded() {
+    let config = parse("[timing]\nfailed_exit_delay_ms = 1500\n").unwrap();
+    assert_eq!(config.timing.failed_exit_delay_ms, 1500);
+    assert_eq!(
+        config.timing.failed_exit_delay(),
+        Duration::from_millis(1500)
+    );
+    assert_eq!(
+        config.timing,
+        Timing {
+            failed_exit_delay_ms: 1500,
+            ..Timing::default()
+        },
+        "the other timing fields keep their defaults"
+    );
+    let longest = parse("[timing]\nfailed_exit_delay_ms = 3600000\n").unwrap();
+    assert_eq!(longest.timing.failed_exit_delay_ms, DURATION_MS_MAX);
+
+    let (field, message) = error_of("[timing]\nfailed_exit_delay_ms = 3600001\n");
+    assert_eq!(field.as_deref(), Some("timing.failed_exit_delay_ms"));
+    assert_eq!(
+        message,
+        "rl.toml: timing.failed_exit_delay_ms = 3600001: must be at most 3600000 ms (one hour)"
+    );
+    let (field, message) = error_of("[timing]\nfailed_exit_delay_ms = -5\n");
+    assert_eq!(field.as_deref(), Some("timing.failed_exit_delay_ms"));
+    assert!(
+        message.starts_with("rl.toml:2:24: timing.failed_exit_delay_ms: "),
+        "{message}"
+    );
+    let (field, message) = error_of("[timing]\nfailed_exit_delay_ms = \"soon\"\n");
+    assert_eq!(field.as_deref(), Some("timing.failed_exit_delay_ms"));
+    assert!(message.contains("invalid type: string"), "{message}");
 }
 
 #[test]
@@ -231,6 +272,11 @@ const RULE_BREAKS: &[(&str, &str, &str)] = &[
         "[timing]\ncommand_republish_ms = 100",
         "timing.command_republish_ms",
         "less than timing.command_deadline_ms (100 ms)",
+    ),
+    (
+        "[timing]\nfailed_exit_delay_ms = 3600001",
+        "timing.failed_exit_delay_ms",
+        "at most 3600000",
     ),
     (
         "[timing]\ncommand_deadline_ms = 10",

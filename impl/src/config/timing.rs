@@ -1,6 +1,7 @@
 //! The `[timing]` section: the heartbeat period (one protocol round), the peer deadline and
-//! initialization window counted in whole rounds, and the command topic's deadline and
-//! republish period.
+//! initialization window counted in whole rounds, the command topic's deadline and
+//! republish period, and how long a controller that has failed itself waits before it exits
+//! to be restarted.
 
 use super::error::{check, InvalidValue};
 use serde::{Deserialize, Serialize};
@@ -27,6 +28,12 @@ pub struct Timing {
     /// actuator's gap after the owner dies is at most the deadline plus this period: the
     /// default (a tenth of the deadline) keeps it within 1.1 x the deadline.
     pub command_republish_ms: u64,
+    /// How long a controller that has voted itself FAILED (outvoted, or a local fault) stays
+    /// up before it exits to be restarted (paper: it "will take itself offline and/or
+    /// restart"). 0 (the default): as soon as a heartbeat has announced FAILED to the peers.
+    /// A longer delay keeps the FAILED LEDs and status visible for longer, and keeps the
+    /// controller out for longer.
+    pub failed_exit_delay_ms: u64,
 }
 
 impl Default for Timing {
@@ -37,6 +44,7 @@ impl Default for Timing {
             init_window_ms: 10_000,
             command_deadline_ms: 100,
             command_republish_ms: 10,
+            failed_exit_delay_ms: 0,
         }
     }
 }
@@ -77,6 +85,7 @@ impl Timing {
             ("timing.init_window_ms", self.init_window_ms),
             ("timing.command_deadline_ms", self.command_deadline_ms),
             ("timing.command_republish_ms", self.command_republish_ms),
+            ("timing.failed_exit_delay_ms", self.failed_exit_delay_ms),
         ] {
             check(value_ms <= DURATION_MS_MAX, field, value_ms, || {
                 format!("must be at most {DURATION_MS_MAX} ms (one hour)")
@@ -177,6 +186,10 @@ impl Timing {
 
     pub fn command_republish(&self) -> Duration {
         Duration::from_millis(self.command_republish_ms)
+    }
+
+    pub fn failed_exit_delay(&self) -> Duration {
+        Duration::from_millis(self.failed_exit_delay_ms)
     }
 }
 
