@@ -91,9 +91,10 @@ pub enum Fix {
     #[serde(rename = "f11")]
     #[value(name = "f11")]
     EpochMerge,
-    /// F12: a controller that resumes from a stall (its round clock jumped by a peer deadline
-    /// or more) sends no commands until it has heard a full round and re-voted; reverted, it
-    /// goes on commanding with what it knew before the stall.
+    /// F12: a controller that resumes from a stall (its round clock jumped by the command
+    /// deadline or more) starts again as a new incarnation: silent until it has heard a full
+    /// round and voted, it joins below the controllers that kept the system running;
+    /// reverted, it goes on commanding with what it knew before the stall.
     #[serde(rename = "f12")]
     #[value(name = "f12")]
     SelfFence,
@@ -186,7 +187,7 @@ pub struct Rules {
     /// F11: epochs in agreed results, newest first in a merge; results without a majority of
     /// the last backed result are provisional.
     pub f11_epochs: bool,
-    /// F12: a controller resuming from a stall is fenced until it has heard a round.
+    /// F12: a controller resuming from a stall starts again as a new incarnation.
     pub f12_self_fence: bool,
     /// F13: strength raises ordered by the roles above.
     pub f13_ordered_raise: bool,

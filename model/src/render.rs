@@ -40,9 +40,6 @@ pub fn controller_line(c: &Controller) -> String {
     if c.undiscovered {
         line.push_str(" (writer undiscovered)");
     }
-    if c.fenced {
-        line.push_str(" fenced");
-    }
     if c.provisional {
         line.push_str(" provisional");
     }

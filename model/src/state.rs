@@ -190,6 +190,8 @@ pub struct Peer {
     pub claims_primary: bool,
     /// The epoch of the agreed result its last heartbeat carried (F11).
     pub heard_epoch: u8,
+    /// That result was provisional (F11).
+    pub heard_provisional: bool,
     /// The established command strength its last heartbeat reported (F13).
     pub heard_strength: Option<u8>,
 }
@@ -232,6 +234,9 @@ pub struct Controller {
     pub quorum_base: u8,
     /// F11: its agreed result lacks a majority of `quorum_base`.
     pub provisional: bool,
+    /// F11: rounds since it became provisional (saturates at 1): a provisional Primary keeps
+    /// its strength for the round in which the majority side elects its own Primary.
+    pub provisional_rounds: u8,
     /// The previous, weaker command writer that keeps writing while the actuator discovers
     /// the new one (a raise re-creates the writer; RustDDS cannot change its strength).
     pub retiring: Option<u8>,
@@ -239,8 +244,6 @@ pub struct Controller {
     pub fresh_writer: bool,
     /// The actuator has not discovered the newest writer yet.
     pub undiscovered: bool,
-    /// F12: resumed from a stall and not yet re-voted; silent until it has heard a round.
-    pub fenced: bool,
 }
 
 impl Controller {
@@ -262,10 +265,10 @@ impl Controller {
             epoch: 0,
             quorum_base: 0,
             provisional: false,
+            provisional_rounds: 0,
             retiring: None,
             fresh_writer: false,
             undiscovered: false,
-            fenced: false,
         }
     }
 
@@ -391,6 +394,9 @@ pub struct State {
     /// The controller whose commands the actuator follows (the last one, while none is
     /// visible).
     pub owner: Option<Id>,
+    /// Bit `link_bit(a, b)`: at equal strength the actuator prefers `a`'s writers to `b`'s
+    /// (the GUID order, learnt when a tie first arises; a new life forgets it).
+    pub tie_order: u16,
     pub history: History,
 }
 

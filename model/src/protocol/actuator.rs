@@ -12,7 +12,7 @@
 //! faults, and the controllers it went to are checked when the system next settles.
 
 use crate::properties::settled;
-use crate::state::State;
+use crate::state::{link_bit, State};
 use crate::types::{Id, Role};
 
 /// Every controller whose writer the actuator knows, with its strongest visible strength.
@@ -24,8 +24,8 @@ fn visible(state: &State) -> Vec<(Id, u8)> {
         .collect()
 }
 
-/// The controllers tied at the top visible strength other than the owner, when the owner is
-/// one of them: the GUID order may hand the actuator to any of them.
+/// The controllers tied at the top visible strength with the owner whose GUID order against
+/// the owner is not known yet: the order may hand the actuator to any of them (once).
 pub(super) fn tie_break_targets(state: &State) -> Vec<Id> {
     let writers = visible(state);
     let Some(top) = writers.iter().map(|(_, strength)| *strength).max() else {
@@ -37,9 +37,16 @@ pub(super) fn tie_break_targets(state: &State) -> Vec<Id> {
     if !owner_on_top {
         return Vec::new();
     }
+    let Some(owner) = state.owner else {
+        return Vec::new();
+    };
     writers
         .iter()
-        .filter(|(id, strength)| *strength == top && Some(*id) != state.owner)
+        .filter(|(id, strength)| *strength == top && *id != owner)
+        .filter(|(id, _)| {
+            let known = link_bit(*id, owner) | link_bit(owner, *id);
+            state.tie_order & known == 0
+        })
         .map(|(id, _)| *id)
         .collect()
 }
@@ -55,7 +62,15 @@ pub(super) fn arbitrate(next: &mut State) {
     let owner_on_top = writers
         .iter()
         .any(|(id, strength)| Some(*id) == next.owner && *strength == top);
-    if owner_on_top {
+    if let (true, Some(owner)) = (owner_on_top, next.owner) {
+        // A tie the owner is known to lose goes to the writer that beats it.
+        let beaten_by = writers
+            .iter()
+            .find(|(id, strength)| *strength == top && next.tie_order & link_bit(*id, owner) != 0)
+            .map(|(id, _)| *id);
+        if let Some(to) = beaten_by {
+            change_owner(next, to);
+        }
         return;
     }
     let strongest = writers
@@ -76,7 +91,15 @@ pub(super) fn change_owner(next: &mut State, to: Id) {
     if next.owner.is_some() {
         let history = &mut next.history;
         history.owner_changes = (history.owner_changes + 1).min(history.faults + 1);
-        history.change_targets |= 1 << (to - 1);
+        // In a partition a side that believes itself alone steps down and a standby may
+        // take the actuator until the sides merge (docs/findings.md, F11).
+        // Between sides without a majority (provisional Primaries: a founder alone and a
+        // joiner whose discovery was cut) the GUID order decides until they merge (F9).
+        let provisional = next.controller(to).provisional;
+        let history = &mut next.history;
+        if !history.partition_open && !provisional {
+            history.change_targets |= 1 << (to - 1);
+        }
     }
     next.owner = Some(to);
 }
@@ -99,6 +122,9 @@ pub(super) fn settle_bookkeeping(next: &mut State) {
     if history.change_targets & !allowed != 0 {
         history.stray_owner = true;
     }
+    // Settled again: the sides of a partition have merged (after the actuator's owner was
+    // re-evaluated in this step, so a change the merge causes still counts as partitioned).
+    history.partition_open = false;
     history.change_targets = 0;
     history.settled_owner = next.owner;
     if history.away != 0 {

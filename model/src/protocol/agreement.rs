@@ -4,7 +4,9 @@
 use crate::config::Config;
 use crate::fixes::{Mutation, Rules};
 use crate::state::{Controller, History, Peer, State};
-use crate::types::{Assignment, Holder, Id, Phase, Role, PROVISIONAL_PRIMARY_STRENGTH};
+use crate::types::{
+    Assignment, Holder, Id, Phase, Role, PROVISIONAL_PRIMARY_STRENGTH, ROLE_COUNT,
+};
 
 /// Where the votes a decision counts come from.
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -105,33 +107,81 @@ pub(super) fn try_agree(config: &Config, next: &mut State, id: Id, source: Sourc
     }
 }
 
+/// Who stands behind `result` is more than half as many as the last backed result's members
+/// (three before there is one): itself and every live peer it has not marked FAILED whose
+/// heartbeat carried `result` as its vote or its agreed result. A majority by count: newcomers
+/// that vote for it make up for crashed members (two joiners on two sides of a partition are
+/// beyond what this rule protects).
+pub(super) fn backed(c: &Controller, result: Assignment) -> bool {
+    let behind = 1 + c
+        .peers
+        .iter()
+        .enumerate()
+        .filter(|(index, p)| *index + 1 != usize::from(c.id) && p.alive.is_some() && !p.failed)
+        .filter(|(_, p)| p.heard_vote == Some(result) || p.heard_agreed == Some(result))
+        .count() as u32;
+    let base = match c.quorum_base.count_ones() {
+        0 => ROLE_COUNT as u32,
+        members => members,
+    };
+    behind * 2 > base
+}
+
+/// It hears more than half as many live controllers as the last backed result had members:
+/// not cut off, whatever its result's standing.
+fn hears_majority(c: &Controller) -> bool {
+    let base = match c.quorum_base.count_ones() {
+        0 => ROLE_COUNT as u32,
+        members => members,
+    };
+    c.members().count() as u32 * 2 > base
+}
+
 fn members_mask(agreed: Assignment) -> u8 {
     agreed.members().fold(0, |mask, id| mask | 1 << (id - 1))
 }
 
-/// F11: the epoch and standing of a newly agreed result. It advances the epoch only when the
-/// controller's view (itself and the live peers it has not marked FAILED) is more than half
-/// as many as the last backed result's members; otherwise the result is provisional (a side that lost
-/// its majority), and a merge ranks it below the majority's newer epoch.
+/// F11: the epoch and standing of a newly agreed result. It advances the epoch only when it
+/// is backed (see [`backed`]); otherwise it is provisional (a side that lost its majority),
+/// and a merge ranks it below the majority's result.
 fn take_epoch(c: &mut Controller, agreed: Assignment) {
-    let known = c
-        .peers
+    let is_backed = backed(c, agreed);
+    if !is_backed && !c.provisional {
+        c.provisional_rounds = 0;
+    }
+    c.provisional = !is_backed;
+    if is_backed {
+        back(c, agreed);
+    } else {
+        c.epoch = known_epoch(c);
+    }
+}
+
+/// The newest epoch it knows: its own and every incumbent's.
+fn known_epoch(c: &Controller) -> u8 {
+    c.peers
         .iter()
         .filter(|p| p.incumbent())
         .map(|p| p.heard_epoch)
         .chain(std::iter::once(c.epoch))
         .max()
-        .unwrap_or(0);
-    let view = c.members().fold(0u8, |mask, id| mask | 1 << (id - 1));
-    // A majority by count: newcomers make up for crashed members (two joiners on two sides
-    // of a partition are beyond what this rule protects; docs/findings.md, F11).
-    let backed = view.count_ones() * 2 > c.quorum_base.count_ones();
-    c.provisional = !backed;
-    if backed {
-        c.epoch = known.saturating_add(1);
-        c.quorum_base = members_mask(agreed);
-    } else {
-        c.epoch = known;
+        .unwrap_or(0)
+}
+
+fn back(c: &mut Controller, agreed: Assignment) {
+    c.epoch = known_epoch(c).saturating_add(1);
+    c.quorum_base = members_mask(agreed);
+    c.provisional = false;
+}
+
+/// F11: a provisional result that a majority now stands behind (a joiner agreed to it, the
+/// peers heard it) becomes backed, with a new epoch.
+pub(super) fn confirm_provisional(config: &Config, c: &mut Controller) {
+    if !config.rules().f11_epochs || !c.provisional || c.phase != Phase::Steady {
+        return;
+    }
+    if let Some(agreed) = c.agreed.filter(|agreed| backed(c, *agreed)) {
+        back(c, agreed);
     }
 }
 
@@ -149,6 +199,9 @@ fn adopt(config: &Config, next: &mut State, id: Id, agreed: Assignment) {
         });
     let c = next.controller_mut(id);
     let old_role = c.role;
+    // A provisional result never had a majority: leaving its role for the majority's is the
+    // merge working, not a demotion.
+    let was_provisional = c.provisional;
     let mut new_role = if config.rules().f3_incarnation_aware {
         agreed.role_of_holder(Holder {
             id,
@@ -165,29 +218,40 @@ fn adopt(config: &Config, next: &mut State, id: Id, agreed: Assignment) {
     }
     c.agreed = Some(agreed);
     c.phase = Phase::Steady;
-    c.fenced = false;
     c.role = new_role;
     apply_output(config, c);
-    note_role_change(&mut next.history, id, old_role, new_role);
+    if !was_provisional {
+        note_role_change(&mut next.history, id, old_role, new_role);
+    }
     if jumped_queue && !next.history.partition_open {
         next.history.restart_jumped_queue = true;
     }
 }
 
 /// The strength a controller's role and result entitle it to now. None before a Primary
-/// exists, without a role, or while fenced (F12). F11: a provisional result's Primary
-/// commands at 15 and its standbys are silent. F8: a new Primary commands at 20 while another live controller still claims Primary in its heartbeats (a
+/// exists or without a role. F11: a provisional result's Primary
+/// commands at 15 from its second round on and its standbys are silent. F8: a new Primary commands at 20 while another live controller still claims Primary in its heartbeats (a
 /// Primary the majority voted out has not yet noticed): two writers at Primary strength would
 /// let DDS, not the vote, pick the commander.
 pub(super) fn entitled_strength(config: &Config, c: &Controller) -> Option<u8> {
     let rules = config.rules();
     let role = c.role?;
-    if !matches!(c.phase, Phase::Voting | Phase::Steady) || c.fenced {
+    if !matches!(c.phase, Phase::Voting | Phase::Steady) {
         return None;
     }
     c.agreed?.holder(Role::Primary)?;
     if rules.f11_epochs && c.provisional {
-        return (role == Role::Primary).then_some(PROVISIONAL_PRIMARY_STRENGTH);
+        if role != Role::Primary {
+            return None;
+        }
+        // Newly provisional, the majority side elects its Primary in this round: dropping
+        // before it raises would hand the actuator to a standby first. While it hears a
+        // majority (a healed cut, a result not yet confirmed) it keeps its strength until
+        // the merge or the confirmation is agreed.
+        if c.output.is_some() && (c.provisional_rounds == 0 || hears_majority(c)) {
+            return c.output;
+        }
+        return Some(PROVISIONAL_PRIMARY_STRENGTH);
     }
     let contested = c
         .peers

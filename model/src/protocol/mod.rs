@@ -55,6 +55,7 @@ pub fn init_states(config: &Config) -> Vec<State> {
             overdue_votes: 0,
             isolated: 0,
             owner: None,
+            tie_order: 0,
             history: History::default(),
         })
         .collect()
@@ -129,16 +130,20 @@ pub fn actions(config: &Config, state: &State, out: &mut Vec<Action>) {
                 if state.history.crashes < config.max_crashes {
                     out.push(Action::Crash { controller: id });
                 }
-                // Pauses and cuts hit a running system that has settled (a split at formation
-                // has no majority anywhere: F9 in docs/findings.md).
-                let running = crate::properties::settled(state).is_some();
+                // One pause or cut at a time, of a full running system that has settled, its
+                // writers established (a split at formation, of a system of two, or in three,
+                // has no majority anywhere: F9).
+                let running = state.isolated == 0
+                    && state
+                        .controllers
+                        .iter()
+                        .all(|c| c.life != Life::Paused && !c.fresh_writer)
+                    && crate::properties::settled(state)
+                        .is_some_and(|agreed| agreed.len() == ROLE_COUNT);
                 if running && state.history.pauses < config.max_pauses {
                     out.push(Action::Pause { controller: id });
                 }
-                if running
-                    && state.isolated == 0
-                    && state.history.isolations < config.max_isolations
-                {
+                if running && state.history.isolations < config.max_isolations {
                     out.push(Action::Isolate { controller: id });
                 }
                 if c.phase == Phase::Failed && state.history.restarts < config.max_restarts {
@@ -203,37 +208,19 @@ pub fn next_state(config: &Config, state: &State, action: Action) -> Option<Stat
             next.history.faults += 1;
             next.history.quiet_rounds = 0;
         }
+        Action::Restart { controller } | Action::Join { controller } => {
+            let restarted = matches!(action, Action::Restart { .. });
+            new_life(config, state, &mut next, controller, restarted);
+            if restarted {
+                next.history.restarts += 1;
+            }
+        }
         Action::Pause { .. }
         | Action::Resume { .. }
         | Action::Isolate { .. }
         | Action::Heal { .. }
         | Action::DiscoverWriter { .. }
-        | Action::TieBreak { .. } => interrupt(config, &mut next, action),
-        Action::Restart { controller } | Action::Join { controller } => {
-            let c = next.controller_mut(controller);
-            let incarnation = match action {
-                Action::Restart { .. } => c.incarnation + 1,
-                _ => 0,
-            };
-            *c = Controller::new(controller, Life::Up);
-            c.incarnation = incarnation;
-            if matches!(action, Action::Restart { .. }) {
-                // Ghost: who held a role when it restarted (it must come in below them).
-                c.held_roles_at_restart = state
-                    .controllers
-                    .iter()
-                    .filter(|d| d.id != controller && d.is_active() && d.role.is_some())
-                    .fold(0u8, |mask, d| mask | 1 << (d.id - 1));
-            }
-            if config.mutated(Mutation::OutputBeforeRole) {
-                c.output = Some(Role::Tertiary.strength());
-            }
-            forget_links(&mut next, controller);
-            if matches!(action, Action::Restart { .. }) {
-                next.history.restarts += 1;
-            }
-            next.history.quiet_rounds = 0;
-        }
+        | Action::TieBreak { .. } => interrupt(config, state, &mut next, action),
     }
     actuator::arbitrate(&mut next);
     actuator::note_primary_taken_back(state, &mut next);
@@ -243,8 +230,36 @@ pub fn next_state(config: &Config, state: &State, action: Action) -> Option<Stat
     Some(next)
 }
 
+/// A controller starts (a join) or starts again as its next incarnation (a restart).
+fn new_life(config: &Config, state: &State, next: &mut State, controller: Id, restarted: bool) {
+    let c = next.controller_mut(controller);
+    let incarnation = if restarted { c.incarnation + 1 } else { 0 };
+    *c = Controller::new(controller, Life::Up);
+    c.incarnation = incarnation;
+    if restarted {
+        // Ghost: who held a role when it restarted (it must come in below them).
+        c.held_roles_at_restart = state
+            .controllers
+            .iter()
+            .filter(|d| d.id != controller && d.is_active() && d.role.is_some())
+            .fold(0u8, |mask, d| mask | 1 << (d.id - 1));
+    }
+    if config.mutated(Mutation::OutputBeforeRole) {
+        c.output = Some(Role::Tertiary.strength());
+    }
+    forget_links(next, controller);
+    next.tie_order &= !links_of(controller);
+    next.history.quiet_rounds = 0;
+}
+
+/// Every link bit to or from `id`.
+fn links_of(id: Id) -> u16 {
+    (1..=crate::types::MAX_CONTROLLERS as Id)
+        .fold(0, |mask, other| mask | link_bit(id, other) | link_bit(other, id))
+}
+
 /// Pauses, cuts and the actuator's own events.
-fn interrupt(config: &Config, next: &mut State, action: Action) {
+fn interrupt(config: &Config, state: &State, next: &mut State, action: Action) {
     match action {
         Action::Pause { controller } => {
             next.controller_mut(controller).life = Life::Paused;
@@ -255,19 +270,15 @@ fn interrupt(config: &Config, next: &mut State, action: Action) {
         }
         Action::Resume { controller } => {
             next.history.quiet_rounds = 0;
-            let c = next.controller_mut(controller);
-            c.life = Life::Up;
-            if config.rules().f12_self_fence && matches!(c.phase, Phase::Voting | Phase::Steady) {
-                // Its round clock jumped: silent, without a role, until it has heard a round
-                // and voted again.
-                let old_role = c.role;
-                c.fenced = true;
-                c.set_output(None);
-                c.role = None;
-                c.phase = Phase::Voting;
-                c.vote = None;
-                vote_superseded(config, next, controller);
+            if config.rules().f12_self_fence {
+                // Its round clock jumped: what it knew is stale. It starts again as a new
+                // incarnation, silent until it has heard a round and joined below the
+                // controllers that kept the system running.
+                let old_role = next.controller(controller).role;
+                new_life(config, state, next, controller, true);
                 agreement::note_role_change(&mut next.history, controller, old_role, None);
+            } else {
+                next.controller_mut(controller).life = Life::Up;
             }
         }
         Action::Isolate { controller } => {
@@ -284,7 +295,12 @@ fn interrupt(config: &Config, next: &mut State, action: Action) {
         Action::DiscoverWriter { controller } => {
             next.controller_mut(controller).undiscovered = false;
         }
-        Action::TieBreak { to } => actuator::change_owner(next, to),
+        Action::TieBreak { to } => {
+            if let Some(owner) = next.owner {
+                next.tie_order |= link_bit(to, owner);
+            }
+            actuator::change_owner(next, to);
+        }
         _ => {}
     }
 }

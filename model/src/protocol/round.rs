@@ -6,7 +6,7 @@
 //! [`round_step`] is one controller's part of that; `tick` runs it for every controller and
 //! then does the bookkeeping that belongs to the whole state.
 
-use super::agreement::{apply_output, try_agree, Source};
+use super::agreement::{apply_output, confirm_provisional, try_agree, Source};
 use super::minority::judge_minority;
 use super::vote::{close_window, compute_vote, revote};
 use super::{ready_to_vote, vote_pending};
@@ -38,9 +38,6 @@ pub(super) fn tick(config: &Config, before: &State, next: &mut State) {
     }
     next.lost_links = 0;
     next.history.quiet_rounds = (next.history.quiet_rounds + 1).min(config.settle_within_rounds);
-    if next.history.partition_open && crate::properties::settled(next).is_some() {
-        next.history.partition_open = false;
-    }
 }
 
 /// One controller's end of a round: what controller `id` does when the round ends.
@@ -70,12 +67,11 @@ pub fn round_step(config: &Config, before: &State, next: &mut State, id: Id) {
         Phase::Initializing => end_initializing_round(config, next, id, heard.new_peer),
         Phase::Voting | Phase::Steady => {
             // Re-vote whenever what it knows gives another vote: a peer lost or new, or
-            // (F6) another incumbent's result, which comes with the heartbeats; and (F12)
-            // once after a stall, having now heard a round.
+            // (F6) another incumbent's result, which comes with the heartbeats.
             let c = next.controller(id);
             let knowledge_changed =
                 config.rules().f6_vote_from_knowledge && Some(compute_vote(config, c)) != c.vote;
-            if heard.membership_changed || knowledge_changed || c.fenced {
+            if heard.membership_changed || knowledge_changed {
                 revote(config, next, id);
             }
         }
@@ -85,6 +81,10 @@ pub fn round_step(config: &Config, before: &State, next: &mut State, id: Id) {
         try_agree(config, next, id, Source::Heartbeats);
         judge_minority(config, next, id, Source::Heartbeats);
         let c = next.controller_mut(id);
+        if c.provisional && before.controller(id).provisional {
+            c.provisional_rounds = 1;
+        }
+        confirm_provisional(config, c);
         if c.is_active() {
             // The strength follows the role: a held Primary (F8) rises once uncontested, a
             // raise waits for the roles above (F13).
@@ -229,6 +229,7 @@ fn receive_heartbeat(
     }
     if rules.f11_epochs {
         peer.heard_epoch = sender.epoch;
+        peer.heard_provisional = sender.provisional;
     }
     if rules.f13_ordered_raise {
         peer.heard_strength = sender.established_strength();

@@ -64,7 +64,11 @@ pub fn compute_vote(config: &Config, c: &Controller) -> Assignment {
         })
         .collect();
     // Each known result with its epoch (F11; 0 without it).
-    let mut known: Vec<(Assignment, u8)> = c.agreed.map(|a| (a, c.epoch)).into_iter().collect();
+    let mut known: Vec<(Assignment, u8, bool)> = c
+        .agreed
+        .map(|a| (a, c.epoch, c.provisional))
+        .into_iter()
+        .collect();
     // F6: every incumbent's result, as heartbeats carry it. F1 alone gives that knowledge to
     // a late joiner without a result of its own (it "takes the running system's result").
     let joining = c.agreed.is_none() && c.late_joiner;
@@ -73,22 +77,25 @@ pub fn compute_vote(config: &Config, c: &Controller) -> Assignment {
             c.peers
                 .iter()
                 .filter(|p| p.incumbent())
-                .filter_map(|p| p.heard_agreed.map(|a| (a, p.heard_epoch))),
+                .filter_map(|p| {
+                    p.heard_agreed
+                        .map(|a| (a, p.heard_epoch, p.heard_provisional))
+                }),
         );
     }
     if !rules.f5_decide_on_heartbeats && joining {
         // Paper: a late joiner "assesses the existing system priority" from durable votes.
-        known.extend(durable_result(config, c).map(|a| (a, 0)));
+        known.extend(durable_result(config, c).map(|a| (a, 0, false)));
     }
-    // F11: a member's place in the newest result that has it comes first: after a merge the
-    // side that kept a majority (a newer epoch) keeps its roles.
-    let rank = |member: &Holder| -> (std::cmp::Reverse<u8>, usize) {
+    // F11: a member's place in the newest result that has it comes first, a backed result
+    // before a provisional one: after a merge the side that kept a majority keeps its roles.
+    let rank = |member: &Holder| -> (std::cmp::Reverse<u8>, bool, usize) {
         if config.mutated(Mutation::Failback) {
-            return (std::cmp::Reverse(0), ROLE_COUNT);
+            return (std::cmp::Reverse(0), true, ROLE_COUNT);
         }
         known
             .iter()
-            .filter_map(|(result, epoch)| {
+            .filter_map(|(result, epoch, provisional)| {
                 let role = if rules.f3_incarnation_aware {
                     result.role_of_holder(*member)
                 } else {
@@ -97,10 +104,10 @@ pub fn compute_vote(config: &Config, c: &Controller) -> Assignment {
                 // Paper: "Precedence should be given to any currently Active Controller";
                 // the other roles are ranked by id again.
                 role.filter(|r| rules.f2_keep_standby_order || *r == Role::Primary)
-                    .map(|r| (std::cmp::Reverse(*epoch), r.rank()))
+                    .map(|r| (std::cmp::Reverse(*epoch), *provisional, r.rank()))
             })
             .min()
-            .unwrap_or((std::cmp::Reverse(0), ROLE_COUNT))
+            .unwrap_or((std::cmp::Reverse(0), true, ROLE_COUNT))
     };
     let mut ranked = members.clone();
     ranked.sort_by_key(|member| (rank(member), member.id));
