@@ -88,18 +88,24 @@ pub(super) fn change_owner(next: &mut State, to: Id) {
     if next.owner == Some(to) {
         return;
     }
-    if next.owner.is_some() {
+    if let Some(from) = next.owner {
+        // Between sides without a majority (a provisional Primary on either end: a founder
+        // alone and a joiner whose discovery was cut) the GUID order decides until they
+        // merge (F9): such changes are not the protocol's to count.
+        let provisional = next.controller(to).provisional || next.controller(from).provisional;
         let history = &mut next.history;
-        history.owner_changes = (history.owner_changes + 1).min(history.faults + 1);
+        if !provisional {
+            history.owner_changes = (history.owner_changes + 1).min(history.faults + 1);
+        }
         // In a partition a side that believes itself alone steps down and a standby may
-        // take the actuator until the sides merge (docs/findings.md, F11).
-        // Between sides without a majority (provisional Primaries: a founder alone and a
-        // joiner whose discovery was cut) the GUID order decides until they merge (F9).
-        let provisional = next.controller(to).provisional;
-        let history = &mut next.history;
+        // take the actuator until the sides merge (F11).
         if !history.partition_open && !provisional {
             history.change_targets |= 1 << (to - 1);
         }
+    }
+    if next.owner.is_none() && next.history.settled_owner.is_none() {
+        // The first owner is the baseline until the system first settles.
+        next.history.settled_owner = Some(to);
     }
     next.owner = Some(to);
 }

@@ -219,6 +219,13 @@ fn adopt(config: &Config, next: &mut State, id: Id, agreed: Assignment) {
     c.agreed = Some(agreed);
     c.phase = Phase::Steady;
     c.role = new_role;
+    let moved_down = old_role.is_some_and(|old| new_role.is_none_or(|new| new > old));
+    if moved_down && config.rules().f13_ordered_raise && c.output != new_role.map(Role::strength) {
+        // A lower role (a merge) starts from silence unless it already commands at the new
+        // role's strength: its old writer's strength belongs to the role it left, and could
+        // tie with the roles now above it.
+        c.set_output(None);
+    }
     apply_output(config, c);
     if !was_provisional {
         note_role_change(&mut next.history, id, old_role, new_role);
@@ -281,8 +288,8 @@ pub(super) fn apply_output(config: &Config, c: &mut Controller) {
     c.set_output(target);
 }
 
-/// Every live holder of a role above `c`'s in its agreed result reported a strength above
-/// `strength` in its last heartbeat.
+/// Every live holder of a role above `c`'s in its agreed result reported, in its last
+/// heartbeat, an established strength of at least its own role's (and so above `strength`).
 fn above_established(c: &Controller, strength: u8) -> bool {
     let (Some(agreed), Some(role)) = (c.agreed, c.role) else {
         return true;
@@ -290,9 +297,9 @@ fn above_established(c: &Controller, strength: u8) -> bool {
     Role::ALL[..role.rank()].iter().all(|above| {
         agreed.holder(*above).is_none_or(|holder| {
             holder == c.id
-                || c.peer(holder)
-                    .heard_strength
-                    .is_some_and(|reported| reported > strength)
+                || c.peer(holder).heard_strength.is_some_and(|reported| {
+                    reported > strength && reported >= above.strength()
+                })
         })
     })
 }
