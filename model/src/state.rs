@@ -379,6 +379,9 @@ pub struct History {
     pub primary_taken_back: bool,
     /// A witness: a paused or cut-off controller came back below a Primary elected meanwhile.
     pub returned_below: bool,
+    /// The controllers have settled at least once on a backed result (a majority system
+    /// exists).
+    pub formed: bool,
 }
 
 #[derive(Clone, PartialEq, Eq, Hash, Serialize, Deserialize)]

@@ -113,6 +113,10 @@ pub(super) fn change_owner(next: &mut State, to: Id) {
 /// At a settled state: every owner change since the last settled state must have gone to the
 /// owner of then or to the Primary now settled; the away marks are cleared.
 pub(super) fn settle_bookkeeping(next: &mut State) {
+    if next.history.partition_open {
+        // A partition interrupts the episode: the sides may each command until they merge.
+        next.history.change_targets = 0;
+    }
     let Some(agreed) = settled(next) else {
         return;
     };
@@ -124,7 +128,9 @@ pub(super) fn settle_bookkeeping(next: &mut State) {
     {
         allowed |= 1 << (id - 1);
     }
+    let backed = next.up().all(|c| !c.provisional);
     let history = &mut next.history;
+    history.formed |= backed;
     if history.change_targets & !allowed != 0 {
         history.stray_owner = true;
     }

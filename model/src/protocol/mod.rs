@@ -179,6 +179,11 @@ pub fn next_state(config: &Config, state: &State, action: Action) -> Option<Stat
             next.history.losses += 1;
             next.history.faults += 1;
             next.history.quiet_rounds = 0;
+            // Before the first settled state there is no agreed system to protect: a loss
+            // can split the founders into two groups that each agree (F9).
+            if !next.history.formed {
+                next.history.partition_open = true;
+            }
         }
         Action::Tick => tick(config, state, &mut next),
         Action::ExpireWindow { controller } => {
