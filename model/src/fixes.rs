@@ -2,8 +2,8 @@
 //! the deliberately broken rules of the mutation tests.
 //!
 //! Every rule fix of docs/findings.md is one [`Fix`] and one boolean of [`Rules`], numbered as
-//! there (F1..F8, F10..F13). The default variant carries every fix, `--variant v1` leaves out the
-//! actuator-level ones (F11..F13), `--variant paper` reverts them
+//! there (F1..F8, F10..F14). The default variant carries every fix, `--variant v1` leaves out the
+//! ones of protocol v2 (F11..F14), `--variant paper` reverts them
 //! all, and `--revert fN` reverts exactly one, so each finding's counterexample can be shown to
 //! come back without its fix (model/tests/findings.rs). F9 states what loss can and cannot be
 //! protected against; it is not a rule, so it has no switch.
@@ -16,8 +16,9 @@ use serde::{Deserialize, Serialize};
 pub enum Variant {
     /// The corrected algorithm that RL implements: every fix of docs/findings.md.
     Default,
-    /// Protocol v1: fixes F1..F10 without the actuator-level ones (F11 epochs, F12 self-fencing,
-    /// F13 ordered raises); the checker shows failback after a pause and a tie blip.
+    /// Protocol v1: fixes F1..F10 without those of protocol v2 (F11 epochs, F12 self-fencing,
+    /// F13 ordered raises, F14 joiners adopt agreed results); the checker shows failback after
+    /// a pause and a tie blip.
     V1,
     /// The paper's rules read literally: every fix reverted; the checker finds
     /// counterexamples (docs/findings.md).
@@ -104,10 +105,16 @@ pub enum Fix {
     #[serde(rename = "f13")]
     #[value(name = "f13")]
     OrderedRaise,
+    /// F14: a controller joining a running system adopts a result only once an incumbent's
+    /// heartbeat carries it as agreed; reverted, the incumbents' votes suffice, and two
+    /// joiners that do not hear each other can both take the Tertiary role.
+    #[serde(rename = "f14")]
+    #[value(name = "f14")]
+    JoinAgreedResult,
 }
 
 impl Fix {
-    pub const ALL: [Fix; 12] = [
+    pub const ALL: [Fix; 13] = [
         Fix::LateJoinByHeartbeat,
         Fix::KeepStandbyOrder,
         Fix::IncarnationAware,
@@ -120,6 +127,7 @@ impl Fix {
         Fix::EpochMerge,
         Fix::SelfFence,
         Fix::OrderedRaise,
+        Fix::JoinAgreedResult,
     ];
 
     /// The finding's number in docs/findings.md.
@@ -137,6 +145,7 @@ impl Fix {
             Fix::EpochMerge => 11,
             Fix::SelfFence => 12,
             Fix::OrderedRaise => 13,
+            Fix::JoinAgreedResult => 14,
         }
     }
 
@@ -191,6 +200,8 @@ pub struct Rules {
     pub f12_self_fence: bool,
     /// F13: strength raises ordered by the roles above.
     pub f13_ordered_raise: bool,
+    /// F14: a joiner adopts only a result an incumbent has agreed.
+    pub f14_join_agreed: bool,
 }
 
 impl Rules {
@@ -211,6 +222,7 @@ impl Rules {
             f11_epochs: v2,
             f12_self_fence: v2,
             f13_ordered_raise: v2,
+            f14_join_agreed: v2,
         }
     }
 
@@ -229,6 +241,7 @@ impl Rules {
             Fix::EpochMerge => &mut self.f11_epochs,
             Fix::SelfFence => &mut self.f12_self_fence,
             Fix::OrderedRaise => &mut self.f13_ordered_raise,
+            Fix::JoinAgreedResult => &mut self.f14_join_agreed,
         }
     }
 

@@ -102,6 +102,18 @@ pub(super) fn try_agree(config: &Config, next: &mut State, id: Id, source: Sourc
             .count();
         (from_members, own.len())
     };
+    // F14: a joiner takes the running system's result, not a vote the incumbents may still
+    // revise (another joiner it does not hear may be admitted first).
+    let joining = c.agreed.is_none() && c.peers.iter().any(|p| p.incumbent());
+    if config.rules().f14_join_agreed
+        && joining
+        && !c
+            .peers
+            .iter()
+            .any(|p| p.incumbent() && p.heard_agreed == Some(own))
+    {
+        return;
+    }
     if size > 0 && counted > size / 2 {
         adopt(config, next, id, own);
     }
@@ -145,6 +157,20 @@ fn members_mask(agreed: Assignment) -> u8 {
 /// is backed (see [`backed`]); otherwise it is provisional (a side that lost its majority),
 /// and a merge ranks it below the majority's result.
 fn take_epoch(c: &mut Controller, agreed: Assignment) {
+    // A result an incumbent already holds (a joiner taking the system's result) keeps the
+    // epoch it was agreed in: one result, one epoch.
+    let held = c
+        .peers
+        .iter()
+        .filter(|p| p.incumbent() && p.heard_agreed == Some(agreed) && !p.heard_provisional)
+        .map(|p| p.heard_epoch)
+        .max();
+    if let Some(epoch) = held {
+        c.epoch = epoch;
+        c.quorum_base = members_mask(agreed);
+        c.provisional = false;
+        return;
+    }
     let is_backed = backed(c, agreed);
     if !is_backed && !c.provisional {
         c.provisional_rounds = 0;
