@@ -218,6 +218,31 @@ impl Config {
         Ok(())
     }
 
+    /// The `model` flags that select this configuration (for `explore` and `check` command
+    /// lines printed with a counterexample).
+    pub fn flags(&self) -> String {
+        let mut flags = format!(
+            "--controllers {} --late-joiners {} --crashes {} --restarts {} --lost-heartbeats {} \
+             --pauses {} --cuts {} --variant {}",
+            self.founders,
+            self.late_joiners,
+            self.max_crashes,
+            self.max_restarts,
+            self.max_lost_heartbeats,
+            self.max_pauses,
+            self.max_isolations,
+            match self.variant {
+                crate::Variant::Default => "default",
+                crate::Variant::V1 => "v1",
+                crate::Variant::Paper => "paper",
+            }
+        );
+        for fix in &self.reverted {
+            flags.push_str(&format!(" --revert {}", fix.label().to_lowercase()));
+        }
+        flags
+    }
+
     /// One line naming the configuration, for reports and trace headers.
     pub fn summary(&self) -> String {
         let mut line = format!(

@@ -320,6 +320,13 @@ fn print_shortest_paths(model: &RlModel, failures: &[PropertyInfo]) {
                     info.meaning
                 );
                 print!("{}", path.render());
+                let addr = "127.0.0.1:3000";
+                println!(
+                    "  explore it: cargo run --release -p model -- explore {} --addr {addr}\n  \
+                     then open http://{addr}/{}",
+                    model.config.flags(),
+                    path.explorer_fragment(model)
+                );
             }
             _ => println!(
                 "\"{}\" was never witnessed: {} (a rule is unreachable or vacuous)",

@@ -335,6 +335,21 @@ pub struct Path {
 }
 
 impl Path {
+    /// The path as stateright's explorer addresses it: `#/steps/<init>/<action>/...`, each
+    /// action by its position among the actions enabled in the state before it.
+    pub fn explorer_fragment(&self, model: &RlModel) -> String {
+        let mut fragment = format!("#/steps/{}", self.init_index);
+        let mut state = &self.init;
+        for (action, next) in &self.steps {
+            let mut enabled = Vec::new();
+            crate::protocol::actions(&model.config, state, &mut enabled);
+            let index = enabled.iter().position(|a| a == action).unwrap_or(usize::MAX);
+            fragment.push_str(&format!("/{index}"));
+            state = next;
+        }
+        fragment
+    }
+
     /// Re-executes `actions` from the `init_index`th initial state.
     pub fn replay(model: &RlModel, init_index: usize, actions: &[Action]) -> Path {
         let init = model.init_states()[init_index].clone();
