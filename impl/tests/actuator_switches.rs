@@ -5,12 +5,15 @@
 //! re-creates its writer at a new strength is one owner throughout.
 //!
 //! - a Primary paused for 3 s (SIGSTOP, SIGCONT): one switch, to the Secondary, and the old
-//!   Primary rejoins below the new one (it starts again as a new incarnation: crate::stall).
+//!   Primary rejoins below the new one;
+//! - ten `kill -9`s of the current Primary, each restarted with the same id, a Tertiary always
+//!   present: one switch per kill, to the Secondary, and the restarted controller back as
+//!   Tertiary.
 //!
 //! The Connext reader needs PyPI `rticonnextdds-connector` (`.ci/run` installs it), so these
 //! tests are ignored by default; `cargo test -- --include-ignored` runs them, and then a missing
 //! reader fails them. Each prints its timeline (faults, roles, owner changes at both readers);
-//! a failure message carries it. Domain 229 (the Connext reader takes 0..232).
+//! a failure message carries it. Domains 229 and 230 (the Connext reader takes 0..232).
 
 mod support;
 
@@ -25,6 +28,8 @@ use support::actuators::{
 use support::Cluster;
 
 const FORM: Duration = Duration::from_secs(15);
+/// A promotion or a rejoin: a few rounds, plus DDS discovery of a restarted participant.
+const SETTLE: Duration = Duration::from_secs(15);
 /// The Connext reader's start (Python, Connext libraries, discovery of the writers).
 const READER_START: Duration = Duration::from_secs(30);
 /// The paper's deadline on the actuator's reader.
@@ -221,6 +226,19 @@ impl Judged {
             .filter_map(|(_, e)| e.status().map(|s| s.report.role));
         statuses.skip_while(|r| *r != role).any(|r| r != role)
     }
+
+    /// The steady holders of Primary, Secondary and Tertiary, if all three are held.
+    fn roles(&self) -> Option<(u8, u8, u8)> {
+        let holder = |role: Option<Role>| {
+            self.cluster
+                .status
+                .values()
+                .find(|s| s.report.phase == Phase::Steady && s.report.role == role)
+                .map(|s| s.report.id)
+                .filter(|id| self.cluster.steady_with(*id, role))
+        };
+        Some((holder(P)?, holder(S)?, holder(T)?))
+    }
 }
 
 /// Passes with the timeline printed, or fails with it in the message.
@@ -300,6 +318,130 @@ fn pause_primary_3s_one_owner_change() {
         wrong.push("C2 left the Primary role after taking it".into());
     }
     verdict(&wrong, &timeline);
+}
+
+/// One kill of the Primary: when, whom, and who should take the actuator.
+struct Kill {
+    at_ms: f64,
+    killed: Life,
+    secondary: Life,
+}
+
+#[test]
+#[ignore = "needs python3 with rticonnextdds-connector (pip install rticonnextdds-connector==1.2.4)"]
+fn kill_restart_cycles_one_owner_change_each() {
+    const CYCLES: u32 = 10;
+    let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    require_peer("rticonnextdds_connector", CONNEXT_PACKAGE);
+    let mut judged = Judged::formed("kills", 230);
+    let mut kills: Vec<Kill> = Vec::new();
+    let mut wrong: Vec<String> = Vec::new();
+    for cycle in 1..=CYCLES {
+        let (kill, not_below) = kill_and_restart_the_primary(&mut judged, cycle);
+        kills.push(kill);
+        wrong.extend(not_below);
+        eprintln!("cycle {cycle}/{CYCLES}: {}", judged.cluster.describe());
+    }
+    // Late switches of the last cycle (a tie while writers are re-created) still count.
+    judged.pump(Duration::from_secs(2));
+    for judge in Judge::BOTH {
+        wrong.extend(one_change_per_kill(&judged, judge, &kills));
+    }
+    verdict(&wrong, &judged.timeline());
+}
+
+/// Kills the steady Primary, waits for the Secondary's promotion, restarts the killed
+/// controller and waits until it is back as Tertiary. If it comes back elsewhere, says so and
+/// goes on once the system has settled to some P, S and T, so the run still gives its figures.
+fn kill_and_restart_the_primary(judged: &mut Judged, cycle: u32) -> (Kill, Option<String>) {
+    judged.pump(Duration::from_millis(500));
+    let Some((p, s, t)) = judged.roles() else {
+        judged.fail(&format!(
+            "cycle {cycle}: no steady P, S and T to start from"
+        ));
+    };
+    let (Some(killed), Some(secondary)) = (judged.lives.latest(p), judged.lives.latest(s)) else {
+        judged.fail(&format!(
+            "cycle {cycle}: no heartbeat heard from C{p} or C{s}"
+        ));
+    };
+    judged.fault(&format!("cycle {cycle}: kill -9 {killed} (Primary)"));
+    let kill = Kill {
+        at_ms: judged.now_ms(),
+        killed,
+        secondary,
+    };
+    judged.cluster.fleet.kill(p).unwrap();
+    judged.cluster.status.remove(&p);
+    if !judged.wait(SETTLE, |j| {
+        j.cluster.steady_with(s, P) && j.cluster.steady_with(t, S)
+    }) {
+        judged.fail(&format!(
+            "cycle {cycle}: C{s} not promoted to Primary, C{t} to Secondary"
+        ));
+    }
+    judged.fault(&format!("cycle {cycle}: restart C{p}"));
+    judged.cluster.start(p);
+    let below = judged.wait(SETTLE, |j| {
+        j.cluster.steady_with(p, T) && j.cluster.steady_with(s, P) && j.cluster.steady_with(t, S)
+    });
+    if below {
+        return (kill, None);
+    }
+    let not_below = format!(
+        "cycle {cycle}: C{p} restarted, not back as Tertiary below P={s} S={t}: {}",
+        judged.cluster.describe()
+    );
+    if !judged.wait(SETTLE, |j| j.roles().is_some()) {
+        judged.fail(&format!("cycle {cycle}: not settled after C{p}'s restart"));
+    }
+    (kill, Some(not_below))
+}
+
+/// What `judge` saw that is not exactly one owner change per kill, from the killed
+/// controller to the Secondary (each kill's window runs to the next kill); prints the counts.
+fn one_change_per_kill(judged: &Judged, judge: Judge, kills: &[Kill]) -> Vec<String> {
+    let changes = judged.changes(judge);
+    let mut wrong = Vec::new();
+    let before_first = changes.iter().filter(|c| c.at_ms < kills[0].at_ms).count();
+    if before_first > 0 {
+        wrong.push(format!(
+            "{}: {before_first} owner changes before the first kill",
+            judge.name()
+        ));
+    }
+    let mut per_kill = Vec::new();
+    for (i, kill) in kills.iter().enumerate() {
+        let until_ms = kills.get(i + 1).map_or(f64::INFINITY, |k| k.at_ms);
+        let window: Vec<OwnerChange> = changes
+            .iter()
+            .filter(|c| c.at_ms >= kill.at_ms && c.at_ms < until_ms)
+            .cloned()
+            .collect();
+        per_kill.push(window.len());
+        let to_the_secondary = window.len() == 1
+            && judged.lives.of(&window[0].from) == Some(kill.killed)
+            && judged.lives.of(&window[0].to) == Some(kill.secondary);
+        if !to_the_secondary {
+            wrong.push(format!(
+                "{}: kill {} of {}: {} owner changes {}, expected one, {} -> {}",
+                judge.name(),
+                i + 1,
+                kill.killed,
+                window.len(),
+                named(judged, &window),
+                kill.killed,
+                kill.secondary
+            ));
+        }
+    }
+    eprintln!(
+        "{}: {} owner changes over {} kills, per kill {per_kill:?}",
+        judge.name(),
+        changes.len(),
+        kills.len()
+    );
+    wrong
 }
 
 #[test]
