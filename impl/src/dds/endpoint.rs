@@ -375,7 +375,9 @@ impl CommandWriter {
             retiring: None,
             waiting_raise: None,
         };
-        writer.set_strength(strength)?;
+        // The strength asked for at creation is taken at once: no controller above is
+        // retiring a writer because of it.
+        writer.apply_strength(strength)?;
         Ok(writer)
     }
 
@@ -389,6 +391,12 @@ impl CommandWriter {
         if self.standby_raise_waits(strength) {
             return Ok(());
         }
+        self.apply_strength(strength)
+    }
+
+    /// Moves to `strength` now: a new writer (or none for `None`), the old one kept retiring
+    /// on a raise.
+    fn apply_strength(&mut self, strength: Option<i32>) -> Result<(), DdsError> {
         let promotion = matches!((self.strength, strength), (Some(old), Some(new)) if new > old);
         let old = self.writer.take();
         self.strength = None;
