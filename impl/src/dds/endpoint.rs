@@ -339,8 +339,8 @@ where
 /// Going down or to `None` (no role), the old writer is dropped at once: a controller must
 /// never keep commanding above its role.
 ///
-/// A standby's raise (to any strength below the Primary's) waits the same two command
-/// deadlines before its new writer is created: the controller above it raised in the same
+/// A standby's raise (from a standby strength to a higher one below the Primary's) waits the
+/// same two command deadlines before its new writer is created: the controller above it raised in the same
 /// round, and until readers have discovered that controller's new writer, its retiring one
 /// holds the old strength, which the standby's new writer would tie (DDS then picks by GUID,
 /// and the actuator would blip to the standby and back). The Primary's raise is never delayed.
@@ -435,8 +435,10 @@ impl CommandWriter {
     /// at the first request of that strength.
     fn standby_raise_waits(&mut self, strength: Option<i32>) -> bool {
         let primary = i32::from(crate::core::types::Role::Primary.strength());
+        // Only a standby moving up ties the writer retiring above it; a first writer (at
+        // formation or joining) has nobody above re-creating one.
         let standby_raise = match (self.strength, strength) {
-            (old, Some(new)) => new < primary && old.is_none_or(|old| new > old),
+            (Some(old), Some(new)) => new < primary && new > old,
             _ => false,
         };
         if !standby_raise {
