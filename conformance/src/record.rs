@@ -304,6 +304,7 @@ pub fn describe_event(event: &EventLine, number: Option<u8>) -> String {
             strength.map_or("silent".to_string(), |v| v.to_string())
         ),
         Event::HeartbeatDropped { from } => format!("from C{from}"),
+        Event::Resumed { stalled_ms } => format!("after a {stalled_ms} ms stall"),
         _ => String::new(),
     };
     format!("{who} {} {detail}", event.event.kind())

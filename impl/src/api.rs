@@ -58,6 +58,8 @@ pub(crate) struct Shared {
     pub alarms: Mutex<Vec<(ControllerId, AlarmReason)>>,
     pub fault: AtomicBool,
     pub stop: AtomicBool,
+    /// When the voting loop last ran: a stalled loop (crate::stall) lets no command out.
+    pub loop_clock: crate::stall::LoopClock,
 }
 
 impl Shared {
@@ -192,6 +194,9 @@ impl CommandWriter {
             AperiodicPolicy::Republish => strength,
             AperiodicPolicy::PrimaryOnly => strength.filter(|_| role == Some(Role::Primary)),
         };
+        // Back from a stop before the voting loop has noticed: what the status says is stale
+        // (a new Primary commands meanwhile), so the writer goes and nothing is written.
+        let allowed = allowed.filter(|_| !self.shared.loop_clock.stalled());
         self.writer.set_strength(allowed.map(i32::from))?;
         self.writer.write(command)
     }

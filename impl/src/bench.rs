@@ -2,7 +2,8 @@
 //! processes over DDS on this machine (docs/performance.md has the figures and the command).
 //!
 //! - failover ([`failover`]): `kill -9` of the Primary at a seeded random phase of the
-//!   heartbeat round; the command gap at `rl servo` and the promotion of the Secondary;
+//!   heartbeat round; the command gap at `rl servo`, the promotion of the Secondary (its output
+//!   at 30 and its status steady as Primary) and the owner changes at `rl servo` per kill;
 //! - formation ([`formation`]): the third controller joins two others;
 //! - resources ([`resources`]): RSS and CPU of one controller under load.
 //!

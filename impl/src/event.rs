@@ -54,6 +54,10 @@ pub enum Event {
     /// `fault-injection` build only): the DDS-level replay checks every loss it injects
     /// against these, so an injected loss is told apart from a real one.
     HeartbeatDropped { from: ControllerId },
+    /// The voting loop did not run for `stalled_ms` (at least a peer deadline: a SIGSTOP, a
+    /// frozen machine): the controller starts again as the incarnation of this line, silent
+    /// until it has heard a round and joined below the controllers that kept running.
+    Resumed { stalled_ms: u64 },
     /// The voting thread stopped cleanly: asked to (no other fields), or on its own after the
     /// controller failed itself. Then `reason` says why (`outvoted`, `local_fault`),
     /// `disagreed_with` lists the peers whose votes differed from its own, and `exit_status`
@@ -79,6 +83,7 @@ impl Event {
             Event::Alarm { .. } => "alarm",
             Event::Leds { .. } => "leds",
             Event::HeartbeatDropped { .. } => "heartbeat_dropped",
+            Event::Resumed { .. } => "resumed",
             Event::Stopped { .. } => "stopped",
         }
     }
@@ -164,6 +169,10 @@ mod tests {
         assert_eq!(
             line(Event::HeartbeatDropped { from: 1 }).to_json(),
             r#"{"t_ms":1000,"id":2,"incarnation":77,"event":"heartbeat_dropped","from":1}"#
+        );
+        assert_eq!(
+            line(Event::Resumed { stalled_ms: 3000 }).to_json(),
+            r#"{"t_ms":1000,"id":2,"incarnation":77,"event":"resumed","stalled_ms":3000}"#
         );
         assert_eq!(
             line(Event::Vote { vote: None }).to_json(),

@@ -39,6 +39,7 @@ pub mod procs;
 pub mod runtime;
 pub mod service;
 pub mod sim;
+pub mod stall;
 pub mod status;
 pub mod tracker;
 pub mod wire;

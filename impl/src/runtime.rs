@@ -113,7 +113,7 @@ pub(crate) fn spawn(
     let clock = RoundClock::start();
     // A new incarnation at every start: the start time, with the pid to separate two starts
     // in the same millisecond.
-    let incarnation = clock.now_ms() << 16 | u64::from(std::process::id() & 0xffff);
+    let incarnation = crate::stall::incarnation(clock.now_ms());
     let timing = &config.timing;
     let core_config = CoreConfig::new(id, incarnation, timing.heartbeat_period_ms, timing.rounds());
     #[cfg(feature = "mutation")]
@@ -124,6 +124,7 @@ pub(crate) fn spawn(
         alarms: Mutex::new(Vec::new()),
         fault: AtomicBool::new(false),
         stop: AtomicBool::new(false),
+        loop_clock: crate::stall::LoopClock::new(timing.peer_deadline_ms),
     });
     let thread_shared = Arc::clone(&shared);
     let failed_exit_delay_ms = config.timing.failed_exit_delay_ms;
@@ -241,6 +242,9 @@ impl Voting {
             if let Some(progress) = &progress {
                 progress.mark();
             }
+            if let Some(stalled) = self.shared.loop_clock.mark() {
+                self.start_again(stalled);
+            }
             #[cfg(feature = "fault-injection")]
             fault_injection::stall();
             // Samples first: a heartbeat that arrived before a round boundary belongs to the
@@ -282,6 +286,29 @@ impl Voting {
                 Ok(())
             }
         }
+    }
+
+    /// Back from a stall (crate::stall): start again as a new incarnation, silent, with what
+    /// the readers hold now.
+    fn start_again(&mut self, stalled: Duration) {
+        let now_ms = self.clock.now_ms();
+        let old = *self.core.config();
+        let config = CoreConfig {
+            incarnation: crate::stall::incarnation(now_ms),
+            ..old
+        };
+        warn!(
+            "C{} did not run for {} ms (stopped or starved): starting again as a new \
+             incarnation, silent until it has heard a round and joined below the others",
+            config.id,
+            stalled.as_millis()
+        );
+        self.core = Core::new(config, now_ms);
+        self.pending_exit = None;
+        self.event(Event::Resumed {
+            stalled_ms: u64::try_from(stalled.as_millis()).unwrap_or(u64::MAX),
+        });
+        self.show(self.core.status());
     }
 
     /// Drains both readers (edge-triggered: whatever woke the poll).

@@ -561,3 +561,30 @@ fn heartbeats_of_three_controllers_written_together_all_arrive() {
         "all three heartbeats in only {complete_rounds} of {ROUNDS} rounds"
     );
 }
+
+#[test]
+fn a_standby_raise_waits_two_command_deadlines_and_a_first_writer_or_primary_raise_does_not() {
+    const DOMAIN: u16 = 108;
+    let writer_session = session(DOMAIN);
+    let wait = Duration::from_millis(Timing::default().command_deadline_ms * 2);
+    let mut standby = writer_session.command_writer(None).unwrap();
+    standby.set_strength(Some(10)).unwrap();
+    assert_eq!(standby.strength(), Some(10), "a first writer is created at once");
+    let asked = Instant::now();
+    standby.set_strength(Some(20)).unwrap();
+    assert_eq!(standby.strength(), Some(10), "a standby's raise waits");
+    let raised = wait_for(wait * 3, "the standby's raise", || {
+        standby.set_strength(Some(20)).unwrap();
+        (standby.strength() == Some(20)).then(|| asked.elapsed())
+    });
+    assert_eq!(standby.strength(), Some(20));
+    assert!(
+        raised >= wait,
+        "raised after {raised:?}, before two command deadlines ({wait:?})"
+    );
+    let mut primary = writer_session.command_writer(Some(10)).unwrap();
+    primary.set_strength(Some(30)).unwrap();
+    assert_eq!(primary.strength(), Some(30), "a Primary's raise is immediate");
+    primary.set_strength(Some(10)).unwrap();
+    assert_eq!(primary.strength(), Some(10), "lowering is immediate");
+}

@@ -1,13 +1,14 @@
 //! Failover: `kill -9` of the Primary, repeatedly, at one command deadline. Each kill lands
 //! at a seeded random phase of the heartbeat round (promotion depends on it: the survivors
-//! decide at round boundaries). Measured per kill: the command gap at the servo and the time
-//! to the Secondary's promotion; then the killed controller is restarted and the next kill
-//! waits until all three are steady again.
+//! decide at round boundaries). Measured per kill: the command gap at the servo, the time to
+//! the Secondary's promotion (its output at 30, and its status steady as Primary), and how
+//! often the servo's owner changed controller; then the killed controller is restarted and the
+//! next kill waits until all three are steady again.
 
 use super::stats::{SplitMix64, Summary};
-use super::watch::Watch;
+use super::watch::{OwnerChange, Watch};
 use super::{BenchError, Setup};
-use crate::core::{ControllerId, Role};
+use crate::core::{ControllerId, Phase, Role};
 use crate::procs::{wall_ms, Fleet};
 use serde::Serialize;
 use std::time::{Duration, Instant};
@@ -20,6 +21,9 @@ pub const GAP_READER: &str = "rl servo (arbiter)";
 const FORMATION_TIMEOUT: Duration = Duration::from_secs(20);
 const PROMOTION_TIMEOUT: Duration = Duration::from_secs(10);
 const REJOIN_TIMEOUT: Duration = Duration::from_secs(10);
+/// After the rejoin, a little longer for late owner changes (a tie while writers are
+/// re-created) to reach the count.
+const OWNER_CHANGES_SETTLE: Duration = Duration::from_millis(250);
 
 /// Why a kill did not give its figures, or left the fleet broken.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -50,6 +54,15 @@ pub struct KillSample {
     pub switched_to: Option<ControllerId>,
     /// From the kill to the Secondary's `output` event at strength 30.
     pub promotion_ms: Option<u64>,
+    /// From the kill to the Secondary's status reporting it steady as Primary at 30.
+    pub steady_ms: Option<u64>,
+    /// Owner changes from one controller to another at the servo, from the kill until all
+    /// three are steady again (one, the switch to the Secondary, unless the actuator moved
+    /// more than once).
+    pub owner_changes: u32,
+    /// Controllers found FAILED (or exited) when the rejoin failed, restarted so that the next
+    /// kill finds three controllers again.
+    pub restarted: Vec<ControllerId>,
     pub failure: Option<KillFailure>,
 }
 
@@ -62,9 +75,18 @@ pub struct FailoverResult {
     pub gap_ms: Summary,
     pub gap_over_deadline_p50: f64,
     pub gap_over_deadline_p99: f64,
+    pub gap_over_deadline_max: f64,
     pub promotion_ms: Summary,
     pub promotion_over_period_p50: f64,
     pub promotion_over_period_p99: f64,
+    /// From the kill to the new Primary's status steady at 30.
+    pub steady_ms: Summary,
+    /// The most owner changes at the servo after one kill.
+    pub owner_changes_max: u32,
+    /// Kills after which the servo's owner changed controller more than once.
+    pub kills_with_more_than_one_owner_change: u32,
+    /// Controllers restarted after a failed rejoin (see [`KillSample::restarted`]).
+    pub controllers_restarted: u32,
     pub kills: u32,
     pub failed_kills: u32,
     pub samples: Vec<KillSample>,
@@ -75,16 +97,25 @@ impl FailoverResult {
         let gap = Summary::of_measured(samples.iter().map(|s| s.gap_ms));
         let promotion = Summary::of_measured(samples.iter().map(|s| s.promotion_ms));
         let period = period_ms.max(1) as f64;
+        let deadline = deadline_ms.max(1) as f64;
         FailoverResult {
             deadline_ms,
             command_republish_ms: republish_ms,
             gap_reader: GAP_READER,
-            gap_over_deadline_p50: gap.p50 / deadline_ms.max(1) as f64,
-            gap_over_deadline_p99: gap.p99 / deadline_ms.max(1) as f64,
+            gap_over_deadline_p50: gap.p50 / deadline,
+            gap_over_deadline_p99: gap.p99 / deadline,
+            gap_over_deadline_max: gap.max / deadline,
             gap_ms: gap,
             promotion_over_period_p50: promotion.p50 / period,
             promotion_over_period_p99: promotion.p99 / period,
             promotion_ms: promotion,
+            steady_ms: Summary::of_measured(samples.iter().map(|s| s.steady_ms)),
+            owner_changes_max: samples.iter().map(|s| s.owner_changes).max().unwrap_or(0),
+            kills_with_more_than_one_owner_change: samples
+                .iter()
+                .filter(|s| s.owner_changes > 1)
+                .count() as u32,
+            controllers_restarted: samples.iter().map(|s| s.restarted.len() as u32).sum(),
             kills: samples.len() as u32,
             failed_kills: samples.iter().filter(|s| s.failure.is_some()).count() as u32,
             samples,
@@ -129,11 +160,18 @@ pub fn failover(
         let phase_ms = phases.below(period_ms);
         let sample = kill_once(setup, &mut fleet, &mut watch, kill, phase_ms)?;
         eprintln!(
-            "deadline {deadline_ms} ms, kill {kill}/{kills}: C{} killed {} ms into the round, gap {} ms ({GAP_READER}), promotion {} ms{}",
+            "deadline {deadline_ms} ms, kill {kill}/{kills}: C{} killed {} ms into the round, gap {} ms ({GAP_READER}), promotion {} ms, steady {} ms, owner changes {}{}{}",
             sample.killed.map_or("-".into(), |id| id.to_string()),
             sample.phase_ms.map_or("-".into(), |p| p.to_string()),
             super::formation::shown_ms(sample.gap_ms),
             super::formation::shown_ms(sample.promotion_ms),
+            super::formation::shown_ms(sample.steady_ms),
+            sample.owner_changes,
+            sample
+                .restarted
+                .iter()
+                .map(|id| format!(", C{id} FAILED, restarted"))
+                .collect::<String>(),
             sample
                 .failure
                 .map(|f| format!(", FAILED: {f:?}"))
@@ -179,6 +217,9 @@ fn kill_once(
         gap_ms: None,
         switched_to: None,
         promotion_ms: None,
+        steady_ms: None,
+        owner_changes: 0,
+        restarted: Vec::new(),
         failure: None,
     };
     watch.pump(Duration::from_millis(500));
@@ -191,6 +232,7 @@ fn kill_once(
     watch.pump_until(next_phase(phase_ms, setup.heartbeat_period_ms));
     let changes_before = watch.owner_changes.len();
     let outputs_before = watch.outputs.len();
+    let steady_before = watch.steady_primary.len();
     let killed_ms = wall_ms();
     fleet
         .kill(primary)
@@ -204,6 +246,12 @@ fn kill_once(
             .find(|o| o.id == secondary && o.strength == Some(Role::Primary.strength()))
             .map(|o| o.t_ms)
     };
+    let steady_at = |w: &Watch| {
+        w.steady_primary[steady_before..]
+            .iter()
+            .find(|(id, _)| *id == secondary)
+            .map(|(_, t_ms)| *t_ms)
+    };
     let switched = |w: &Watch| {
         w.owner_changes[changes_before..]
             .iter()
@@ -211,9 +259,10 @@ fn kill_once(
             .copied()
     };
     watch.wait(PROMOTION_TIMEOUT, |w| {
-        promoted_at(w).is_some() && switched(w).is_some()
+        promoted_at(w).is_some() && steady_at(w).is_some() && switched(w).is_some()
     });
     sample.promotion_ms = promoted_at(watch).map(|t| t.saturating_sub(killed_ms));
+    sample.steady_ms = steady_at(watch).map(|t| t.saturating_sub(killed_ms));
     let switch = switched(watch);
     sample.gap_ms = switch.and_then(|c| c.gap_ms);
     sample.switched_to = switch.and_then(|c| c.to);
@@ -229,8 +278,48 @@ fn kill_once(
     setup.start_controller(fleet, primary)?;
     if !watch.wait(REJOIN_TIMEOUT, |w| w.all_steady(&[1, 2, 3])) {
         sample.failure = sample.failure.or(Some(KillFailure::NotRejoined));
+        sample.restarted = restart_failed(setup, fleet, watch)?;
     }
+    watch.pump(OWNER_CHANGES_SETTLE);
+    sample.owner_changes = controller_changes(&watch.owner_changes[changes_before..]);
     Ok(sample)
+}
+
+/// Restarts every controller that reports itself FAILED or has exited (`kill -9` and a new
+/// process, as the service manager would), then waits for all three steady; returns their ids.
+/// Without it, one controller that failed itself would leave every later kill with two.
+fn restart_failed(
+    setup: &Setup,
+    fleet: &mut Fleet,
+    watch: &mut Watch,
+) -> Result<Vec<ControllerId>, BenchError> {
+    let mut failed: Vec<ControllerId> = Vec::new();
+    for id in fleet.running().collect::<Vec<_>>() {
+        let failed_itself = watch
+            .status
+            .get(&id)
+            .is_some_and(|s| s.report.phase == Phase::Failed);
+        if failed_itself || matches!(fleet.exit_status(id), Ok(Some(_))) {
+            failed.push(id);
+        }
+    }
+    for &id in &failed {
+        fleet
+            .kill(id)
+            .map_err(|source| BenchError::io(format!("kill -9 of controller {id}"), source))?;
+        watch.status.remove(&id);
+        setup.start_controller(fleet, id)?;
+    }
+    if !failed.is_empty() {
+        watch.wait(REJOIN_TIMEOUT, |w| w.all_steady(&[1, 2, 3]));
+    }
+    Ok(failed)
+}
+
+/// How many of `changes` moved the servo from one controller to another (a controller that
+/// re-creates its writer at a new strength stays the owner).
+fn controller_changes(changes: &[OwnerChange]) -> u32 {
+    changes.iter().filter(|c| c.from != c.to).count() as u32
 }
 
 #[cfg(test)]
@@ -245,6 +334,9 @@ mod tests {
             gap_ms,
             switched_to: Some(2),
             promotion_ms: gap_ms.map(|g| g * 8),
+            steady_ms: gap_ms.map(|g| g * 8),
+            owner_changes: if failure.is_some() { 3 } else { 1 },
+            restarted: Vec::new(),
             failure,
         }
     }
@@ -264,8 +356,31 @@ mod tests {
         assert_eq!((result.kills, result.failed_kills), (3, 2));
         assert_eq!(result.gap_ms.count, 2);
         assert_eq!(result.gap_over_deadline_p99, 1.1);
+        assert_eq!(result.gap_over_deadline_max, 1.1);
+        assert_eq!(result.steady_ms.max, 880.0);
+        assert_eq!(
+            (
+                result.owner_changes_max,
+                result.kills_with_more_than_one_owner_change
+            ),
+            (3, 2)
+        );
         assert_eq!(result.promotion_over_period_p50, 3.2);
         assert_eq!(result.gap_reader, "rl servo (arbiter)");
+    }
+
+    #[test]
+    fn a_writer_re_created_by_its_owner_is_no_owner_change() {
+        let change = |from, to| OwnerChange {
+            gap_ms: Some(100),
+            from: Some(from),
+            to: Some(to),
+        };
+        // The switch to the Secondary, its writer re-created at 30, a tie blip to the
+        // Tertiary and back.
+        let changes = [change(1, 2), change(2, 2), change(2, 3), change(3, 2)];
+        assert_eq!(controller_changes(&changes[..2]), 1);
+        assert_eq!(controller_changes(&changes), 3);
     }
 
     #[test]

@@ -22,13 +22,14 @@ pub fn write_report(out: &mut impl Write, result: &BenchResult) -> std::io::Resu
     for f in &result.failover {
         writeln!(
             out,
-            "failover @ deadline {} ms (re-publish {} ms): command gap at {}, ms: {}; p50/deadline {:.2}, p99/deadline {:.2}",
+            "failover @ deadline {} ms (re-publish {} ms): command gap at {}, ms: {}; p50/deadline {:.2}, p99/deadline {:.2}, max/deadline {:.2}",
             f.deadline_ms,
             f.command_republish_ms,
             f.gap_reader,
             summary(&f.gap_ms),
             f.gap_over_deadline_p50,
-            f.gap_over_deadline_p99
+            f.gap_over_deadline_p99,
+            f.gap_over_deadline_max
         )?;
         writeln!(
             out,
@@ -37,7 +38,24 @@ pub fn write_report(out: &mut impl Write, result: &BenchResult) -> std::io::Resu
             f.promotion_over_period_p50,
             f.promotion_over_period_p99
         )?;
-        writeln!(out, "    failed kills: {} of {}", f.failed_kills, f.kills)?;
+        writeln!(
+            out,
+            "    new Primary steady at 30 (kill to its status), ms: {}",
+            summary(&f.steady_ms)
+        )?;
+        writeln!(
+            out,
+            "    owner changes at {} per kill (kill to all steady again): max {}; kills with more than one: {} of {}",
+            f.gap_reader,
+            f.owner_changes_max,
+            f.kills_with_more_than_one_owner_change,
+            f.kills
+        )?;
+        writeln!(
+            out,
+            "    failed kills: {} of {}; controllers restarted after failing themselves: {}",
+            f.failed_kills, f.kills, f.controllers_restarted
+        )?;
     }
     let formation = &result.formation;
     writeln!(

@@ -1,6 +1,6 @@
 //! The benchmark's view of a running fleet, built from the children's JSON lines: each
-//! controller's last status, every `output` and `started` event, and the servo's owner
-//! changes.
+//! controller's last status, every `output` and `started` event, every report of a steady
+//! Primary, and the servo's owner changes.
 
 use crate::core::{ControllerId, Phase, Role, Status};
 use crate::event::{Event, EventLine};
@@ -32,6 +32,9 @@ pub struct Watch {
     pub outputs: Vec<Output>,
     /// `(controller, t_ms)` of every `started` event.
     pub started: Vec<(ControllerId, u64)>,
+    /// `(controller, t_ms)` of every status reporting the controller steady as Primary at
+    /// the Primary's strength.
+    pub steady_primary: Vec<(ControllerId, u64)>,
     pub owner_changes: Vec<OwnerChange>,
     pub owner: Option<ControllerId>,
 }
@@ -43,6 +46,7 @@ impl Watch {
             status: BTreeMap::new(),
             outputs: Vec::new(),
             started: Vec::new(),
+            steady_primary: Vec::new(),
             owner_changes: Vec::new(),
             owner: None,
         }
@@ -85,6 +89,13 @@ impl Watch {
         } else if let Some(line) = EventLine::parse(&line.text) {
             match line.event {
                 Event::Status { status } => {
+                    let report = &status.report;
+                    if report.phase == Phase::Steady
+                        && report.role == Some(Role::Primary)
+                        && report.strength == Some(Role::Primary.strength())
+                    {
+                        self.steady_primary.push((line.id, line.t_ms));
+                    }
                     self.status.insert(line.id, status);
                 }
                 Event::Output { strength, .. } => self.outputs.push(Output {

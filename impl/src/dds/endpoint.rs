@@ -338,6 +338,12 @@ where
 /// writer and learn its strength: the actuator never falls to a weaker controller in between.
 /// Going down or to `None` (no role), the old writer is dropped at once: a controller must
 /// never keep commanding above its role.
+///
+/// A standby's raise (from a standby strength to a higher one below the Primary's) waits the
+/// same two command deadlines before its new writer is created: the controller above it raised in the same
+/// round, and until readers have discovered that controller's new writer, its retiring one
+/// holds the old strength, which the standby's new writer would tie (DDS then picks by GUID,
+/// and the actuator would blip to the standby and back). The Primary's raise is never delayed.
 pub struct CommandWriter {
     publisher: Publisher,
     topic: Topic,
@@ -346,6 +352,9 @@ pub struct CommandWriter {
     writer: Option<RawCommandWriter>,
     /// The previous, weaker writer during a promotion, and when it is dropped.
     retiring: Option<(RawCommandWriter, Instant)>,
+    /// A standby's raise waiting for the writers above it: the strength, and from when it
+    /// may be created.
+    waiting_raise: Option<(i32, Instant)>,
 }
 
 type RawCommandWriter = no_key::DataWriter<ServoControl, CDRSerializerAdapter<ServoControl>>;
@@ -364,8 +373,11 @@ impl CommandWriter {
             strength: None,
             writer: None,
             retiring: None,
+            waiting_raise: None,
         };
-        writer.set_strength(strength)?;
+        // The strength asked for at creation is taken at once: no controller above is
+        // retiring a writer because of it.
+        writer.apply_strength(strength)?;
         Ok(writer)
     }
 
@@ -373,8 +385,18 @@ impl CommandWriter {
     /// On error there is no writer and the strength reads `None`.
     pub fn set_strength(&mut self, strength: Option<i32>) -> Result<(), DdsError> {
         if strength == self.strength && strength.is_some() == self.writer.is_some() {
+            self.waiting_raise = None;
             return Ok(());
         }
+        if self.standby_raise_waits(strength) {
+            return Ok(());
+        }
+        self.apply_strength(strength)
+    }
+
+    /// Moves to `strength` now: a new writer (or none for `None`), the old one kept retiring
+    /// on a raise.
+    fn apply_strength(&mut self, strength: Option<i32>) -> Result<(), DdsError> {
         let promotion = matches!((self.strength, strength), (Some(old), Some(new)) if new > old);
         let old = self.writer.take();
         self.strength = None;
@@ -407,6 +429,31 @@ impl CommandWriter {
 
     pub fn strength(&self) -> Option<i32> {
         self.strength
+    }
+
+    /// Whether a raise to `strength` must still wait (see the type's notes); starts the wait
+    /// at the first request of that strength.
+    fn standby_raise_waits(&mut self, strength: Option<i32>) -> bool {
+        let primary = i32::from(crate::core::types::Role::Primary.strength());
+        // Only a standby moving up ties the writer retiring above it; a first writer (at
+        // formation or joining) has nobody above re-creating one.
+        let standby_raise = match (self.strength, strength) {
+            (Some(old), Some(new)) => new < primary && new > old,
+            _ => false,
+        };
+        if !standby_raise {
+            self.waiting_raise = None;
+            return false;
+        }
+        let now = Instant::now();
+        let wait = Duration::from_millis(self.timing.command_deadline_ms.saturating_mul(2));
+        match self.waiting_raise {
+            Some((waiting, from)) if Some(waiting) == strength => now < from,
+            _ => {
+                self.waiting_raise = strength.map(|new| (new, now + wait));
+                true
+            }
+        }
     }
 
     /// The current writer's GUID (`None` without a writer).

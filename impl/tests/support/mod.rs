@@ -3,6 +3,8 @@
 
 #![allow(dead_code)]
 
+pub mod actuators;
+
 use rl::core::{Phase, Role, Status};
 use rl::event::EventLine;
 use rl::procs::{parse_servo_event, Fleet, Line, ServoEvent};
