@@ -94,7 +94,11 @@ pub(super) fn change_owner(next: &mut State, to: Id) {
         // merge (F9): such changes are not the protocol's to count.
         let provisional = next.controller(to).provisional || next.controller(from).provisional;
         let history = &mut next.history;
-        if !provisional {
+        // Before the first backed result a loss can split the founders into two systems that
+        // each form (F9); the GUID order moves the actuator between their Primaries until
+        // they merge, and no rule can know which side the actuator should stay with.
+        let formation_split = history.partition_open && !history.formed;
+        if !provisional && !formation_split {
             history.owner_changes = (history.owner_changes + 1).min(history.faults + 1);
         }
         // In a partition a side that believes itself alone steps down and a standby may

@@ -64,9 +64,11 @@ pub fn compute_vote(config: &Config, c: &Controller) -> Assignment {
         })
         .collect();
     // Each known result with its epoch (F11; 0 without it).
-    let mut known: Vec<(Assignment, u8, bool)> = c
+    // Whether the holder of the result is its own Primary matters only between results of
+    // one epoch (see the ranking below).
+    let mut known: Vec<(Assignment, u8, bool, bool)> = c
         .agreed
-        .map(|a| (a, c.epoch, c.provisional))
+        .map(|a| (a, c.epoch, c.provisional, a.holder(Role::Primary) == Some(c.id)))
         .into_iter()
         .collect();
     // F6: every incumbent's result, as heartbeats carry it. F1 alone gives that knowledge to
@@ -76,26 +78,33 @@ pub fn compute_vote(config: &Config, c: &Controller) -> Assignment {
         known.extend(
             c.peers
                 .iter()
-                .filter(|p| p.incumbent())
-                .filter_map(|p| {
-                    p.heard_agreed
-                        .map(|a| (a, p.heard_epoch, p.heard_provisional))
+                .enumerate()
+                .filter(|(_, p)| p.incumbent())
+                .filter_map(|(index, p)| {
+                    let id = (index + 1) as Id;
+                    p.heard_agreed.map(|a| {
+                        let own_primary = a.holder(Role::Primary) == Some(id);
+                        (a, p.heard_epoch, p.heard_provisional, own_primary)
+                    })
                 }),
         );
     }
     if !rules.f5_decide_on_heartbeats && joining {
         // Paper: a late joiner "assesses the existing system priority" from durable votes.
-        known.extend(durable_result(config, c).map(|a| (a, 0, false)));
+        known.extend(durable_result(config, c).map(|a| (a, 0, false, false)));
     }
     // F11: a member's place in the newest result that has it comes first, a backed result
     // before a provisional one: after a merge the side that kept a majority keeps its roles.
-    let rank = |member: &Holder| -> (std::cmp::Reverse<u8>, bool, usize) {
+    // Two results of one epoch (agreed concurrently while a heartbeat was lost) rank the one
+    // its Primary holds first: the Primary's side already commands by it, so the holders it
+    // names keep their roles and the other side's newcomer waits.
+    let rank = |member: &Holder| -> (std::cmp::Reverse<u8>, bool, bool, usize) {
         if config.mutated(Mutation::Failback) {
-            return (std::cmp::Reverse(0), true, ROLE_COUNT);
+            return (std::cmp::Reverse(0), true, true, ROLE_COUNT);
         }
         known
             .iter()
-            .filter_map(|(result, epoch, provisional)| {
+            .filter_map(|(result, epoch, provisional, own_primary)| {
                 let role = if rules.f3_incarnation_aware {
                     result.role_of_holder(*member)
                 } else {
@@ -104,10 +113,13 @@ pub fn compute_vote(config: &Config, c: &Controller) -> Assignment {
                 // Paper: "Precedence should be given to any currently Active Controller";
                 // the other roles are ranked by id again.
                 role.filter(|r| rules.f2_keep_standby_order || *r == Role::Primary)
-                    .map(|r| (std::cmp::Reverse(*epoch), *provisional, r.rank()))
+                    .map(|r| {
+                        let by_primary = !(rules.f11_epochs && *own_primary);
+                        (std::cmp::Reverse(*epoch), *provisional, by_primary, r.rank())
+                    })
             })
             .min()
-            .unwrap_or((std::cmp::Reverse(0), true, ROLE_COUNT))
+            .unwrap_or((std::cmp::Reverse(0), true, true, ROLE_COUNT))
     };
     let mut ranked = members.clone();
     ranked.sort_by_key(|member| (rank(member), member.id));
