@@ -347,7 +347,57 @@ fn kill_restart_cycles_one_owner_change_each() {
     for judge in Judge::BOTH {
         wrong.extend(one_change_per_kill(&judged, judge, &kills));
     }
+    wrong.extend(connext_gaps(&judged, &kills));
     verdict(&wrong, &judged.timeline());
+}
+
+/// The command gap at the Connext reader for each kill: from the killed controller's last
+/// sample to the Secondary's first after it. Exclusive ownership hands over at the reader's
+/// deadline, so the gap must stay within the deadline and two re-publish periods (the
+/// Secondary's next command after the deadline, and the scheduling of both sides).
+fn connext_gaps(judged: &Judged, kills: &[Kill]) -> Vec<String> {
+    let republish_ms = rl::config::Timing::default().command_republish_ms as f64;
+    let limit_ms = CONNEXT_DEADLINE_MS as f64 + 2.0 * republish_ms;
+    let mut gaps = Vec::new();
+    let mut wrong = Vec::new();
+    for (i, kill) in kills.iter().enumerate() {
+        let (Some(killed), Some(secondary)) = (
+            judged.lives.participant(kill.killed),
+            judged.lives.participant(kill.secondary),
+        ) else {
+            wrong.push(format!("kill {}: participants not known", i + 1));
+            continue;
+        };
+        let samples = &judged.connext.samples;
+        let last_old = samples
+            .iter()
+            .filter(|x| x.participant == killed && x.at_ms <= kill.at_ms + 50.0)
+            .map(|x| x.at_ms)
+            .fold(f64::NEG_INFINITY, f64::max);
+        let first_new = samples
+            .iter()
+            .filter(|x| x.participant == secondary && x.at_ms > last_old)
+            .map(|x| x.at_ms)
+            .fold(f64::INFINITY, f64::min);
+        let gap_ms = first_new - last_old;
+        gaps.push(gap_ms);
+        if gap_ms.is_nan() || gap_ms > limit_ms {
+            wrong.push(format!(
+                "connext: kill {} of {}: command gap {gap_ms:.0} ms, over the deadline and two \
+                 re-publish periods ({limit_ms:.0} ms)",
+                i + 1,
+                kill.killed
+            ));
+        }
+    }
+    gaps.sort_by(f64::total_cmp);
+    eprintln!(
+        "connext: command gap per kill, ms: min {:.0} median {:.0} max {:.0} (limit {limit_ms:.0})",
+        gaps.first().copied().unwrap_or(f64::NAN),
+        gaps.get(gaps.len() / 2).copied().unwrap_or(f64::NAN),
+        gaps.last().copied().unwrap_or(f64::NAN)
+    );
+    wrong
 }
 
 /// Kills the steady Primary, waits for the Secondary's promotion, restarts the killed

@@ -569,7 +569,11 @@ fn a_standby_raise_waits_two_command_deadlines_and_a_first_writer_or_primary_rai
     let wait = Duration::from_millis(Timing::default().command_deadline_ms * 2);
     let mut standby = writer_session.command_writer(None).unwrap();
     standby.set_strength(Some(10)).unwrap();
-    assert_eq!(standby.strength(), Some(10), "a first writer is created at once");
+    assert_eq!(
+        standby.strength(),
+        Some(10),
+        "a first writer is created at once"
+    );
     let asked = Instant::now();
     standby.set_strength(Some(20)).unwrap();
     assert_eq!(standby.strength(), Some(10), "a standby's raise waits");
@@ -584,7 +588,11 @@ fn a_standby_raise_waits_two_command_deadlines_and_a_first_writer_or_primary_rai
     );
     let mut primary = writer_session.command_writer(Some(10)).unwrap();
     primary.set_strength(Some(30)).unwrap();
-    assert_eq!(primary.strength(), Some(30), "a Primary's raise is immediate");
+    assert_eq!(
+        primary.strength(),
+        Some(30),
+        "a Primary's raise is immediate"
+    );
     primary.set_strength(Some(10)).unwrap();
     assert_eq!(primary.strength(), Some(10), "lowering is immediate");
 }

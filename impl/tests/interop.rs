@@ -12,6 +12,8 @@
 
 mod support;
 
+use support::actuators::{participant_of, require_peer};
+
 use rl::core::Role;
 use rl::procs::ServoEvent;
 use std::collections::BTreeMap;
@@ -26,23 +28,6 @@ const FORM: Duration = Duration::from_secs(15);
 struct Received {
     t_ms: f64,
     participant: String,
-}
-
-/// Panics unless python3 can import the peer's DDS module (the test was asked for, so its
-/// peer must be there).
-fn require_peer(module: &str, package: &str) {
-    let imported = Command::new("python3")
-        .args(["-c", &format!("import {module}")])
-        .output()
-        .is_ok_and(|o| o.status.success());
-    assert!(
-        imported,
-        "python3 cannot import {module} (pip install {package})"
-    );
-}
-
-fn participant_of(guid_hex: &str) -> String {
-    guid_hex.chars().take(24).collect()
 }
 
 /// Runs the peer script against a formed system, kills the Primary after `before`, and
