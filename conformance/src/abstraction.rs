@@ -44,6 +44,8 @@ pub enum Observed {
     NotStarted,
     /// Its process was stopped; `incarnation` is the stamp of the life that ended.
     Down { incarnation: Incarnation },
+    /// Its process is paused (SIGSTOP, a stall); `incarnation` is the stamp of its life.
+    Paused { incarnation: Incarnation },
     /// Running: what it reports of itself.
     Up(Box<Status>),
 }
@@ -166,6 +168,9 @@ pub fn abstract_controller(
         Observed::NotStarted => return Ok(not_up(Life::NotStarted, 0)),
         Observed::Down { incarnation } => {
             return Ok(not_up(Life::Down, number(id, *incarnation)?));
+        }
+        Observed::Paused { incarnation } => {
+            return Ok(not_up(Life::Paused, number(id, *incarnation)?));
         }
         Observed::Up(status) => status,
     };

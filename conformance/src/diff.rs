@@ -111,6 +111,7 @@ pub fn controller_line(c: &AbstractController) -> String {
     match c.life {
         Life::NotStarted => return format!("C{} not started", c.id),
         Life::Down => return format!("C{} down (incarnation {})", c.id, c.incarnation),
+        Life::Paused => return format!("C{} paused (incarnation {})", c.id, c.incarnation),
         Life::Up => {}
     }
     let phase = c.phase.map_or("-", |p| p.name());

@@ -269,6 +269,9 @@ mod tests {
             strength: role.map(Role::strength),
             agreed: Some(agreed),
             vote: Some(agreed),
+            epoch: 1,
+            provisional: false,
+            established_strength: role.map(Role::strength),
         }
     }
 

@@ -58,13 +58,14 @@ fn holder(id: u8, incarnation: u64) -> Holder {
 fn heartbeat(from: u8, role: Role) -> Heartbeat {
     let agreed = Assignment::from_ranked([holder(1, 11), holder(2, 22), holder(3, 33)]);
     Heartbeat {
-        id: from,
-        incarnation: u64::from(from) * 11,
         phase: Phase::Steady,
         role: Some(role),
         strength: Some(role.strength()),
         agreed: Some(agreed),
         vote: Some(agreed),
+        epoch: 1,
+        established_strength: Some(role.strength()),
+        ..Heartbeat::initial(from, u64::from(from) * 11)
     }
 }
 

@@ -185,6 +185,9 @@ impl Controller {
                 strength: Some(role.strength()),
                 agreed: Some(agreed),
                 vote: Some(agreed),
+                epoch: 1,
+                provisional: false,
+                established_strength: Some(role.strength()),
             };
             let mut last_beat = Instant::now() - HEARTBEAT_PERIOD;
             while running_flag.load(Ordering::Relaxed) {

@@ -2,8 +2,8 @@
 //! and which rules (variant and reverted fixes).
 //!
 //! Every fault is bounded by a budget so the state space is finite; the defaults are the
-//! configuration `check` runs (three founders, one late joiner, one crash, one restart and two
-//! lost heartbeats). Timer lengths derived from others (the minority grace, the losses a
+//! configuration `check` runs (three founders, one late joiner, one crash, one restart and one
+//! lost heartbeat). Timer lengths derived from others (the minority grace, the losses a
 //! minority witness needs) are defined here once.
 
 use crate::fixes::{Fix, Rules, Variant};
@@ -74,7 +74,7 @@ impl Default for Config {
             late_joiners: 1,
             max_crashes: 1,
             max_restarts: 1,
-            max_lost_heartbeats: 2,
+            max_lost_heartbeats: 1,
             max_pauses: 0,
             max_isolations: 0,
             dead_after_rounds: 2,

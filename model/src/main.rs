@@ -92,7 +92,7 @@ struct Scope {
     #[arg(long, default_value_t = 1)]
     restarts: u8,
     /// Heartbeats that may be lost in total over a run (0 = reliable heartbeats).
-    #[arg(long, default_value_t = 2)]
+    #[arg(long, default_value_t = 1)]
     lost_heartbeats: u8,
     /// Pauses (SIGSTOP, a stall: the process resumes with its memory) over a run.
     #[arg(long, default_value_t = 0)]

@@ -343,7 +343,10 @@ impl Path {
         for (action, next) in &self.steps {
             let mut enabled = Vec::new();
             crate::protocol::actions(&model.config, state, &mut enabled);
-            let index = enabled.iter().position(|a| a == action).unwrap_or(usize::MAX);
+            let index = enabled
+                .iter()
+                .position(|a| a == action)
+                .unwrap_or(usize::MAX);
             fragment.push_str(&format!("/{index}"));
             state = next;
         }

@@ -155,7 +155,10 @@ impl fmt::Display for Action {
             Action::Pause { controller } => write!(f, "C{controller} pauses"),
             Action::Resume { controller } => write!(f, "C{controller} resumes"),
             Action::Isolate { controller } => {
-                write!(f, "C{controller} cut off from its peers (not from the actuator)")
+                write!(
+                    f,
+                    "C{controller} cut off from its peers (not from the actuator)"
+                )
             }
             Action::Heal { controller } => write!(f, "C{controller} reconnected to its peers"),
             Action::DiscoverWriter { controller } => {
@@ -307,6 +310,15 @@ impl Controller {
         self.output = strength;
         self.fresh_writer = strength.is_some();
         self.undiscovered = strength.is_some();
+    }
+
+    /// A new round: the writers created in the last one are established (the actuator has
+    /// discovered them) and the retired ones are gone (discovery within a round, the timing
+    /// assumption).
+    pub fn establish_writers(&mut self) {
+        self.fresh_writer = false;
+        self.undiscovered = false;
+        self.retiring = None;
     }
 
     pub fn is_up(&self) -> bool {

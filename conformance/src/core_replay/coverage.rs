@@ -23,6 +23,7 @@ pub fn stage(c: &AbstractController) -> Stage {
     match (c.life, c.phase) {
         (Life::NotStarted, _) => Stage::NotStarted,
         (Life::Down, _) => Stage::Down,
+        (Life::Paused, _) => Stage::Paused,
         (Life::Up, Some(Phase::Voting)) => Stage::Voting,
         (Life::Up, Some(Phase::Steady)) => Stage::Steady,
         (Life::Up, Some(Phase::Failed)) => Stage::Failed,

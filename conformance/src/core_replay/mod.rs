@@ -18,6 +18,14 @@
 //! - `Restart` / `Join { controller }`: a new core whose incarnation is the model's number
 //!   starts at boundary + 10 ms, before the send slot, so its heartbeat is delivered at this
 //!   round's end and it hears this round's heartbeats, as in the model.
+//! - `Pause { controller }`: the core is not stepped and its heartbeats are not sent;
+//!   `Resume` starts a new core with the next incarnation, as the runtime does when it finds
+//!   its loop stalled for a peer deadline (impl/src/stall.rs).
+//! - `Isolate` / `Heal { controller }`: every heartbeat to and from it is lost until healed.
+//! - `DiscoverWriter` / `TieBreak`: the actuator's events. The network runs the model's
+//!   actuator rule (`model::protocol::actuator::next_owner`) over the cores' writers (the
+//!   newest one once discovered, the retiring one for the round of a raise), so the owner
+//!   compared is the one DDS would give the cores' strengths.
 //! - `DeliverVotes`: paper variant only; not replayed.
 //!
 //! A crash, restart or join also forgets the round's lost links of that controller, as the

@@ -60,7 +60,24 @@ pub struct CoreNetwork<'a> {
     slots: Vec<Slot>,
     /// Links whose heartbeat is lost this round, as (from, to).
     lost: BTreeSet<(ControllerId, ControllerId)>,
+    /// Controllers cut off from their peers (every heartbeat to and from them lost).
+    isolated: BTreeSet<ControllerId>,
+    /// The actuator over the cores' command writers (see [`Actuator`]).
+    actuator: Actuator,
     pub(super) numbers: IncarnationNumbers,
+}
+
+/// The actuator as DDS exclusive ownership runs it over the cores' command writers: the
+/// model's rule (`model::protocol::actuator::next_owner`), the environment the cores command,
+/// not part of the implementation under test. A writer the core created in a step is
+/// undiscovered until the trace's `DiscoverWriter` or the round's end; the core's retiring
+/// writer stays visible for that round; ties go by the trace's `TieBreak` order.
+#[derive(Clone, Debug, Default)]
+struct Actuator {
+    owner: Option<ControllerId>,
+    /// Bit `model::state::link_bit(a, b)`: at equal strength `a`'s writers beat `b`'s.
+    tie_order: u16,
+    undiscovered: BTreeSet<ControllerId>,
 }
 
 impl<'a> CoreNetwork<'a> {
@@ -79,6 +96,8 @@ impl<'a> CoreNetwork<'a> {
             round: 0,
             slots: Vec::new(),
             lost: BTreeSet::new(),
+            isolated: BTreeSet::new(),
+            actuator: Actuator::default(),
             numbers: IncarnationNumbers::new(),
         };
         for (index, c) in initial.controllers.iter().enumerate() {
@@ -99,8 +118,15 @@ impl<'a> CoreNetwork<'a> {
                 Life::Up => network.start_core(c.id, c.incarnation)?,
                 Life::Down => network.slots[index].life = Life::Down,
                 Life::NotStarted => {}
+                Life::Paused => {
+                    return Err(Problem::Unsupported(format!(
+                        "C{} is paused in the initial state",
+                        c.id
+                    )))
+                }
             }
         }
+        network.arbitrate();
         Ok(network)
     }
 
@@ -142,6 +168,11 @@ impl<'a> CoreNetwork<'a> {
         slot.incarnation = incarnation;
         slot.core = Some(Core::new(config, start_ms));
         self.lost.retain(|&(from, to)| from != id && to != id);
+        // A new life's writers have new GUIDs: their tie order is not known yet.
+        for other in self.slots.iter().map(|slot| slot.id) {
+            let links = model::state::link_bit(id, other) | model::state::link_bit(other, id);
+            self.actuator.tie_order &= !links;
+        }
         Ok(())
     }
 
@@ -154,18 +185,80 @@ impl<'a> CoreNetwork<'a> {
                 (None, Life::Down) => Observed::Down {
                     incarnation: u64::from(slot.incarnation),
                 },
+                (None, Life::Paused) => Observed::Paused {
+                    incarnation: u64::from(slot.incarnation),
+                },
                 (None, _) => Observed::NotStarted,
             })
             .collect()
     }
 
-    /// The abstract state of the cores.
+    /// The abstract state of the cores, with the actuator's owner.
     pub fn observe(&self) -> Result<AbstractState, Problem> {
-        abstraction::abstract_state(&self.observed(), &self.numbers).map_err(Problem::Abstraction)
+        let mut state = abstraction::abstract_state(&self.observed(), &self.numbers)
+            .map_err(Problem::Abstraction)?;
+        state.actuator_owner = self.actuator.owner;
+        Ok(state)
+    }
+
+    /// Each running core's command strength.
+    fn outputs(&self) -> BTreeMap<ControllerId, Option<u8>> {
+        self.slots
+            .iter()
+            .filter_map(|slot| {
+                slot.core
+                    .as_ref()
+                    .map(|core| (slot.id, core.state().output))
+            })
+            .collect()
     }
 
     /// Performs one model action; returns what each core did.
     pub fn apply(&mut self, action: Action) -> Result<StepLog, Problem> {
+        let before = self.outputs();
+        if action == Action::Tick {
+            // The writers created last round are established now (the model's timing
+            // assumption: discovery within a round).
+            self.actuator.undiscovered.clear();
+        }
+        let log = self.perform(action)?;
+        for (id, output) in self.outputs() {
+            if before.get(&id) != Some(&output) {
+                match output {
+                    Some(_) => self.actuator.undiscovered.insert(id),
+                    None => self.actuator.undiscovered.remove(&id),
+                };
+            }
+        }
+        self.arbitrate();
+        Ok(log)
+    }
+
+    /// The actuator's owner after a step: the model's rule over the visible writers.
+    fn arbitrate(&mut self) {
+        let writers: Vec<(ControllerId, u8)> = self
+            .slots
+            .iter()
+            .filter_map(|slot| {
+                let state = slot.core.as_ref()?.state();
+                let newest = state
+                    .output
+                    .filter(|_| !self.actuator.undiscovered.contains(&slot.id));
+                newest
+                    .max(state.writer.retiring)
+                    .map(|strength| (slot.id, strength))
+            })
+            .collect();
+        if let Some(to) = model::protocol::actuator::next_owner(
+            &writers,
+            self.actuator.owner,
+            self.actuator.tie_order,
+        ) {
+            self.actuator.owner = Some(to);
+        }
+    }
+
+    fn perform(&mut self, action: Action) -> Result<StepLog, Problem> {
         let mut log = StepLog::new();
         match action {
             Action::Tick => self.tick(&mut log)?,
@@ -199,10 +292,32 @@ impl<'a> CoreNetwork<'a> {
                 self.lost
                     .retain(|&(from, to)| from != controller && to != controller);
             }
-            Action::Restart { controller } => {
+            // A stall restarts the controller as a new incarnation when it resumes (the
+            // runtime's stall detection, impl/src/stall.rs; the model's F12).
+            Action::Restart { controller } | Action::Resume { controller } => {
                 let next = self.slot_mut(controller)?.incarnation.saturating_add(1);
                 self.start_core(controller, next)?;
                 log.insert(controller, vec![started()]);
+            }
+            Action::Pause { controller } => {
+                let slot = self.slot_mut(controller)?;
+                slot.core = None;
+                slot.life = Life::Paused;
+            }
+            Action::Isolate { controller } => {
+                self.isolated.insert(controller);
+            }
+            Action::Heal { controller } => {
+                self.isolated.remove(&controller);
+            }
+            Action::DiscoverWriter { controller } => {
+                self.actuator.undiscovered.remove(&controller);
+            }
+            Action::TieBreak { to } => {
+                if let Some(owner) = self.actuator.owner {
+                    self.actuator.tie_order |= model::state::link_bit(to, owner);
+                }
+                self.actuator.owner = Some(to);
             }
             Action::Join { controller } => {
                 self.start_core(controller, 0)?;
@@ -256,6 +371,7 @@ impl<'a> CoreNetwork<'a> {
             }
         }
         let lost = &self.lost;
+        let isolated = &self.isolated;
         for slot in &mut self.slots {
             let Some(core) = slot.core.as_mut() else {
                 continue;
@@ -263,7 +379,8 @@ impl<'a> CoreNetwork<'a> {
             let to = slot.id;
             let emitted = log.entry(to).or_default();
             for (&from, heartbeat) in &heartbeats {
-                if from != to && !lost.contains(&(from, to)) {
+                let cut = isolated.contains(&from) || isolated.contains(&to);
+                if from != to && !lost.contains(&(from, to)) && !cut {
                     let commands =
                         core.step(Input::Heartbeat(*heartbeat), boundary + DELIVERY_OFFSET_MS);
                     // Deliveries are shown only when they make the core do something.

@@ -69,6 +69,10 @@ pub enum PlanError {
     /// `DeliverVotes` belongs to the paper variant.
     #[error("durable-vote delivery exists only in the paper variant")]
     PaperVariantAction,
+    /// Pauses and cuts need a process stopped or a network cut on schedule, which this
+    /// replay does not do (the process tests and the fault lab do).
+    #[error("step {step}: \"{action}\" (a pause or a cut) is not replayed on processes")]
+    PauseOrCut { step: usize, action: Action },
     /// The model keeps changing after the trace's last step.
     #[error("does not settle within {rounds} rounds")]
     NoSettle { rounds: usize },
@@ -368,6 +372,19 @@ fn rebuild(trace: &Trace, config: &model::Config, initial: State) -> Result<Rebu
                 }
             }
             Action::DeliverVotes { .. } => return Err(PlanError::PaperVariantAction),
+            Action::Pause { .. }
+            | Action::Resume { .. }
+            | Action::Isolate { .. }
+            | Action::Heal { .. } => {
+                return Err(PlanError::PauseOrCut {
+                    step: trace_step.number,
+                    action,
+                })
+            }
+            // The actuator's own events: DDS does them; the model keeps its owner.
+            Action::DiscoverWriter { .. } | Action::TieBreak { .. } => {
+                state = step(config, &state, action)?;
+            }
             Action::LoseHeartbeat { .. } => {
                 state = step(config, &state, action)?;
                 round_has_other_action = true;

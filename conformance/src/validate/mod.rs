@@ -89,6 +89,9 @@ impl Timing {
             max_crashes: u8::MAX,
             max_restarts: u8::MAX,
             max_lost_heartbeats: u8::MAX,
+            // A stall shows as a new life (a restart); a cut as lost heartbeats.
+            max_pauses: 0,
+            max_isolations: 0,
             dead_after_rounds: self.dead_after_rounds,
             window_rounds: self.window_rounds,
             settle_within_rounds: model::Config::default().settle_within_rounds,

@@ -158,6 +158,8 @@ pub fn round_end_of(
             }
         }
         let mut ended = before.clone();
+        // As `Tick` does for every controller before their round steps.
+        ended.controllers[index].establish_writers();
         protocol::round_step(config, &before, &mut ended, id);
         ended.lost_links = 0;
         if let Some(expired) = step_model(config, &ended, Action::ExpireWindow { controller: id }) {

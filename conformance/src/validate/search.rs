@@ -30,26 +30,19 @@ pub(super) struct Branch {
 }
 
 /// What one controller's heartbeat carries (and whether it is up): all a receiver's next
-/// state depends on.
+/// state depends on: life, incarnation, phase, role, strength; agreed result and vote; the
+/// result's epoch and standing and the established strength.
 pub(super) type Visible = (
-    Life,
-    u8,
-    Phase,
-    Option<model::Role>,
-    Option<u8>,
-    Option<Assignment>,
-    Option<Assignment>,
+    (Life, u8, Phase, Option<model::Role>, Option<u8>),
+    (Option<Assignment>, Option<Assignment>),
+    (u8, bool, Option<u8>),
 );
 
 pub(super) fn visible(c: &Controller) -> Visible {
     (
-        c.life,
-        c.incarnation,
-        c.phase,
-        c.role,
-        c.output,
-        c.agreed,
-        c.vote,
+        (c.life, c.incarnation, c.phase, c.role, c.output),
+        (c.agreed, c.vote),
+        (c.epoch, c.provisional, c.established_strength()),
     )
 }
 
@@ -270,11 +263,11 @@ impl<'a> Search<'a> {
     ) -> Vec<Lifecycle> {
         let next_number = match c.life {
             Life::NotStarted => 0,
-            Life::Up | Life::Down => c.incarnation.saturating_add(1),
+            Life::Up | Life::Down | Life::Paused => c.incarnation.saturating_add(1),
         };
         let current = match c.life {
             Life::NotStarted => None,
-            Life::Up | Life::Down => self.life(id, c.incarnation),
+            Life::Up | Life::Down | Life::Paused => self.life(id, c.incarnation),
         };
         // It may crash once it printed its last line; a clean stop ends it by the next round.
         let may_crash =
@@ -378,6 +371,9 @@ pub(super) fn representatives(branch: &Branch) -> State {
         controllers: branch.slots.iter().map(|slot| slot[0].clone()).collect(),
         lost_links: 0,
         overdue_votes: 0,
+        isolated: 0,
+        owner: None,
+        tie_order: 0,
         history: History::default(),
     }
 }

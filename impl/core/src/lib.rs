@@ -44,6 +44,7 @@
 #![deny(missing_docs)]
 
 pub mod config;
+mod epochs;
 mod invariants;
 pub mod io;
 #[cfg(feature = "mutation")]
@@ -51,6 +52,7 @@ pub mod mutation;
 pub mod report;
 mod rules;
 pub mod state;
+mod strength;
 pub mod types;
 
 pub use config::{CoreConfig, Rounds};
@@ -147,6 +149,9 @@ impl Core {
             strength: c.output,
             agreed: c.agreed,
             vote: c.vote,
+            epoch: c.epoch,
+            provisional: c.provisional,
+            established_strength: c.established_strength(),
         }
     }
 
@@ -215,6 +220,7 @@ impl Core {
         match timer {
             Timer::RoundEnd => {
                 let heard: Vec<Heartbeat> = std::mem::take(&mut self.inbox).into_values().collect();
+                self.state.establish_writers();
                 rules::end_round(&self.config, &mut self.state, &heard);
                 // A caller that fell behind (a stopped process) runs one round end, not every
                 // missed one: it cannot know what it did not hear.

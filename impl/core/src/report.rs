@@ -22,6 +22,34 @@ pub struct SelfReport {
     pub agreed: Option<Assignment>,
     /// Its current vote.
     pub vote: Option<Assignment>,
+    /// The epoch of its agreed result (0 before it has one).
+    #[serde(default)]
+    pub epoch: u32,
+    /// Its agreed result was agreed without a majority of the last result's members.
+    #[serde(default)]
+    pub provisional: bool,
+    /// The strength of its established command writer: what every reader knows by now. A
+    /// writer created in this round is not reported until the next.
+    #[serde(default)]
+    pub established_strength: Option<u8>,
+}
+
+impl SelfReport {
+    /// What a controller that has just started says of itself: initializing, nothing known.
+    pub fn initial(id: ControllerId, incarnation: Incarnation) -> SelfReport {
+        SelfReport {
+            id,
+            incarnation,
+            phase: Phase::Initializing,
+            role: None,
+            strength: None,
+            agreed: None,
+            vote: None,
+            epoch: 0,
+            provisional: false,
+            established_strength: None,
+        }
+    }
 }
 
 /// The controller heartbeat (paper: RLCHB), sent once per round. It carries the sender's state
@@ -51,15 +79,7 @@ impl Status {
     /// The status of a controller that has just started and heard nothing.
     pub fn initial(id: ControllerId, incarnation: Incarnation) -> Status {
         Status {
-            report: SelfReport {
-                id,
-                incarnation,
-                phase: Phase::Initializing,
-                role: None,
-                strength: None,
-                agreed: None,
-                vote: None,
-            },
+            report: SelfReport::initial(id, incarnation),
             sees: Vec::new(),
             failed: Vec::new(),
             alarms: Vec::new(),

@@ -6,13 +6,16 @@
 //! messages arrive.
 
 use crate::config::CoreConfig;
+use crate::epochs;
 use crate::report::Heartbeat;
 use crate::state::{ControllerState, Peer};
+use crate::strength;
 use crate::types::{AlarmReason, Assignment, ControllerId, Holder, Phase, Role, ROLE_COUNT};
 
 /// The end of a round: every heartbeat heard this round (the latest per peer) is taken in,
 /// silent peers are counted down, then the controller decides.
 pub(crate) fn end_round(config: &CoreConfig, c: &mut ControllerState, heard: &[Heartbeat]) {
+    let was_provisional = c.provisional;
     let mut membership_changed = false;
     let mut new_peer = false;
     let mut ids: Vec<ControllerId> = c.peers.keys().copied().collect();
@@ -59,9 +62,14 @@ pub(crate) fn end_round(config: &CoreConfig, c: &mut ControllerState, heard: &[H
     }
     try_agree(config, c);
     judge_minority(config, c);
-    if c.role == Some(Role::Primary) && c.is_active() {
-        c.output = Some(Role::Primary.strength());
-        hold_primary_strength(c);
+    if c.provisional && was_provisional {
+        c.provisional_rounds = 1;
+    }
+    epochs::confirm_provisional(c);
+    if c.is_active() {
+        // The strength follows the role: a held Primary (F8) rises once uncontested, a raise
+        // waits for the roles above (F13).
+        strength::apply_output(c);
     }
 }
 
@@ -119,6 +127,9 @@ fn receive_heartbeat(c: &mut ControllerState, heartbeat: &Heartbeat) -> Heartbea
     peer.heard_agreed = heartbeat.agreed;
     peer.heard_vote = heartbeat.vote;
     peer.claims_primary = heartbeat.strength == Some(Role::Primary.strength());
+    peer.heard_epoch = heartbeat.epoch;
+    peer.heard_provisional = heartbeat.provisional;
+    peer.heard_strength = heartbeat.established_strength;
     if heartbeat.phase == Phase::Failed && !peer.failed {
         // It announced its own failure: every voter excludes it.
         peer.failed = true;
@@ -166,37 +177,73 @@ fn revote(config: &CoreConfig, c: &mut ControllerState) {
 /// The voting algorithm: who should hold which role, as this controller sees it.
 ///
 /// A function of what it knows, never of its own earlier votes (finding F6): every live
-/// member is ranked by the best role any known agreed result gives that very incarnation (its
-/// own and every incumbent's, from heartbeats), then by lowest id; three at most. Live holders
-/// keep their roles (no oscillation), a lost holder's juniors move up, newcomers come in
-/// below, and the results of a healed partition merge with the lower id first.
+/// member is ranked by the best place any known agreed result gives that very incarnation (its
+/// own and every incumbent's, from heartbeats), then by lowest id; three at most. A place in a
+/// newer epoch comes first, a backed result before a provisional one (F11), and between
+/// results of one epoch the one its own Primary holds; then the role. Live holders keep their
+/// roles (no oscillation), a lost holder's juniors move up, newcomers come in below, and after
+/// a healed partition the side that kept a majority keeps its roles.
 // `config` selects a mutation (feature `mutation`); the correct rules need only the state.
 #[cfg_attr(not(feature = "mutation"), allow(unused_variables))]
 pub(crate) fn compute_vote(config: &CoreConfig, c: &ControllerState) -> Assignment {
-    let mut known: Vec<Assignment> = c.agreed.into_iter().collect();
+    let mut known: Vec<KnownResult> = c
+        .agreed
+        .map(|result| KnownResult {
+            result,
+            epoch: c.epoch,
+            provisional: c.provisional,
+            held_by_its_primary: result.holder(Role::Primary) == Some(c.id),
+        })
+        .into_iter()
+        .collect();
     known.extend(
         c.peers
-            .values()
-            .filter(|p| p.incumbent())
-            .filter_map(|p| p.heard_agreed),
+            .iter()
+            .filter(|(_, p)| p.incumbent())
+            .filter_map(|(&id, p)| {
+                p.heard_agreed.map(|result| KnownResult {
+                    result,
+                    epoch: p.heard_epoch,
+                    provisional: p.heard_provisional,
+                    held_by_its_primary: result.holder(Role::Primary) == Some(id),
+                })
+            }),
     );
-    let rank = |member: &Holder| -> usize {
+    let unranked = (std::cmp::Reverse(0), true, true, ROLE_COUNT);
+    let rank = |member: &Holder| -> (std::cmp::Reverse<u32>, bool, bool, usize) {
         #[cfg(feature = "mutation")]
         if crate::mutation::rank_by_id_only(config) {
-            return ROLE_COUNT;
+            return unranked;
         }
         known
             .iter()
-            .filter_map(|result| result.role_of_holder(*member))
-            .map(Role::rank)
+            .filter_map(|known| {
+                known.result.role_of_holder(*member).map(|role| {
+                    (
+                        std::cmp::Reverse(known.epoch),
+                        known.provisional,
+                        !known.held_by_its_primary,
+                        role.rank(),
+                    )
+                })
+            })
             .min()
-            .unwrap_or(ROLE_COUNT)
+            .unwrap_or(unranked)
     };
     let mut ranked = c.members();
     ranked.sort_by_key(|member| (rank(member), member.id));
     #[cfg(feature = "mutation")]
     crate::mutation::admit_fourth_vote(config, c, &mut ranked);
     Assignment::from_ranked(ranked)
+}
+
+/// An agreed result this controller knows of, with what ranks it against the others.
+struct KnownResult {
+    result: Assignment,
+    epoch: u32,
+    provisional: bool,
+    /// The controller that holds it is the result's own Primary.
+    held_by_its_primary: bool,
 }
 
 /// Who decides: while a running system exists only its incumbents' votes count, so a
@@ -249,6 +296,17 @@ fn try_agree(config: &CoreConfig, c: &mut ControllerState) {
     };
     let electorate = electorate(c);
     let agreeing = electorate.votes.iter().filter(|(_, v)| *v == own).count();
+    // A joiner takes the running system's result, not a vote the incumbents may still revise
+    // (another joiner it does not hear may be admitted first; finding F14).
+    let joining = c.agreed.is_none() && c.peers.values().any(Peer::incumbent);
+    if joining
+        && !c
+            .peers
+            .values()
+            .any(|p| p.incumbent() && p.heard_agreed == Some(own))
+    {
+        return;
+    }
     if electorate.size > 0 && agreeing > electorate.size / 2 {
         adopt(config, c, own);
     }
@@ -260,34 +318,19 @@ fn adopt(config: &CoreConfig, c: &mut ControllerState, agreed: Assignment) {
     let role = agreed.role_of_holder(c.holder());
     #[cfg(feature = "mutation")]
     let role = crate::mutation::admit_fourth_role(config, role);
+    let old_role = c.role;
+    epochs::take_epoch(c, agreed);
     c.agreed = Some(agreed);
     c.phase = Phase::Steady;
     c.role = role;
-    // No command output before a Primary exists and the controller holds a role.
-    c.output = match (role, agreed.holder(Role::Primary)) {
-        (Some(role), Some(_)) => Some(role.strength()),
-        _ => None,
-    };
-    hold_primary_strength(c);
-}
-
-/// A new Primary keeps its previous strength while another live controller still claims
-/// Primary in its heartbeats (finding F8): two writers at Primary strength would let DDS, not
-/// the vote, pick the commander.
-fn hold_primary_strength(c: &mut ControllerState) {
-    if c.role != Some(Role::Primary) {
-        return;
+    let moved_down = old_role.is_some_and(|old| role.is_none_or(|new| new > old));
+    if moved_down && c.output != role.map(Role::strength) {
+        // A lower role (a merge) starts from silence unless it already commands at the new
+        // role's strength: its old writer's strength belongs to the role it left, and could
+        // tie with the roles now above it (finding F13).
+        c.set_output(None);
     }
-    let contested = c
-        .peers
-        .values()
-        .any(|p| p.alive.is_some() && p.claims_primary);
-    if contested {
-        c.output = c
-            .output
-            .filter(|strength| *strength < Role::Primary.strength())
-            .or(Some(Role::Secondary.strength()));
-    }
+    strength::apply_output(c);
 }
 
 /// Marks minority voters FAILED; a controller that is itself the minority fails itself (paper:
@@ -376,7 +419,7 @@ fn judge_self(c: &mut ControllerState, outvoted: bool, grace: u32) -> bool {
 pub(crate) fn fail_self(c: &mut ControllerState) {
     c.phase = Phase::Failed;
     c.role = None;
-    c.output = None;
+    c.set_output(None);
     c.vote = None;
     c.agreed = None;
 }

@@ -3,7 +3,7 @@
 //! (`model/src/state.rs`), so the conformance abstraction is a plain mapping.
 
 use crate::types::{AlarmReason, Assignment, ControllerId, Holder, Incarnation, Phase, Role};
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 /// What a controller knows of one peer.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -25,6 +25,12 @@ pub struct Peer {
     pub heard_vote: Option<Assignment>,
     /// Its last heartbeat said it commands at Primary strength.
     pub claims_primary: bool,
+    /// The epoch of the agreed result its last heartbeat carried.
+    pub heard_epoch: u32,
+    /// Its last heartbeat's result was provisional (agreed without a majority).
+    pub heard_provisional: bool,
+    /// The strength of its established command writer, as its last heartbeat reported it.
+    pub heard_strength: Option<u8>,
 }
 
 impl Peer {
@@ -59,6 +65,29 @@ pub struct ControllerState {
     pub self_dissent_rounds: u32,
     /// Every peer ever heard, by id.
     pub peers: BTreeMap<ControllerId, Peer>,
+    /// The epoch of its agreed result: results agreed with a majority count up from 1.
+    pub epoch: u32,
+    /// The members of the last result agreed with a majority: the base the next majority is
+    /// counted against.
+    pub quorum_base: BTreeSet<ControllerId>,
+    /// Its agreed result lacks a majority of `quorum_base` (a side cut off from the rest).
+    pub provisional: bool,
+    /// Rounds since it became provisional (saturates at 1).
+    pub provisional_rounds: u32,
+    /// Its command writers, as the DDS adapter runs them.
+    pub writer: Writer,
+}
+
+/// The command writers of one controller, as the DDS adapter keeps them. A raise creates a
+/// new writer (RustDDS cannot change a writer's strength) and keeps the old one writing for
+/// the round in which readers discover the new one; a lowering or silence drops the old
+/// writer at once. Heartbeats report the strength of the established writer only.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Writer {
+    /// The previous, weaker writer that still writes during this round.
+    pub retiring: Option<u8>,
+    /// The newest writer was created in this round.
+    pub fresh: bool,
 }
 
 impl ControllerState {
@@ -76,7 +105,43 @@ impl ControllerState {
             vote: None,
             self_dissent_rounds: 0,
             peers: BTreeMap::new(),
+            epoch: 0,
+            quorum_base: BTreeSet::new(),
+            provisional: false,
+            provisional_rounds: 0,
+            writer: Writer::default(),
         }
+    }
+
+    /// The strength its heartbeat reports: a writer created in this round is not yet known
+    /// to every reader, so the previous one's strength is reported.
+    pub fn established_strength(&self) -> Option<u8> {
+        if self.writer.fresh {
+            self.writer.retiring
+        } else {
+            self.output
+        }
+    }
+
+    /// Changes the command strength as the DDS adapter does (see [`Writer`]).
+    pub fn set_output(&mut self, strength: Option<u8>) {
+        if strength == self.output {
+            return;
+        }
+        let raise = matches!((self.output, strength), (Some(old), Some(new)) if new > old);
+        self.writer.retiring = if raise {
+            self.output.max(self.writer.retiring)
+        } else {
+            None
+        };
+        self.output = strength;
+        self.writer.fresh = strength.is_some();
+    }
+
+    /// A new round: the writers created in the last one are established and the retired
+    /// ones are gone (discovery within a round, the model's timing assumption).
+    pub fn establish_writers(&mut self) {
+        self.writer = Writer::default();
     }
 
     /// Not FAILED: it takes part in voting.

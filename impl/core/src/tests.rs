@@ -37,6 +37,9 @@ fn heartbeat(id: ControllerId, phase: Phase) -> Heartbeat {
         strength: None,
         agreed: None,
         vote: None,
+        epoch: 0,
+        provisional: false,
+        established_strength: None,
     }
 }
 
@@ -50,6 +53,9 @@ fn steady(id: ControllerId, agreed: Assignment) -> Heartbeat {
         strength: role.map(Role::strength),
         agreed: Some(agreed),
         vote: Some(agreed),
+        epoch: 1,
+        provisional: false,
+        established_strength: role.map(Role::strength),
     }
 }
 
@@ -77,7 +83,8 @@ fn deliver(core: &mut Core, heartbeats: &[Heartbeat], now_ms: u64) {
     }
 }
 
-/// Controller `id` of a formed three-controller system (P=1 S=2 T=3), steady at t = 500.
+/// Controller `id` of a formed three-controller system (P=1 S=2 T=3): steady at t = 500,
+/// commanding at its role's strength from t = 750.
 fn formed_c(id: ControllerId) -> Core {
     let mut c = core(id, 0, 0);
     let mut t = 0;
@@ -103,6 +110,12 @@ fn formed_c(id: ControllerId) -> Core {
         advance(&mut c, t);
     }
     assert_eq!(c.state().phase, Phase::Steady);
+    // Round 3: the peers report their strengths established; the standbys raise theirs once
+    // the roles above them have (F13).
+    advance(&mut c, t + 62);
+    let established: Vec<Heartbeat> = peers.iter().map(|&p| steady(p, result)).collect();
+    deliver(&mut c, &established, t + 100);
+    advance(&mut c, t + PERIOD_MS);
     c
 }
 
@@ -126,6 +139,9 @@ fn the_first_heartbeat_goes_out_at_start_then_a_quarter_period_after_each_bounda
             strength: None,
             agreed: None,
             vote: None,
+            epoch: 0,
+            provisional: false,
+            established_strength: None,
         }),]
     );
     assert_eq!(
@@ -211,7 +227,7 @@ fn a_majority_of_identical_votes_gives_the_role_and_its_strength() {
 }
 
 #[test]
-fn a_lone_controller_waits_for_the_window_then_takes_primary() {
+fn a_lone_controller_waits_for_the_window_then_takes_primary_at_the_provisional_strength() {
     let mut c = core(1, 0, 0);
     let commands = advance(&mut c, 499);
     assert_eq!(fire(&mut c, 500), vec![], "second quiet round");
@@ -235,7 +251,7 @@ fn a_lone_controller_waits_for_the_window_then_takes_primary() {
             }),
             Command::SetOutput {
                 role: Some(Role::Primary),
-                strength: Some(30)
+                strength: Some(PROVISIONAL_PRIMARY_STRENGTH)
             }
         ]
     );
@@ -250,16 +266,16 @@ fn a_lone_controller_waits_for_the_window_then_takes_primary() {
 fn a_peer_silent_for_the_dead_man_deadline_is_lost_alarmed_and_re_voted() {
     let mut c = formed_c(2);
     let result = assignment(&[(1, 0), (2, 0), (3, 0)]);
-    // Round ending 750: C3 heard, C1 silent (1 of 2 rounds): nothing happens.
-    advance(&mut c, 562);
-    deliver(&mut c, &[steady(3, result)], 600);
-    assert_eq!(advance(&mut c, 750), vec![]);
-    // Round ending 1000: C1 silent for the second round: lost.
+    // Round ending 1000: C3 heard, C1 silent (1 of 2 rounds): nothing happens.
     advance(&mut c, 812);
     deliver(&mut c, &[steady(3, result)], 850);
+    assert_eq!(advance(&mut c, 1000), vec![]);
+    // Round ending 1250: C1 silent for the second round: lost.
+    advance(&mut c, 1062);
+    deliver(&mut c, &[steady(3, result)], 1100);
     let new_vote = assignment(&[(2, 0), (3, 0)]);
     assert_eq!(
-        fire(&mut c, 1000),
+        fire(&mut c, 1250),
         vec![
             Command::PublishVote(VoteRecord {
                 from: 2,
@@ -278,8 +294,8 @@ fn a_peer_silent_for_the_dead_man_deadline_is_lost_alarmed_and_re_voted() {
         Some(20),
         "keeps commanding at its old strength"
     );
-    // Round ending 1250: C3's heartbeat carries the same vote: promoted.
-    advance(&mut c, 1062);
+    // Round ending 1500: C3's heartbeat carries the same vote: promoted.
+    advance(&mut c, 1312);
     deliver(
         &mut c,
         &[Heartbeat {
@@ -287,10 +303,10 @@ fn a_peer_silent_for_the_dead_man_deadline_is_lost_alarmed_and_re_voted() {
             vote: Some(new_vote),
             ..steady(3, result)
         }],
-        1100,
+        1350,
     );
     assert_eq!(
-        fire(&mut c, 1250),
+        fire(&mut c, 1500),
         vec![Command::SetOutput {
             role: Some(Role::Primary),
             strength: Some(30)
@@ -364,7 +380,7 @@ fn a_minority_voter_is_marked_failed_after_the_grace() {
     let mut c = formed_c(1);
     let result = assignment(&[(1, 0), (2, 0), (3, 0)]);
     let dissent = assignment(&[(3, 0), (1, 0), (2, 0)]);
-    let mut t = 500;
+    let mut t = 750;
     let mut marked_at = None;
     for round in 1..=4 {
         advance(&mut c, t + 62);
@@ -398,7 +414,7 @@ fn an_outvoted_controller_fails_itself_after_the_grace() {
     let mut c = formed_c(3);
     let result = assignment(&[(1, 0), (2, 0), (3, 0)]);
     let without_3 = assignment(&[(1, 0), (2, 0)]);
-    let mut t = 500;
+    let mut t = 750;
     for _ in 0..4 {
         advance(&mut c, t + 62);
         let them = |from| Heartbeat {
@@ -423,7 +439,7 @@ fn a_new_primary_holds_secondary_strength_while_the_old_one_claims_primary() {
     if let Some(p) = c.state.peers.get_mut(&1) {
         p.failed = true;
     }
-    advance(&mut c, 562);
+    advance(&mut c, 812);
     deliver(
         &mut c,
         &[
@@ -434,11 +450,11 @@ fn a_new_primary_holds_secondary_strength_while_the_old_one_claims_primary() {
                 ..steady(3, result)
             },
         ],
-        600,
+        850,
     );
     c.state.vote = Some(without_1);
     c.state.phase = Phase::Voting;
-    advance(&mut c, 750);
+    advance(&mut c, 1000);
     assert_eq!(c.state().role, Some(Role::Primary));
     assert_eq!(
         c.state().output,
@@ -451,7 +467,7 @@ fn a_new_primary_holds_secondary_strength_while_the_old_one_claims_primary() {
 fn a_local_fault_stops_commanding_and_withdraws_the_vote() {
     let mut c = formed_c(1);
     assert_eq!(
-        (c.step(Input::LocalFault, 600)),
+        (c.step(Input::LocalFault, 850)),
         vec![
             Command::PublishVote(VoteRecord {
                 from: 1,
@@ -471,7 +487,7 @@ fn a_local_fault_stops_commanding_and_withdraws_the_vote() {
 fn a_restarted_peer_is_a_new_member_and_its_alarm_is_cleared() {
     let mut c = formed_c(1);
     let result = assignment(&[(1, 0), (2, 0), (3, 0)]);
-    let mut t = 500;
+    let mut t = 750;
     for _ in 0..2 {
         advance(&mut c, t + 62);
         deliver(&mut c, &[steady(2, result)], t + 100);
@@ -536,4 +552,86 @@ fn a_caller_that_fell_behind_runs_one_round_end() {
         },
         "heartbeat due at once"
     );
+}
+
+#[test]
+fn a_standby_raises_only_once_the_role_above_reports_its_strength_established() {
+    let mut c = core(2, 0, 0);
+    let result = assignment(&[(1, 0), (2, 0), (3, 0)]);
+    let mut t = 0;
+    for heard in [
+        vec![
+            heartbeat(1, Phase::Initializing),
+            heartbeat(3, Phase::Initializing),
+        ],
+        vec![
+            Heartbeat {
+                vote: Some(result),
+                ..heartbeat(1, Phase::Voting)
+            },
+            Heartbeat {
+                vote: Some(result),
+                ..heartbeat(3, Phase::Voting)
+            },
+        ],
+    ] {
+        advance(&mut c, t + 62);
+        deliver(&mut c, &heard, t + 100);
+        t += PERIOD_MS;
+        advance(&mut c, t);
+    }
+    assert_eq!(c.state().role, Some(Role::Secondary));
+    assert_eq!(
+        c.state().output,
+        None,
+        "the Primary's writer is new this round"
+    );
+    assert_eq!(c.state().epoch, 1, "a backed result starts the first epoch");
+    // The Primary reports 30 but its writer is not established yet: still silent.
+    let creating = Heartbeat {
+        established_strength: None,
+        ..steady(1, result)
+    };
+    advance(&mut c, t + 62);
+    deliver(&mut c, &[creating, steady(3, result)], t + 100);
+    t += PERIOD_MS;
+    advance(&mut c, t);
+    assert_eq!(c.state().output, None);
+    advance(&mut c, t + 62);
+    deliver(&mut c, &[steady(1, result), steady(3, result)], t + 100);
+    t += PERIOD_MS;
+    assert_eq!(
+        fire(&mut c, t),
+        vec![Command::SetOutput {
+            role: Some(Role::Secondary),
+            strength: Some(20)
+        }]
+    );
+    assert_eq!(
+        c.report().established_strength,
+        None,
+        "its own new writer is reported once established, a round later"
+    );
+}
+
+#[test]
+fn a_returning_primary_ranks_below_the_result_of_a_newer_epoch() {
+    // C1 was Primary at epoch 1; C2 and C3 went on without it and agreed P=2 S=3 at epoch
+    // 2. C1 comes back as a new life and hears them: it comes in below.
+    let newer = assignment(&[(2, 0), (3, 0)]);
+    let mut c = core(1, 1, 0);
+    let at_epoch_2 = |id| Heartbeat {
+        epoch: 2,
+        ..steady(id, newer)
+    };
+    advance(&mut c, 62);
+    deliver(&mut c, &[at_epoch_2(2), at_epoch_2(3)], 100);
+    advance(&mut c, 250);
+    assert_eq!(c.state().vote, Some(assignment(&[(2, 0), (3, 0), (1, 1)])));
+    // Its own old result at epoch 1 names it Primary; the newer epoch wins the merge.
+    let mut c = formed_c(1);
+    advance(&mut c, 812);
+    deliver(&mut c, &[at_epoch_2(2), at_epoch_2(3)], 850);
+    advance(&mut c, 1000);
+    assert_eq!(c.state().vote, Some(assignment(&[(2, 0), (3, 0), (1, 0)])));
 }

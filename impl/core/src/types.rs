@@ -17,6 +17,12 @@ pub type Incarnation = u64;
 /// The number of roles; a controller beyond this many is ignored.
 pub const ROLE_COUNT: usize = 3;
 
+/// The strength a Primary commands with while its result is provisional (agreed without a
+/// majority, a side cut off from the rest): above a lone standby's 10, below the Secondary
+/// strength of the side that kept the majority, so that side's Primary wins even while it
+/// holds 20 (finding F11).
+pub const PROVISIONAL_PRIMARY_STRENGTH: u8 = 15;
+
 /// A voted role. The order is the order of precedence: Primary drives the actuator.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]

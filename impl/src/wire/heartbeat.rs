@@ -1,12 +1,12 @@
 //! The controller heartbeat: each controller's phase, role, commanding strength, agreed
-//! assignment and vote, every round.
+//! assignment with its epoch and standing, vote, and established strength, every round.
 
 use super::assignment::{decode_optional, encode_optional, WireAssignment};
 use super::codes::{
     controller_id, phase_code, phase_from_code, role_code, role_from_code, STRENGTH_NONE,
 };
 use super::{WireError, WireSample};
-use crate::core::types::{Phase, Role};
+use crate::core::types::{Phase, Role, PROVISIONAL_PRIMARY_STRENGTH};
 use crate::core::Heartbeat;
 use rustdds::Keyed;
 use serde::{Deserialize, Serialize};
@@ -31,6 +31,13 @@ pub struct HeartbeatSample {
     pub agreed: WireAssignment,
     pub vote_valid: bool,
     pub vote: WireAssignment,
+    /// The epoch of the agreed result (0 before there is one).
+    pub epoch: u32,
+    /// The agreed result lacks a majority of the last result's members.
+    pub provisional: bool,
+    /// The strength of its established command writer (what every reader knows by now);
+    /// 0 = none.
+    pub established_strength: u8,
 }
 
 impl Keyed for HeartbeatSample {
@@ -48,7 +55,22 @@ impl WireSample for HeartbeatSample {
         let from = controller_id("heartbeat.from_id", self.from_id)?;
         let phase = phase_from_code("heartbeat.phase", self.phase)?;
         let role = role_from_code("heartbeat.role", self.role)?;
-        let strength = strength_from_code(self.strength, role, phase)?;
+        let strength = strength_from_code("heartbeat.strength", self.strength, role, phase)?;
+        let established_strength = strength_from_code(
+            "heartbeat.established_strength",
+            self.established_strength,
+            role,
+            phase,
+        )?;
+        if established_strength > strength {
+            return Err(WireError::new(
+                "heartbeat.established_strength",
+                format!(
+                    "{} is above the strength it commands with ({})",
+                    self.established_strength, self.strength
+                ),
+            ));
+        }
         let agreed = decode_optional("heartbeat.agreed", self.agreed_valid, &self.agreed)?;
         let vote = decode_optional("heartbeat.vote", self.vote_valid, &self.vote)?;
         Ok(Heartbeat {
@@ -59,6 +81,9 @@ impl WireSample for HeartbeatSample {
             strength,
             agreed,
             vote,
+            epoch: self.epoch,
+            provisional: self.provisional,
+            established_strength,
         })
     }
 
@@ -75,39 +100,48 @@ impl WireSample for HeartbeatSample {
             agreed,
             vote_valid,
             vote,
+            epoch: heartbeat.epoch,
+            provisional: heartbeat.provisional,
+            established_strength: heartbeat.established_strength.unwrap_or(STRENGTH_NONE),
         }
     }
 }
 
-/// The strength a heartbeat commands with. Rules beyond the code: a strength needs a role, is
-/// one of the role strengths and never above the role's own (a new Primary commands at 20
-/// during a hand-over), and only a voting or steady controller commands.
-fn strength_from_code(code: u8, role: Option<Role>, phase: Phase) -> Result<Option<u8>, WireError> {
-    const FIELD: &str = "heartbeat.strength";
+/// A strength a heartbeat reports (`FIELD` names which). Rules beyond the code: a strength
+/// needs a role, is one of the role strengths or the provisional Primary's, never above the
+/// role's own (a new Primary commands at 20 during a hand-over, a standby keeps its lower
+/// strength until the roles above have raised theirs), and only a voting or steady controller
+/// commands.
+fn strength_from_code(
+    field: &'static str,
+    code: u8,
+    role: Option<Role>,
+    phase: Phase,
+) -> Result<Option<u8>, WireError> {
     if code == STRENGTH_NONE {
         return Ok(None);
     }
-    if Role::from_strength(code).is_none() {
+    if Role::from_strength(code).is_none() && code != PROVISIONAL_PRIMARY_STRENGTH {
         return Err(WireError::new(
-            FIELD,
+            field,
             format!("{code} is not a role strength"),
         ));
     }
     let Some(role) = role else {
         return Err(WireError::new(
-            FIELD,
+            field,
             format!("commands at {code} without a role"),
         ));
     };
     if code > role.strength() {
         return Err(WireError::new(
-            FIELD,
+            field,
             format!("{code} is above the {role} strength {}", role.strength()),
         ));
     }
     if !matches!(phase, Phase::Voting | Phase::Steady) {
         return Err(WireError::new(
-            FIELD,
+            field,
             format!("commands at {code} while {phase}"),
         ));
     }

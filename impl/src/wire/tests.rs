@@ -1,7 +1,9 @@
 //! The wire types' unit tests: CDR layouts, round trips, and every malformed field named.
 
 use super::*;
-use crate::core::types::{AlarmReason, Assignment, Holder, Phase, Role, VoteRecord};
+use crate::core::types::{
+    AlarmReason, Assignment, Holder, Phase, Role, VoteRecord, PROVISIONAL_PRIMARY_STRENGTH,
+};
 use crate::core::Heartbeat;
 use rustdds::Keyed;
 use rustdds::{
@@ -52,6 +54,9 @@ fn heartbeat() -> Heartbeat {
         strength: Some(30),
         agreed: Some(full_assignment()),
         vote: Some(Assignment::from_ranked([holder(2, 77), holder(1, 5)])),
+        epoch: 4_000_000_007,
+        provisional: false,
+        established_strength: Some(20),
     }
 }
 
@@ -131,6 +136,9 @@ fn heartbeat_round_trips_through_cdr() {
         strength: None,
         agreed: None,
         vote: None,
+        epoch: 0,
+        provisional: false,
+        established_strength: None,
     };
     assert_eq!(round_trip::<HeartbeatSample>(&quiet).unwrap(), quiet);
     let handover = Heartbeat {
@@ -144,6 +152,7 @@ fn heartbeat_round_trips_through_cdr() {
         let h = Heartbeat {
             phase,
             strength: None,
+            established_strength: None,
             ..heartbeat()
         };
         assert_eq!(round_trip::<HeartbeatSample>(&h).unwrap(), h);
@@ -198,6 +207,7 @@ fn a_strength_the_role_or_phase_does_not_allow_is_named() {
         role,
         strength,
         phase,
+        established_strength: strength,
         ..heartbeat_sample()
     };
     for (sample, why) in [
@@ -232,6 +242,7 @@ fn a_strength_the_role_or_phase_does_not_allow_is_named() {
     }
     // The same fields within the rules decode.
     for sample in [
+        with(ROLE_PRIMARY, PROVISIONAL_PRIMARY_STRENGTH, PHASE_STEADY),
         with(ROLE_PRIMARY, 20, PHASE_VOTING),
         with(ROLE_SECONDARY, 20, PHASE_STEADY),
         with(ROLE_TERTIARY, 10, PHASE_STEADY),
@@ -416,5 +427,33 @@ fn truncated_or_garbage_bytes_are_errors_not_panics() {
         if let Ok(sample) = from_cdr::<HeartbeatSample>(&noise) {
             let _ = sample.decode();
         }
+    }
+}
+
+#[test]
+fn an_established_strength_above_the_commanded_one_or_outside_the_rules_is_named() {
+    let with = |strength, established_strength| HeartbeatSample {
+        strength,
+        established_strength,
+        ..heartbeat_sample()
+    };
+    for (sample, why) in [
+        (
+            with(20, 30),
+            "established above the strength it commands with",
+        ),
+        (with(STRENGTH_NONE, 10), "established while silent"),
+        (with(30, 25), "no role's strength"),
+    ] {
+        assert_eq!(
+            rejected_field(sample),
+            "heartbeat.established_strength",
+            "{why}: {sample:?}"
+        );
+    }
+    // A raise reports the old writer's strength until the new one is established; a
+    // lowering reports none for that round.
+    for sample in [with(30, 20), with(30, STRENGTH_NONE), with(20, 20)] {
+        assert!(sample.decode().is_ok(), "{sample:?}");
     }
 }

@@ -51,36 +51,38 @@ pub(super) fn tie_break_targets(state: &State) -> Vec<Id> {
         .collect()
 }
 
-/// Re-evaluates the owner after an action: it stays while it is among the strongest visible
-/// writers; otherwise the strongest (lowest id among equals) takes over. With no writer
-/// visible the actuator keeps its last owner (it has nothing else to follow).
+/// Re-evaluates the owner after an action (see [`next_owner`]) and counts a change.
 pub(super) fn arbitrate(next: &mut State) {
-    let writers = visible(next);
-    let Some(top) = writers.iter().map(|(_, strength)| *strength).max() else {
-        return;
-    };
+    if let Some(to) = next_owner(&visible(next), next.owner, next.tie_order) {
+        change_owner(next, to);
+    }
+}
+
+/// DDS exclusive ownership over the writers a reader knows, each `(controller, its strongest
+/// visible strength)`: the owner stays while it is among the strongest, unless a tie it is
+/// known to lose (`tie_order`, bit `link_bit(a, b)`: `a` beats `b`) gives the actuator to
+/// another; otherwise the strongest (the lowest id among equals) takes over. With no writer
+/// visible the actuator keeps its last owner (it has nothing else to follow). Returns the
+/// owner to change to, if it changes. The conformance suite runs the same rule over the
+/// implementation's writers.
+pub fn next_owner(writers: &[(Id, u8)], owner: Option<Id>, tie_order: u16) -> Option<Id> {
+    let top = writers.iter().map(|(_, strength)| *strength).max()?;
     let owner_on_top = writers
         .iter()
-        .any(|(id, strength)| Some(*id) == next.owner && *strength == top);
-    if let (true, Some(owner)) = (owner_on_top, next.owner) {
+        .any(|(id, strength)| Some(*id) == owner && *strength == top);
+    if let (true, Some(owner)) = (owner_on_top, owner) {
         // A tie the owner is known to lose goes to the writer that beats it.
-        let beaten_by = writers
+        return writers
             .iter()
-            .find(|(id, strength)| *strength == top && next.tie_order & link_bit(*id, owner) != 0)
+            .find(|(id, strength)| *strength == top && tie_order & link_bit(*id, owner) != 0)
             .map(|(id, _)| *id);
-        if let Some(to) = beaten_by {
-            change_owner(next, to);
-        }
-        return;
     }
-    let strongest = writers
+    writers
         .iter()
         .filter(|(_, strength)| *strength == top)
         .map(|(id, _)| *id)
-        .min();
-    if let Some(to) = strongest {
-        change_owner(next, to);
-    }
+        .min()
+        .filter(|to| Some(*to) != owner)
 }
 
 /// The actuator now follows `to`; a change from another owner is counted.
@@ -159,9 +161,10 @@ pub(super) fn settle_bookkeeping(next: &mut State) {
 /// fails").
 pub(super) fn note_primary_taken_back(before: &State, next: &mut State) {
     let away = next.history.away;
-    let returner_holds_primary = next.controllers.iter().any(|c| {
-        away & (1 << (c.id - 1)) != 0 && c.is_up() && c.role == Some(Role::Primary)
-    });
+    let returner_holds_primary = next
+        .controllers
+        .iter()
+        .any(|c| away & (1 << (c.id - 1)) != 0 && c.is_up() && c.role == Some(Role::Primary));
     let stayer_lost_primary = before.controllers.iter().any(|b| {
         away & (1 << (b.id - 1)) == 0
             && b.is_active()

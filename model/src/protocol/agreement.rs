@@ -4,9 +4,7 @@
 use crate::config::Config;
 use crate::fixes::{Mutation, Rules};
 use crate::state::{Controller, History, Peer, State};
-use crate::types::{
-    Assignment, Holder, Id, Phase, Role, PROVISIONAL_PRIMARY_STRENGTH, ROLE_COUNT,
-};
+use crate::types::{Assignment, Holder, Id, Phase, Role, PROVISIONAL_PRIMARY_STRENGTH, ROLE_COUNT};
 
 /// Where the votes a decision counts come from.
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -323,9 +321,9 @@ fn above_established(c: &Controller, strength: u8) -> bool {
     Role::ALL[..role.rank()].iter().all(|above| {
         agreed.holder(*above).is_none_or(|holder| {
             holder == c.id
-                || c.peer(holder).heard_strength.is_some_and(|reported| {
-                    reported > strength && reported >= above.strength()
-                })
+                || c.peer(holder)
+                    .heard_strength
+                    .is_some_and(|reported| reported > strength && reported >= above.strength())
         })
     })
 }

@@ -259,8 +259,9 @@ fn new_life(config: &Config, state: &State, next: &mut State, controller: Id, re
 
 /// Every link bit to or from `id`.
 fn links_of(id: Id) -> u16 {
-    (1..=crate::types::MAX_CONTROLLERS as Id)
-        .fold(0, |mask, other| mask | link_bit(id, other) | link_bit(other, id))
+    (1..=crate::types::MAX_CONTROLLERS as Id).fold(0, |mask, other| {
+        mask | link_bit(id, other) | link_bit(other, id)
+    })
 }
 
 /// Pauses, cuts and the actuator's own events.

@@ -26,12 +26,8 @@ pub(super) fn tick(config: &Config, before: &State, next: &mut State) {
             }
         }
     }
-    // The writers created last round are established now: the actuator has discovered
-    // them and the retired ones are gone (discovery within a round, the timing assumption).
     for c in next.controllers.iter_mut() {
-        c.fresh_writer = false;
-        c.undiscovered = false;
-        c.retiring = None;
+        c.establish_writers();
     }
     for &id in &ids {
         round_step(config, before, next, id);

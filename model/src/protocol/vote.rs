@@ -68,7 +68,14 @@ pub fn compute_vote(config: &Config, c: &Controller) -> Assignment {
     // one epoch (see the ranking below).
     let mut known: Vec<(Assignment, u8, bool, bool)> = c
         .agreed
-        .map(|a| (a, c.epoch, c.provisional, a.holder(Role::Primary) == Some(c.id)))
+        .map(|a| {
+            (
+                a,
+                c.epoch,
+                c.provisional,
+                a.holder(Role::Primary) == Some(c.id),
+            )
+        })
         .into_iter()
         .collect();
     // F6: every incumbent's result, as heartbeats carry it. F1 alone gives that knowledge to
@@ -115,7 +122,12 @@ pub fn compute_vote(config: &Config, c: &Controller) -> Assignment {
                 role.filter(|r| rules.f2_keep_standby_order || *r == Role::Primary)
                     .map(|r| {
                         let by_primary = !(rules.f11_epochs && *own_primary);
-                        (std::cmp::Reverse(*epoch), *provisional, by_primary, r.rank())
+                        (
+                            std::cmp::Reverse(*epoch),
+                            *provisional,
+                            by_primary,
+                            r.rank(),
+                        )
                     })
             })
             .min()

@@ -58,6 +58,7 @@ pub fn standard(scope: Config) -> Vec<TraceScope> {
             Contribution::Everything,
             "link-failure",
         ),
+        TraceScope::new(Config::returns(), Contribution::Everything, "returns"),
     ];
     scopes.extend(Config::paper_findings().into_iter().map(|(fix, config)| {
         let name = format!("paper-{}", fix.label().to_lowercase());

@@ -85,9 +85,10 @@ fn assignment(a: Option<Assignment>) -> Option<String> {
 }
 
 /// The stages in the order the coverage table shows them.
-pub const STAGES: [Stage; 6] = [
+pub const STAGES: [Stage; 7] = [
     Stage::NotStarted,
     Stage::Down,
+    Stage::Paused,
     Stage::Initializing,
     Stage::Voting,
     Stage::Steady,

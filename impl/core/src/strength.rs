@@ -1,0 +1,73 @@
+//! The command strength a controller's role entitles it to, and when it may move there.
+//!
+//! DDS exclusive ownership hands the actuator to the strongest writer a reader knows, and
+//! equal strengths go by GUID, an order no controller chooses. So a strength is a claim on the
+//! actuator, moved with care: a Primary whose predecessor still claims Primary holds the
+//! Secondary strength (finding F8), a provisional Primary commands at 15 (F11), and a raise
+//! waits until every role above reports an established strength above the new one (F13), so a
+//! tie can never hand the actuator to a lower role. Lowering is at once. The model's rules of
+//! the same names are in `model/src/protocol/agreement.rs`.
+
+use crate::epochs::hears_majority;
+use crate::state::ControllerState;
+use crate::types::{Phase, Role, PROVISIONAL_PRIMARY_STRENGTH};
+
+/// The strength its role and result entitle it to now; `None` before a Primary exists or
+/// without a role.
+pub(crate) fn entitled_strength(c: &ControllerState) -> Option<u8> {
+    let role = c.role?;
+    if !matches!(c.phase, Phase::Voting | Phase::Steady) {
+        return None;
+    }
+    c.agreed?.holder(Role::Primary)?;
+    if c.provisional {
+        if role != Role::Primary {
+            return None;
+        }
+        // Newly provisional, the majority side elects its Primary in this round: dropping
+        // before it raises would hand the actuator to a standby first. While it hears a
+        // majority (a healed cut, a result not yet confirmed) it keeps its strength until the
+        // merge or the confirmation is agreed.
+        if c.output.is_some() && (c.provisional_rounds == 0 || hears_majority(c)) {
+            return c.output;
+        }
+        return Some(PROVISIONAL_PRIMARY_STRENGTH);
+    }
+    let contested = c
+        .peers
+        .values()
+        .any(|p| p.alive.is_some() && p.claims_primary);
+    if role == Role::Primary && contested {
+        return Some(Role::Secondary.strength());
+    }
+    Some(role.strength())
+}
+
+/// Moves the command output to the entitled strength; a raise waits for the roles above.
+pub(crate) fn apply_output(c: &mut ControllerState) {
+    let target = entitled_strength(c);
+    if let (old, Some(new)) = (c.output, target) {
+        let raise = old.is_none_or(|old| new > old);
+        if raise && !above_established(c, new) {
+            return;
+        }
+    }
+    c.set_output(target);
+}
+
+/// Every holder of a role above its own in its agreed result reported, in its last heartbeat,
+/// an established strength above `strength` and at least its own role's.
+fn above_established(c: &ControllerState, strength: u8) -> bool {
+    let (Some(agreed), Some(role)) = (c.agreed, c.role) else {
+        return true;
+    };
+    Role::ALL[..role.rank()].iter().all(|above| {
+        agreed.holder(*above).is_none_or(|holder| {
+            holder == c.id
+                || c.peers
+                    .get(&holder)
+                    .and_then(|p| p.heard_strength)
+                    .is_some_and(|reported| reported > strength && reported >= above.strength())
+        })
+    })
+}
