@@ -103,12 +103,16 @@ fn command_text(id: ControllerId, command: &Command, numbers: &IncarnationNumber
     };
     match command {
         Command::PublishHeartbeat(h) => format!(
-            "send heartbeat {} {} {} agreed[{}] vote[{}]",
+            "send heartbeat {} {} {} established={} agreed[{}]@e{}{} vote[{}]",
             h.phase,
             h.role.map_or("no-role".to_string(), |r| r.to_string()),
             h.strength
                 .map_or("silent".to_string(), |s| format!("out={s}")),
+            h.established_strength
+                .map_or("none".to_string(), |s| s.to_string()),
             assignment(h.agreed),
+            h.epoch,
+            if h.provisional { " provisional" } else { "" },
             assignment(h.vote)
         ),
         Command::PublishVote(record) => match record.vote {

@@ -179,8 +179,9 @@ fn revote(config: &CoreConfig, c: &mut ControllerState) {
 /// A function of what it knows, never of its own earlier votes (finding F6): every live
 /// member is ranked by the best place any known agreed result gives that very incarnation (its
 /// own and every incumbent's, from heartbeats), then by lowest id; three at most. A place in a
-/// newer epoch comes first, a backed result before a provisional one (F11), and between
-/// results of one epoch the one its own Primary holds; then the role. Live holders keep their
+/// newer epoch comes first, a backed result before a provisional one (F11), then the role, and
+/// between two results of one epoch that give one role to two members, the member that holds
+/// that result itself. Live holders keep their
 /// roles (no oscillation), a lost holder's juniors move up, newcomers come in below, and after
 /// a healed partition the side that kept a majority keeps its roles.
 // `config` selects a mutation (feature `mutation`); the correct rules need only the state.
@@ -192,7 +193,7 @@ pub(crate) fn compute_vote(config: &CoreConfig, c: &ControllerState) -> Assignme
             result,
             epoch: c.epoch,
             provisional: c.provisional,
-            held_by_its_primary: result.holder(Role::Primary) == Some(c.id),
+            held_by: c.id,
         })
         .into_iter()
         .collect();
@@ -205,12 +206,12 @@ pub(crate) fn compute_vote(config: &CoreConfig, c: &ControllerState) -> Assignme
                     result,
                     epoch: p.heard_epoch,
                     provisional: p.heard_provisional,
-                    held_by_its_primary: result.holder(Role::Primary) == Some(id),
+                    held_by: id,
                 })
             }),
     );
-    let unranked = (std::cmp::Reverse(0), true, true, ROLE_COUNT);
-    let rank = |member: &Holder| -> (std::cmp::Reverse<u32>, bool, bool, usize) {
+    let unranked = (std::cmp::Reverse(0), true, ROLE_COUNT, true);
+    let rank = |member: &Holder| -> (std::cmp::Reverse<u32>, bool, usize, bool) {
         #[cfg(feature = "mutation")]
         if crate::mutation::rank_by_id_only(config) {
             return unranked;
@@ -222,8 +223,8 @@ pub(crate) fn compute_vote(config: &CoreConfig, c: &ControllerState) -> Assignme
                     (
                         std::cmp::Reverse(known.epoch),
                         known.provisional,
-                        !known.held_by_its_primary,
                         role.rank(),
+                        known.held_by != member.id,
                     )
                 })
             })
@@ -242,8 +243,8 @@ struct KnownResult {
     result: Assignment,
     epoch: u32,
     provisional: bool,
-    /// The controller that holds it is the result's own Primary.
-    held_by_its_primary: bool,
+    /// The controller whose state or heartbeat carried it.
+    held_by: ControllerId,
 }
 
 /// Who decides: while a running system exists only its incumbents' votes count, so a

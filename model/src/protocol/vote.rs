@@ -64,18 +64,10 @@ pub fn compute_vote(config: &Config, c: &Controller) -> Assignment {
         })
         .collect();
     // Each known result with its epoch (F11; 0 without it).
-    // Whether the holder of the result is its own Primary matters only between results of
-    // one epoch (see the ranking below).
-    let mut known: Vec<(Assignment, u8, bool, bool)> = c
+    // Who holds the result matters only between results of one epoch (see the ranking).
+    let mut known: Vec<(Assignment, u8, bool, Id)> = c
         .agreed
-        .map(|a| {
-            (
-                a,
-                c.epoch,
-                c.provisional,
-                a.holder(Role::Primary) == Some(c.id),
-            )
-        })
+        .map(|a| (a, c.epoch, c.provisional, c.id))
         .into_iter()
         .collect();
     // F6: every incumbent's result, as heartbeats carry it. F1 alone gives that knowledge to
@@ -89,29 +81,27 @@ pub fn compute_vote(config: &Config, c: &Controller) -> Assignment {
                 .filter(|(_, p)| p.incumbent())
                 .filter_map(|(index, p)| {
                     let id = (index + 1) as Id;
-                    p.heard_agreed.map(|a| {
-                        let own_primary = a.holder(Role::Primary) == Some(id);
-                        (a, p.heard_epoch, p.heard_provisional, own_primary)
-                    })
+                    p.heard_agreed
+                        .map(|a| (a, p.heard_epoch, p.heard_provisional, id))
                 }),
         );
     }
     if !rules.f5_decide_on_heartbeats && joining {
         // Paper: a late joiner "assesses the existing system priority" from durable votes.
-        known.extend(durable_result(config, c).map(|a| (a, 0, false, false)));
+        known.extend(durable_result(config, c).map(|a| (a, 0, false, 0)));
     }
     // F11: a member's place in the newest result that has it comes first, a backed result
     // before a provisional one: after a merge the side that kept a majority keeps its roles.
-    // Two results of one epoch (agreed concurrently while a heartbeat was lost) rank the one
-    // its Primary holds first: the Primary's side already commands by it, so the holders it
-    // names keep their roles and the other side's newcomer waits.
-    let rank = |member: &Holder| -> (std::cmp::Reverse<u8>, bool, bool, usize) {
+    // Two results of one epoch (agreed concurrently while heartbeats were lost) may give one
+    // role to two members: the one that holds that result itself comes first, so a
+    // controller that took a role keeps it and a newcomer the other result named waits.
+    let rank = |member: &Holder| -> (std::cmp::Reverse<u8>, bool, usize, bool) {
         if config.mutated(Mutation::Failback) {
-            return (std::cmp::Reverse(0), true, true, ROLE_COUNT);
+            return (std::cmp::Reverse(0), true, ROLE_COUNT, true);
         }
         known
             .iter()
-            .filter_map(|(result, epoch, provisional, own_primary)| {
+            .filter_map(|(result, epoch, provisional, held_by)| {
                 let role = if rules.f3_incarnation_aware {
                     result.role_of_holder(*member)
                 } else {
@@ -121,17 +111,17 @@ pub fn compute_vote(config: &Config, c: &Controller) -> Assignment {
                 // the other roles are ranked by id again.
                 role.filter(|r| rules.f2_keep_standby_order || *r == Role::Primary)
                     .map(|r| {
-                        let by_primary = !(rules.f11_epochs && *own_primary);
+                        let not_its_own = !(rules.f11_epochs && *held_by == member.id);
                         (
                             std::cmp::Reverse(*epoch),
                             *provisional,
-                            by_primary,
                             r.rank(),
+                            not_its_own,
                         )
                     })
             })
             .min()
-            .unwrap_or((std::cmp::Reverse(0), true, true, ROLE_COUNT))
+            .unwrap_or((std::cmp::Reverse(0), true, ROLE_COUNT, true))
     };
     let mut ranked = members.clone();
     ranked.sort_by_key(|member| (rank(member), member.id));
