@@ -79,7 +79,7 @@ impl Default for Config {
             max_isolations: 0,
             dead_after_rounds: 2,
             window_rounds: 2,
-            settle_within_rounds: 8,
+            settle_within_rounds: 10,
             variant: Variant::Default,
             reverted: Vec::new(),
             mutation: None,

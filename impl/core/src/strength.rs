@@ -38,7 +38,14 @@ pub(crate) fn entitled_strength(c: &ControllerState) -> Option<u8> {
         .values()
         .any(|p| p.alive.is_some() && p.claims_primary);
     if role == Role::Primary && contested {
-        return Some(Role::Secondary.strength());
+        // A Primary already at full strength keeps it (dropping to 20 would tie with its
+        // Secondary); a new one waits at the Secondary's strength.
+        let primary = Role::Primary.strength();
+        return Some(if c.output == Some(primary) {
+            primary
+        } else {
+            Role::Secondary.strength()
+        });
     }
     Some(role.strength())
 }

@@ -289,7 +289,15 @@ pub(super) fn entitled_strength(config: &Config, c: &Controller) -> Option<u8> {
         .iter()
         .any(|p| p.alive.is_some() && p.claims_primary);
     if role == Role::Primary && rules.f8_hold_primary_strength && contested {
-        return Some(Role::Secondary.strength());
+        // F13: a Primary already at full strength keeps it (dropping to 20 would tie with
+        // its Secondary); a new one waits at the Secondary's strength.
+        let primary = Role::Primary.strength();
+        let keeps_full = rules.f13_ordered_raise && c.output == Some(primary);
+        return Some(if keeps_full {
+            primary
+        } else {
+            Role::Secondary.strength()
+        });
     }
     Some(role.strength())
 }

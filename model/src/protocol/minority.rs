@@ -49,6 +49,11 @@ pub(super) fn judge_minority(config: &Config, next: &mut State, id: Id, source: 
             peer.dissent_rounds = 0;
             continue;
         }
+        if source == Source::Heartbeats && peer.silent_rounds > 0 {
+            // Its heartbeat was lost this round: the vote judged is last round's, which it
+            // may have changed since. A dissent counts only in rounds it was heard.
+            continue;
+        }
         peer.dissent_rounds = peer.dissent_rounds.saturating_add(1);
         if peer.dissent_rounds > grace && !ignore {
             peer.failed = true;
