@@ -13,13 +13,16 @@ use stateright::Expectation;
 use std::collections::BTreeMap;
 use std::process::Command;
 
-/// Three founders and the given late joiners and fault budgets.
+/// Three founders and the given late joiners and fault budgets, under the rules F1-F10 were
+/// found in (`--variant v1`: every fix but protocol v2's F11-F14, which change the counterexamples'
+/// lengths and cover some of them; docs/findings.md).
 fn scope(late_joiners: u8, crashes: u8, restarts: u8, lost_heartbeats: u8) -> Config {
     Config {
         late_joiners,
         max_crashes: crashes,
         max_restarts: restarts,
         max_lost_heartbeats: lost_heartbeats,
+        variant: Variant::V1,
         ..Config::default()
     }
 }
@@ -34,7 +37,7 @@ fn reverting(base: &Config, fixes: &[Fix]) -> Config {
 /// Every `always` property the exhaustive search violates, with its shortest counterexample's
 /// length in steps.
 fn counterexamples(config: &Config) -> BTreeMap<&'static str, usize> {
-    let explored = search::explore(&RlModel::new(config.clone()), 5_000_000, |_, _| {});
+    let explored = search::explore(&RlModel::new(config.clone()), 20_000_000, |_, _| {});
     assert!(
         !explored.truncated,
         "the scope must be small enough to finish"
@@ -42,6 +45,9 @@ fn counterexamples(config: &Config) -> BTreeMap<&'static str, usize> {
     catalogue()
         .into_iter()
         .filter(|info| info.expectation == Expectation::Always)
+        // v1 has the failback and the blip that protocol v2 fixes (F11-F14): its own
+        // properties are not what these findings are about.
+        .filter(|info| config.variant != Variant::V1 || !V2_PROPERTIES.contains(&info.name))
         .filter_map(|info| {
             explored
                 .discovery(info.name)
@@ -49,6 +55,13 @@ fn counterexamples(config: &Config) -> BTreeMap<&'static str, usize> {
         })
         .collect()
 }
+
+/// The properties protocol v2 added; v1 violates them (docs/findings.md, F11-F14).
+const V2_PROPERTIES: [&str; 3] = [
+    "one owner change per fault",
+    "owner changes only to the next Primary",
+    "a returning controller never takes the Primary back",
+];
 
 fn none() -> BTreeMap<&'static str, usize> {
     BTreeMap::new()
@@ -65,7 +78,7 @@ fn the_paper_variant_reverts_every_fix_and_each_fix_has_its_own_switch() {
         }
     }
     let numbers: Vec<u8> = Fix::ALL.iter().map(|fix| fix.number()).collect();
-    assert_eq!(numbers, [1, 2, 3, 4, 5, 6, 7, 8, 10]);
+    assert_eq!(numbers, [1, 2, 3, 4, 5, 6, 7, 8, 10, 11, 12, 13, 14]);
 }
 
 #[test]
@@ -81,7 +94,7 @@ fn f1_a_late_joiner_that_votes_as_if_initializing_never_settles() {
         &small,
         &[Fix::LateJoinByHeartbeat, Fix::VoteFromKnowledge],
     ));
-    assert_eq!(found, BTreeMap::from([("settles after faults stop", 14)]));
+    assert_eq!(found, BTreeMap::from([("settles after faults stop", 16)]));
 }
 
 #[test]
@@ -146,7 +159,7 @@ fn f5_deciding_as_durable_votes_arrive_makes_two_owners() {
     let found = counterexamples(&reverting(&restart, &[Fix::DecideOnHeartbeats]));
     assert_eq!(
         found.get("actuator has a single owner"),
-        Some(&16),
+        Some(&17),
         "{found:?}"
     );
 }
@@ -156,18 +169,20 @@ fn f6_a_vote_from_its_own_result_only_deadlocks_after_one_lost_heartbeat() {
     let one_loss = scope(0, 0, 0, 1);
     assert_eq!(counterexamples(&one_loss), none());
     let found = counterexamples(&reverting(&one_loss, &[Fix::VoteFromKnowledge]));
-    assert_eq!(found, BTreeMap::from([("settles after faults stop", 14)]));
+    assert_eq!(found, BTreeMap::from([("settles after faults stop", 16)]));
 }
 
 #[test]
-fn f7_two_sides_that_marked_each_other_failed_never_settle() {
-    // A one-way loss must outlast the minority grace on both sides: the link-failure scope
-    // (1.1 M states, a few seconds). Its default rules hold: see checker.rs.
+fn f7_two_sides_that_marked_each_other_failed_are_covered_in_protocol_v2() {
+    // A one-way loss must outlast the minority grace on both sides: the link-failure scope.
+    // Under v1 rules F7 reverted never settled (19 steps, docs/findings.md). Protocol v2
+    // covers it: a dissent counts only in rounds its voter was heard, so the two sides no
+    // longer mark each other FAILED on stale votes, and F7 reverted alone changes nothing.
     let found = counterexamples(&reverting(
         &Config::link_failure(),
         &[Fix::JudgeSelfByEveryVote],
     ));
-    assert_eq!(found, BTreeMap::from([("settles after faults stop", 19)]));
+    assert_eq!(found, none());
 }
 
 /// A round ends with two controllers commanding at Primary strength, one of which heard the
