@@ -40,14 +40,16 @@ fn settle(mut state: model::State, rounds: usize) -> model::State {
 
 /// Three founders formed, then the Primary (C1) crashed and the survivors re-voted.
 fn formed_then_primary_crashed() -> model::State {
-    let state = settle(start(3), 3);
+    let state = settle(start(3), 6);
     let state = step(&state, Action::Crash { controller: 1 });
     settle(state, 5)
 }
 
 #[test]
 fn three_founders_vote_roles_by_lowest_id() {
-    let state = settle(start(3), 3);
+    // Roles in 2 rounds; each standby raises once the role above reports its writer
+    // established (F13): the Tertiary commands from round 6.
+    let state = settle(start(3), 6);
     let roles: Vec<_> = state.controllers.iter().map(|c| c.role).collect();
     assert_eq!(
         roles,
