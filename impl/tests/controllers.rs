@@ -49,7 +49,16 @@ fn two_controllers_form_as_primary_and_secondary() {
 fn a_single_controller_becomes_primary_after_the_window() {
     let mut cluster = Cluster::new("form1", 203, "");
     cluster.start(3);
-    cluster.wait_for("C3 Primary alone", FORM, |c| c.steady_with(3, P));
+    // Alone it cannot tell a dead system from a cut link: its result is provisional and it
+    // commands at 15, below the Secondary of any majority (docs/protocol.md, epochs).
+    cluster.wait_for("C3 Primary alone at 15", FORM, |c| {
+        c.status.get(&3).is_some_and(|s| {
+            s.report.phase == Phase::Steady
+                && s.report.role == P
+                && s.report.provisional
+                && s.report.strength == Some(rl::core::PROVISIONAL_PRIMARY_STRENGTH)
+        })
+    });
 }
 
 #[test]
