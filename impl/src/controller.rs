@@ -93,13 +93,19 @@ pub fn run(args: ControllerArgs) -> Result<(), crate::Error> {
     result.and(stopped)
 }
 
-/// The `systemctl status` line: `C2 steady primary (strength 30)`.
+/// The `systemctl status` line: `C2 steady primary (strength 30)`; a result agreed without a
+/// majority (a controller alone, a side cut off) says `provisional primary (strength 15)`.
 fn service_status(rl: &Redundancy) -> String {
     let status = rl.status();
     let role = status.report.role.map_or("no role", |role| role.name());
+    let standing = if status.report.provisional {
+        "provisional "
+    } else {
+        ""
+    };
     match status.report.strength {
         Some(strength) => format!(
-            "C{} {} {role} (strength {strength})",
+            "C{} {} {standing}{role} (strength {strength})",
             status.report.id, status.report.phase
         ),
         None => format!("C{} {} {role}", status.report.id, status.report.phase),
