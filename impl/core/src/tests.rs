@@ -30,16 +30,8 @@ fn assignment(holders: &[(ControllerId, Incarnation)]) -> Assignment {
 
 fn heartbeat(id: ControllerId, phase: Phase) -> Heartbeat {
     Heartbeat {
-        id,
-        incarnation: 0,
         phase,
-        role: None,
-        strength: None,
-        agreed: None,
-        vote: None,
-        epoch: 0,
-        provisional: false,
-        established_strength: None,
+        ..Heartbeat::initial(id, 0)
     }
 }
 

@@ -128,18 +128,7 @@ fn heartbeat_round_trips_through_cdr() {
         round_trip::<HeartbeatSample>(&heartbeat()).unwrap(),
         heartbeat()
     );
-    let quiet = Heartbeat {
-        id: 1,
-        incarnation: 0,
-        phase: Phase::Initializing,
-        role: None,
-        strength: None,
-        agreed: None,
-        vote: None,
-        epoch: 0,
-        provisional: false,
-        established_strength: None,
-    };
+    let quiet = Heartbeat::initial(1, 0);
     assert_eq!(round_trip::<HeartbeatSample>(&quiet).unwrap(), quiet);
     let handover = Heartbeat {
         phase: Phase::Voting,
