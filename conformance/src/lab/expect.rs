@@ -3,12 +3,13 @@
 //! figures here and nowhere else.
 //!
 //! Every run is judged on: the owner changes each fault caused at each actuator (at most
-//! `owner_changes_per_fault`), the largest command gap at each (at most `largest_gap_ms`), the
-//! time two controllers claimed top strength at once (at most `two_at_top_ms`), the recorded
-//! controller events against the model (`model_accepts`), the rounds from the last heal until
-//! every live controller has settled (at most [`SETTLE_ROUNDS`], the model's bound), and every
-//! process alive with no panic. The figures are what was measured on main with some margin
-//! (docs/faults.md has the runs); a figure that only holds on today's protocol says why.
+//! `owner_changes_per_fault`, where judged), the largest command gap at each (at most
+//! `largest_gap_ms`), the time two controllers claimed top strength at once (at most
+//! `two_at_top_ms`), the recorded controller events against the model (`model_accepts`), the
+//! rounds from the last heal until every live controller has settled (at most
+//! `settle_rounds`; the model's bound [`SETTLE_ROUNDS`] unless said otherwise), and every
+//! process alive with no panic. The figures are what was measured on main with a margin
+//! (docs/faults.md has the runs); each one that is looser than a crash's says why.
 
 /// The model's bound: 8 fault-free rounds after the last fault every live controller has
 /// settled ("settles after faults stop", docs/protocol.md).
@@ -17,44 +18,80 @@ pub const SETTLE_ROUNDS: u64 = 8;
 /// What one scenario's judges accept.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Expected {
-    pub owner_changes_per_fault: usize,
+    /// `None`: measured and reported, not judged (see [`for_scenario`] for which and why).
+    pub owner_changes_per_fault: Option<usize>,
     pub largest_gap_ms: f64,
     pub two_at_top_ms: f64,
     /// Whether the recorded controller events must be a behaviour of the model.
     pub model_accepts: bool,
+    pub settle_rounds: u64,
 }
 
-/// A single owner change per fault, a gap within the command deadline (100 ms) plus the
-/// re-publish period and scheduling slack, never two at top strength: what a crash must give.
+/// What a crash must give: one owner change per fault, a gap within the Connext reader's
+/// 200 ms deadline plus the re-publish period and slack (`rl servo`'s deadline is 100 ms),
+/// never two at top strength, the model's bound for settling.
 const CLEAN: Expected = Expected {
-    owner_changes_per_fault: 1,
+    owner_changes_per_fault: Some(1),
     largest_gap_ms: 250.0,
     two_at_top_ms: 0.0,
     model_accepts: true,
+    settle_rounds: SETTLE_ROUNDS,
+};
+
+/// A split (F9, docs/findings.md): a controller that hears nobody cannot tell a dead peer from
+/// a dead link, so each side has a Primary at strength 30 while it lasts, and on main the
+/// cut-off Primary takes its role back after the heal (failback): two owner changes, one in,
+/// one out. A protocol without failback tightens the owner changes to 1.
+const SPLIT: Expected = Expected {
+    owner_changes_per_fault: Some(2),
+    largest_gap_ms: 250.0,
+    two_at_top_ms: 10_000.0,
+    model_accepts: true,
+    settle_rounds: SETTLE_ROUNDS,
 };
 
 /// The expectations of scenario `name` (`random` for seeded random schedules).
 pub fn for_scenario(name: &str) -> Expected {
     match name {
-        "kill-primary" | "pause-primary" => CLEAN,
-        // On main a cut-off Primary takes its role back after the heal (failback): two owner
-        // changes, and both sides claim Primary while cut (F9: the protocol cannot tell a dead
-        // peer from a dead link). A protocol that prevents failback tightens this to 1.
-        "cut-primary"
-        | "one-way-out"
-        | "one-way-in"
-        | "partition-actuator-with-primary"
-        | "partition-actuator-with-two" => Expected {
-            owner_changes_per_fault: 2,
-            largest_gap_ms: 250.0,
-            two_at_top_ms: 10_000.0,
-            model_accepts: true,
+        "kill-primary" | "pause-primary" | "clock-period" | "clock-10s" | "clock-minus-1h" => CLEAN,
+        // A clock offset by a fraction of a period puts that controller's decisions into
+        // another round than the model's shared rounds: the protocol copes (one change per
+        // kill), the model's synchronous rounds do not describe it.
+        "clock-0.1s" => Expected {
+            model_accepts: false,
+            ..CLEAN
         },
+        "cut-primary" | "partition-actuator-with-primary" | "partition-actuator-with-two" => SPLIT,
+        // The cut-off Secondary becomes Primary of its own side at 30; the actuator may follow
+        // it by GUID (DDS orders equal strengths by GUID, not by vote) and back at the heal.
+        "cut-secondary" => Expected {
+            owner_changes_per_fault: Some(4),
+            ..SPLIT
+        },
+        // The deaf or unheard Primary is outvoted, fails itself and is restarted (exit 75)
+        // while the loss lasts; its new participant's discovery announcements were lost, and
+        // RustDDS repeats them every 10 s (SPDP), so it can rejoin up to 10 s after the heal.
+        "one-way-out" | "one-way-in" => Expected {
+            settle_rounds: 48,
+            two_at_top_ms: 1_000.0,
+            ..SPLIT
+        },
+        // Multicast carries the heartbeats: without it the Primary and the others split as
+        // in a cut, for as long as it lasts.
+        "multicast-drop" => Expected {
+            two_at_top_ms: 15_000.0,
+            ..SPLIT
+        },
+        // Packet loss, a flapping link or a starved one: ownership moves at the DDS level.
+        // The Connext reader's reliable, deadline-checked reader switches whenever a lost
+        // sample's repair outlasts its 200 ms deadline (dozens of changes at 20% loss while
+        // rl servo sees none), so owner changes are reported, not judged.
         _ => Expected {
-            owner_changes_per_fault: 4,
-            largest_gap_ms: 1000.0,
-            two_at_top_ms: 20_000.0,
+            owner_changes_per_fault: None,
+            largest_gap_ms: 250.0,
+            two_at_top_ms: 15_000.0,
             model_accepts: true,
+            settle_rounds: SETTLE_ROUNDS,
         },
     }
 }
