@@ -11,6 +11,8 @@
 //! process alive with no panic. The figures are what was measured on main with a margin
 //! (docs/faults.md has the runs); each one that is looser than a crash's says why.
 
+use super::faults::Fault;
+
 /// The model's bound: 8 fault-free rounds after the last fault every live controller has
 /// settled ("settles after faults stop", docs/protocol.md).
 pub const SETTLE_ROUNDS: u64 = 8;
@@ -41,16 +43,60 @@ const CLEAN: Expected = Expected {
 /// A split (F9, docs/findings.md): a controller that hears nobody cannot tell a dead peer from
 /// a dead link, so each side has a Primary at strength 30 while it lasts, and on main the
 /// cut-off Primary takes its role back after the heal (failback): two owner changes, one in,
-/// one out. A protocol without failback tightens the owner changes to 1.
+/// one out. The merge can pass ownership through a third controller for a few milliseconds
+/// (measured 4-5 ms, in 2 of 6 runs of the splits): two more. A protocol without failback
+/// tightens this to 1 (or 3 with the blip).
 const SPLIT: Expected = Expected {
-    owner_changes_per_fault: Some(2),
+    owner_changes_per_fault: Some(4),
     largest_gap_ms: 250.0,
     two_at_top_ms: 10_000.0,
     model_accepts: true,
     settle_rounds: SETTLE_ROUNDS,
 };
 
-/// The expectations of scenario `name` (`random` for seeded random schedules).
+/// What one fault, on its own, may cause: the named scenario that applies it alone. A split
+/// around a controller other than the Primary may leave the actuator alone with a weaker
+/// writer: measured 402 ms at the Connext reader (two of its deadlines), so 500 ms.
+pub fn for_fault(fault: &Fault) -> Expected {
+    match fault {
+        Fault::Kill(_) | Fault::Pause(_) => CLEAN,
+        Fault::Partition { .. } | Fault::Cut(_) => Expected {
+            largest_gap_ms: 500.0,
+            ..SPLIT
+        },
+        Fault::OneWay(..) => for_scenario("one-way-out"),
+        Fault::MulticastOnly(_) => for_scenario("multicast-drop"),
+        Fault::ClockOffset(_, offset_s) => {
+            let period_s = rl::config::Config::default().timing.heartbeat_period_ms as f64 / 1000.0;
+            let whole_periods = (offset_s / period_s - (offset_s / period_s).round()).abs() < 1e-6;
+            if whole_periods {
+                CLEAN
+            } else {
+                for_scenario("clock-0.1s")
+            }
+        }
+        Fault::Loss(..) | Fault::Flap(..) | Fault::RateLimit(..) => for_scenario("loss-20"),
+    }
+}
+
+/// A schedule of several faults: the loosest of what each fault may cause.
+pub fn for_faults<'a>(faults: impl IntoIterator<Item = &'a Fault>) -> Expected {
+    faults
+        .into_iter()
+        .map(for_fault)
+        .fold(CLEAN, |a, b| Expected {
+            owner_changes_per_fault: a
+                .owner_changes_per_fault
+                .zip(b.owner_changes_per_fault)
+                .map(|(x, y)| x.max(y)),
+            largest_gap_ms: a.largest_gap_ms.max(b.largest_gap_ms),
+            two_at_top_ms: a.two_at_top_ms.max(b.two_at_top_ms),
+            model_accepts: a.model_accepts && b.model_accepts,
+            settle_rounds: a.settle_rounds.max(b.settle_rounds),
+        })
+}
+
+/// The expectations of named scenario `name` (random schedules: [`for_faults`]).
 pub fn for_scenario(name: &str) -> Expected {
     match name {
         "kill-primary" | "pause-primary" | "clock-period" | "clock-10s" | "clock-minus-1h" => CLEAN,
@@ -64,10 +110,7 @@ pub fn for_scenario(name: &str) -> Expected {
         "cut-primary" | "partition-actuator-with-primary" | "partition-actuator-with-two" => SPLIT,
         // The cut-off Secondary becomes Primary of its own side at 30; the actuator may follow
         // it by GUID (DDS orders equal strengths by GUID, not by vote) and back at the heal.
-        "cut-secondary" => Expected {
-            owner_changes_per_fault: Some(4),
-            ..SPLIT
-        },
+        "cut-secondary" => SPLIT,
         // The deaf or unheard Primary is outvoted, fails itself and is restarted (exit 75)
         // while the loss lasts; its new participant's discovery announcements were lost, and
         // RustDDS repeats them every 10 s (SPDP), so it can rejoin up to 10 s after the heal.

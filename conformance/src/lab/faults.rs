@@ -91,7 +91,7 @@ impl fmt::Display for Fault {
                 };
                 write!(
                     f,
-                    "partition {t} | the other two, actuator {side}",
+                    "partition: {t} apart from the other two, actuator {side}",
                     t = alone
                 )
             }

@@ -58,7 +58,12 @@ pub fn table(outcomes: &[Outcome]) -> String {
             })
             .collect();
         let gap = |g: Option<(f64, f64)>| g.map_or("-".into(), |(ms, _)| format!("{ms:.0}"));
-        let faults: Vec<&str> = o.faults.iter().map(|f| f.label.as_str()).collect();
+        // A `|` would end the cell.
+        let faults: Vec<String> = o
+            .faults
+            .iter()
+            .map(|f| f.label.replace('|', "\\|"))
+            .collect();
         text.push_str(&format!(
             "| {} | {} | {} | {}/{} ms | {:.0} ms | {} | {} | {} | `lab run {} --seed {}` |\n",
             o.scenario,

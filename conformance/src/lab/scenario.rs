@@ -127,7 +127,7 @@ pub fn named() -> Vec<Scenario> {
         one(
             "one-way-out",
             "the Primary's packets to its peers lost (it hears them), 3 s",
-            true,
+            false,
             Fault::OneWay(p, Direction::Out),
             3.0,
         ),
@@ -267,9 +267,9 @@ pub fn random(seed: u64) -> Scenario {
     Scenario {
         name: "random".into(),
         about: format!("seed {seed}: {}", describe(&steps)),
+        expected: expect::for_faults(steps.iter().map(|s| &s.fault)),
         steps,
         in_ci: false,
-        expected: expect::for_scenario("random"),
     }
 }
 

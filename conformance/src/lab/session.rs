@@ -215,10 +215,11 @@ impl Session {
             if apply {
                 self.apply(&steps[i], base + i)?;
             } else if let Some(applied) = self.applied[base + i].take() {
+                let healed_ms = self.clock.now_ms();
                 faults::heal(applied, &self.lan, &mut self.procs)?;
                 let record = self.record_of_step.get(&(base + i)).copied();
                 if let Some(record) = record.and_then(|r| self.faults.get_mut(r)) {
-                    record.healed_ms = Some(self.clock.now_ms());
+                    record.healed_ms = Some(healed_ms);
                 }
             }
         }
@@ -228,11 +229,13 @@ impl Session {
     fn apply(&mut self, step: &Step, index: usize) -> Result<(), LabError> {
         let id = self.resolve(step.fault.target());
         let table = format!("labf{index}");
+        // Before applying: a restart takes time, and what it causes counts from its start.
+        let applied_ms = self.clock.now_ms();
         let applied = faults::apply(&step.fault, id, &table, &self.lan, &mut self.procs)?;
         self.record_of_step.insert(index, self.faults.len());
         self.faults.push(FaultRecord {
             label: applied.fault.to_string(),
-            applied_ms: self.clock.now_ms(),
+            applied_ms,
             healed_ms: None,
         });
         self.applied[index] = Some(applied);
