@@ -136,7 +136,7 @@ fn execute(cli: &Cli) -> Result<ExitCode, LabError> {
             failed.is_empty()
         }
         Command::Soak { minutes, seed } => {
-            let failures = soak::soak(*minutes, *seed, &setup)?;
+            let failures = soak::soak(*minutes, *seed, &setup, &cli.out)?;
             for failure in &failures {
                 eprintln!("lab soak: FAILED {failure}");
             }

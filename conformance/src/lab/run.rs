@@ -105,7 +105,7 @@ pub fn run(scenario: &Scenario, seed: u64, setup: &Setup, out: &Path) -> Result<
 }
 
 /// Trace validation in a thread, given up after [`VALIDATION_TIMEOUT`].
-fn validate_with_timeout(dir: PathBuf) -> Verdict {
+pub fn validate_with_timeout(dir: PathBuf) -> Verdict {
     let (sender, receiver) = std::sync::mpsc::channel();
     std::thread::spawn(move || {
         let _ = sender.send(validation::validate_recording(&dir));

@@ -1,7 +1,8 @@
 //! `soak --minutes M`: one system under random faults for M minutes, cycle after cycle (a
 //! seeded random schedule, then a fault-free liveness phase that must settle), with each
 //! controller's resident memory and open file descriptors sampled every minute. It fails on
-//! any cycle's judge failure, on trace validation of the whole recording, or when a
+//! any cycle's judge failure, on trace validation of the whole recording (left in
+//! `OUT/soak-seedN/events/` with the samples in `resources.json`), or when a
 //! controller's memory or descriptors grow faster than the thresholds below (least-squares
 //! slope over its samples, the first minute left out as warm-up).
 //!
@@ -12,10 +13,12 @@ use super::error::LabError;
 use super::faults::Fault;
 use super::judge;
 use super::lan::CONTROLLER_IDS;
-use super::run::LIVENESS;
+use super::run::{self, LIVENESS};
 use super::scenario;
 use super::session::{Session, Setup};
+use super::validation;
 use std::collections::BTreeMap;
+use std::path::Path;
 use std::time::{Duration, Instant};
 
 /// Growth that fails a soak: resident memory (MiB per minute) and open descriptors (per
@@ -25,7 +28,7 @@ pub const FD_SLOPE_LIMIT_PER_MIN: f64 = 0.5;
 const SAMPLE_EVERY: Duration = Duration::from_secs(60);
 
 /// One controller's resources at one time.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize)]
 pub struct Sample {
     pub at_min: f64,
     pub rss_mib: f64,
@@ -63,8 +66,9 @@ pub fn slope(points: &[(f64, f64)]) -> Option<f64> {
     (variance > 0.0).then(|| covariance / variance)
 }
 
-/// Runs the soak; returns the failures (empty: passed).
-pub fn soak(minutes: u64, seed: u64, setup: &Setup) -> Result<Vec<String>, LabError> {
+/// Runs the soak, leaving its recording and samples in `OUT/soak-seedN/`; returns the
+/// failures (empty: passed).
+pub fn soak(minutes: u64, seed: u64, setup: &Setup, out: &Path) -> Result<Vec<String>, LabError> {
     let mut session = Session::start(setup)?;
     let started = Instant::now();
     let total = Duration::from_secs(minutes * 60);
@@ -109,8 +113,18 @@ pub fn soak(minutes: u64, seed: u64, setup: &Setup) -> Result<Vec<String>, LabEr
         );
         cycle += 1;
     }
+    let lives = session.procs.lives.clone();
     session.stop()?;
     failures.extend(growth_failures(&samples));
+    let dir = out.join(format!("soak-seed{seed}"));
+    let _ = std::fs::remove_dir_all(&dir);
+    validation::write_recording(&dir.join("events"), &session.observed, &lives)?;
+    if let Err(why) = run::validate_with_timeout(dir.join("events")) {
+        failures.push(format!("the model rejects the recorded events: {why}"));
+    }
+    let path = dir.join("resources.json");
+    let text = serde_json::to_string_pretty(&samples).unwrap_or_default();
+    std::fs::write(&path, text).map_err(|e| LabError::output(&path, e))?;
     Ok(failures)
 }
 
