@@ -3,6 +3,7 @@
 //! intervals across all rows, and the largest command gap at each actuator marked in red.
 
 use super::error::LabError;
+use super::judge::FaultRecord;
 use super::observe::{Observations, OwnerSpan};
 use super::procs::Life;
 use super::run::Outcome;
@@ -107,24 +108,7 @@ pub fn draw(
         })
         .draw()
         .map_err(|e| fail(&e))?;
-    for fault in &outcome.faults {
-        let from = fault.applied_ms / 1000.0;
-        let to = fault.healed_ms.unwrap_or(end_ms) / 1000.0;
-        let shade = RGBAColor(220, 40, 40, 0.12);
-        chart
-            .draw_series([Rectangle::new(
-                [(from, 0.0), (to, ROWS.len() as f64)],
-                shade.filled(),
-            )])
-            .map_err(|e| fail(&e))?;
-        chart
-            .draw_series([Text::new(
-                fault.label.clone(),
-                (from, 4.97),
-                ("sans-serif", 11),
-            )])
-            .map_err(|e| fail(&e))?;
-    }
+    shade_faults(&mut chart, &outcome.faults, end_ms).map_err(|e| fail(&e))?;
     for (id, (from, to, phase, role)) in role_segments(observed, lives, end_ms) {
         let (low, high) = row_band(usize::from(id.saturating_sub(1)).min(2));
         let colour = role_colour(phase, role);
@@ -150,6 +134,24 @@ pub fn draw(
         .map_err(|e| fail(&e))?;
     }
     root.present().map_err(|e| fail(&e))
+}
+
+/// Each fault as a shaded interval across all rows, labelled at the top.
+fn shade_faults(
+    chart: &mut Chart<'_, '_>,
+    faults: &[FaultRecord],
+    end_ms: f64,
+) -> Result<(), DrawingAreaErrorKind<std::io::Error>> {
+    for fault in faults {
+        let from = fault.applied_ms / 1000.0;
+        let to = fault.healed_ms.unwrap_or(end_ms) / 1000.0;
+        let shade = RGBAColor(220, 40, 40, 0.12);
+        let top = ROWS.len() as f64;
+        chart.draw_series([Rectangle::new([(from, 0.0), (to, top)], shade.filled())])?;
+        let label = Text::new(fault.label.clone(), (from, top - 0.03), ("sans-serif", 11));
+        chart.draw_series([label])?;
+    }
+    Ok(())
 }
 
 type Chart<'a, 'b> = ChartContext<

@@ -72,8 +72,8 @@ fn clock(name: &str, offset_s: f64, in_ci: bool) -> Scenario {
     }
 }
 
-/// Every named scenario, in `lab list` order.
-pub fn named() -> Vec<Scenario> {
+/// Process faults and splits.
+fn process_and_split_scenarios() -> Vec<Scenario> {
     let p = Target::Primary;
     vec![
         one(
@@ -124,6 +124,13 @@ pub fn named() -> Vec<Scenario> {
             Fault::Cut(Target::Secondary),
             3.0,
         ),
+    ]
+}
+
+/// Loss, link and clock faults.
+fn link_and_clock_scenarios() -> Vec<Scenario> {
+    let p = Target::Primary;
+    vec![
         one(
             "one-way-out",
             "the Primary's packets to its peers lost (it hears them), 3 s",
@@ -185,6 +192,13 @@ pub fn named() -> Vec<Scenario> {
         clock("clock-10s", 10.0, false),
         clock("clock-minus-1h", -3600.0, true),
     ]
+}
+
+/// Every named scenario, in `lab list` order.
+pub fn named() -> Vec<Scenario> {
+    let mut all = process_and_split_scenarios();
+    all.extend(link_and_clock_scenarios());
+    all
 }
 
 /// The named scenario `name`, or `random` with `seed`.
