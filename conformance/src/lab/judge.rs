@@ -129,7 +129,8 @@ pub fn top_strength_intervals(
     for (from, to) in intervals {
         let mut pieces = vec![(from, to.min(life_end))];
         for (stop, cont) in &life.paused {
-            let cont = cont.unwrap_or(end_ms);
+            // The writer stays silent from SIGCONT until the stall is noticed (`resumed`).
+            let cont = cont.map_or(end_ms, |cont| resumed_after(observed, &label, cont));
             pieces = pieces
                 .into_iter()
                 .flat_map(|(a, b)| [(a, b.min(*stop)), (a.max(cont), b)])
@@ -139,6 +140,18 @@ pub fn top_strength_intervals(
         running.extend(pieces);
     }
     running
+}
+
+/// When life `label` said `resumed` after being continued at `cont_ms` (within a second;
+/// `cont_ms` itself when it did not).
+fn resumed_after(observed: &Observations, label: &str, cont_ms: f64) -> f64 {
+    observed
+        .controller
+        .iter()
+        .filter(|e| e.life == label && matches!(e.line.event, Event::Resumed { .. }))
+        .map(|e| e.at_ms)
+        .find(|at| *at >= cont_ms && *at <= cont_ms + 1000.0)
+        .unwrap_or(cont_ms)
 }
 
 /// Milliseconds from `from_ms` on in which two or more of `intervals` overlap.

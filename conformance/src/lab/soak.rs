@@ -158,6 +158,13 @@ pub fn growth_failures(samples: &BTreeMap<u8, Vec<Sample>>) -> Vec<String> {
         let warm: Vec<&Sample> = series.iter().filter(|s| s.at_min >= 1.0).collect();
         let rss: Vec<(f64, f64)> = warm.iter().map(|s| (s.at_min, s.rss_mib)).collect();
         let fds: Vec<(f64, f64)> = warm.iter().map(|s| (s.at_min, s.fds)).collect();
+        let show = |s: Option<f64>| s.map_or("-".into(), |s| format!("{s:.3}"));
+        eprintln!(
+            "lab soak: C{id}: resident memory {} MiB/min, open descriptors {}/min ({} samples after the first minute)",
+            show(slope(&rss)),
+            show(slope(&fds)),
+            warm.len()
+        );
         if let Some(growth) = slope(&rss).filter(|g| *g > RSS_SLOPE_LIMIT_MIB_PER_MIN) {
             failures.push(format!("C{id}: resident memory grows {growth:.2} MiB/min (limit {RSS_SLOPE_LIMIT_MIB_PER_MIN})"));
         }
