@@ -42,12 +42,13 @@ const CLEAN: Expected = Expected {
 
 /// A split (F9, docs/findings.md): a controller that hears nobody cannot tell a dead peer from
 /// a dead link, so each side has a Primary at strength 30 while it lasts, and on main the
-/// cut-off Primary takes its role back after the heal (failback): two owner changes, one in,
-/// one out. The merge can pass ownership through a third controller for a few milliseconds
-/// (measured 4-5 ms, in 2 of 6 runs of the splits): two more. A protocol without failback
-/// tightens this to 1 (or 3 with the blip).
+/// cut-off Primary takes its role back after the heal (failback). The merge is a burst: the
+/// actuator meets the other side's Primary at the same strength (DDS ranks equal strengths by
+/// GUID), then both re-create their writers at new strengths: measured 0 to 6 owner changes
+/// within 0.6 s of the heal over the splits of three full matrices. A protocol without
+/// failback should tighten this to 1.
 const SPLIT: Expected = Expected {
-    owner_changes_per_fault: Some(4),
+    owner_changes_per_fault: Some(6),
     largest_gap_ms: 250.0,
     two_at_top_ms: 10_000.0,
     model_accepts: true,
@@ -58,14 +59,13 @@ const SPLIT: Expected = Expected {
 /// around a controller other than the Primary may leave the actuator alone with a weaker
 /// writer: measured 402 ms at the Connext reader (two of its deadlines), so 500 ms. And when
 /// that controller has the lower id, the merge after the heal makes it Primary over the
-/// majority's (two Primaries are ranked by id), with the owner moving back and forth within
-/// 0.6 s: 5 and 6 owner changes (`random --seed 1`), so 6.
+/// majority's (two Primaries are ranked by id), the owner moving back and forth within 0.6 s
+/// (5 and 6 owner changes, `random --seed 1`).
 pub fn for_fault(fault: &Fault) -> Expected {
     match fault {
         Fault::Kill(_) | Fault::Pause(_) => CLEAN,
         Fault::Partition { .. } | Fault::Cut(_) => Expected {
             largest_gap_ms: 500.0,
-            owner_changes_per_fault: Some(6),
             ..SPLIT
         },
         Fault::OneWay(..) => for_scenario("one-way-out"),
