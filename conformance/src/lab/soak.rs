@@ -100,10 +100,12 @@ pub fn soak(minutes: u64, seed: u64, setup: &Setup, out: &Path) -> Result<Vec<St
         );
         metrics.dead = session.dead();
         for failure in judge::failures(&metrics, &schedule.expected, Ok(())) {
-            failures.push(format!(
+            let failure = format!(
                 "cycle {cycle} (seed {}): {failure}",
                 seed.wrapping_add(cycle)
-            ));
+            );
+            eprintln!("lab soak: FAILED {failure}");
+            failures.push(failure);
         }
         eprintln!(
             "lab soak: cycle {cycle} at {:.1} min: {} fault(s), {} failure(s) so far",
