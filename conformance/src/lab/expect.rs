@@ -40,6 +40,17 @@ const CLEAN: Expected = Expected {
     settle_rounds: SETTLE_ROUNDS,
 };
 
+/// A pause (SIGSTOP, SIGCONT) of the Primary: what a crash gives, except that on main the
+/// resumed controller can win the actuators back for a few milliseconds right after SIGCONT,
+/// before its writer falls silent (`impl/src/stall.rs`): measured with a 2.1 s pause (random
+/// seed 7) 3 owner changes in 2 of 2 runs (back to it for 7 ms, then away again), with a 3 s
+/// pause 1 in 6 of 6. A resumed controller that never writes again before rejoining tightens
+/// this to 1.
+const PAUSE: Expected = Expected {
+    owner_changes_per_fault: Some(3),
+    ..CLEAN
+};
+
 /// A split (F9, docs/findings.md): a controller that hears nobody cannot tell a dead peer from
 /// a dead link, so each side has a Primary at strength 30 while it lasts, and on main the
 /// cut-off Primary takes its role back after the heal (failback). The merge is a burst: the
@@ -63,7 +74,8 @@ const SPLIT: Expected = Expected {
 /// (5 and 6 owner changes, `random --seed 1`).
 pub fn for_fault(fault: &Fault) -> Expected {
     match fault {
-        Fault::Kill(_) | Fault::Pause(_) => CLEAN,
+        Fault::Kill(_) => CLEAN,
+        Fault::Pause(_) => PAUSE,
         Fault::Partition { .. } | Fault::Cut(_) => Expected {
             largest_gap_ms: 500.0,
             ..SPLIT
@@ -103,7 +115,8 @@ pub fn for_faults<'a>(faults: impl IntoIterator<Item = &'a Fault>) -> Expected {
 /// The expectations of named scenario `name` (random schedules: [`for_faults`]).
 pub fn for_scenario(name: &str) -> Expected {
     match name {
-        "kill-primary" | "pause-primary" | "clock-period" | "clock-10s" | "clock-minus-1h" => CLEAN,
+        "kill-primary" | "clock-period" | "clock-10s" | "clock-minus-1h" => CLEAN,
+        "pause-primary" => PAUSE,
         // A clock offset by a fraction of a period puts that controller's decisions into
         // another round than the model's shared rounds: the protocol copes (one change per
         // kill), the model's synchronous rounds do not describe it.
