@@ -43,7 +43,7 @@ const CLEAN: Expected = Expected {
 /// A pause (SIGSTOP, SIGCONT) of the Primary: what a crash gives, except that on main the
 /// resumed controller can win the actuators back for a few milliseconds right after SIGCONT,
 /// before its writer falls silent (`impl/src/stall.rs`): measured with a 2.1 s pause (random
-/// seed 7) 3 owner changes in 2 of 2 runs (back to it for 7 ms, then away again), with a 3 s
+/// seed 7) 3 owner changes in 3 of 3 runs (back to it for 7 ms, then away again), with a 3 s
 /// pause 1 in 6 of 6. A resumed controller that never writes again before rejoining tightens
 /// this to 1.
 const PAUSE: Expected = Expected {
