@@ -18,12 +18,16 @@
 //!   behaviour the model allows;
 //! - [`dds_replay`]: the DDS-level replay: which traces it takes and how each is timed on
 //!   real processes (pure, from the model), and the run itself: real `rl controller`
-//!   processes and an `rl servo` over DDS, faults applied for real.
+//!   processes and an `rl servo` over DDS, faults applied for real;
+//! - [`lab`]: the fault lab (binary `lab`): real processes on a virtual LAN of network
+//!   namespaces under network, process and clock faults, judged at two actuators and against
+//!   the model (docs/faults.md).
 
 pub mod abstraction;
 pub mod core_replay;
 pub mod dds_replay;
 pub mod diff;
+pub mod lab;
 pub mod record;
 pub mod trace;
 pub mod validate;

@@ -1,0 +1,184 @@
+//! `lab`: the fault lab. Real `rl` processes on a virtual LAN of network namespaces, under
+//! real faults, judged at two actuators and against the model (docs/faults.md).
+
+use clap::{Parser, Subcommand};
+use conformance::lab::{self, host, matrix, run, scenario, session::Setup, soak, LabError};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// RL's fault lab: three `rl controller`s, `rl servo --json`, a Connext reader and `rl shapes`,
+/// each in its own network namespace on a virtual LAN (two bridges), under kills, pauses,
+/// partitions, cuts, one-way and random loss, multicast drop, flapping links, clock offsets
+/// and rate limits.
+///
+/// Every run forms P/S/T, applies its faults, heals them, and must settle within 8 rounds. It
+/// is judged on the owner changes each fault caused at both actuators, the largest command
+/// gap, the time two controllers claimed top strength, the controllers' recorded events
+/// against the model, and every process alive without a panic. A run leaves its recording,
+/// result.json and timeline in OUT/NAME-seedN/ and its picture in OUT/NAME-seedN.svg; a
+/// failing run prints the command that replays it.
+///
+/// Needs root, iproute2 (ip, tc), nftables and faketime (apt-get install nftables faketime);
+/// the Connext judge needs `pip install rticonnextdds-connector==1.2.4` (skipped with a
+/// warning when missing). Build rl first: cargo build --release -p rl.
+///
+/// Examples:
+///   lab list
+///   lab run cut-primary
+///   lab run random --seed 17
+///   lab matrix --ci
+///   lab soak --minutes 30
+#[derive(Parser)]
+#[command(name = "lab", verbatim_doc_comment)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+    /// The rl binary the processes run (default: rl beside this program, target/release/rl).
+    #[arg(long, global = true, value_name = "PATH")]
+    rl: Option<PathBuf>,
+    /// Where runs leave their output.
+    #[arg(long, global = true, value_name = "DIR", default_value = "target/lab")]
+    out: PathBuf,
+    /// DDS domain inside the namespaces (each run's namespaces isolate it from everything
+    /// else, so any domain will do).
+    #[arg(long, global = true, value_name = "D", default_value_t = 53)]
+    domain: u16,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// The scenarios, with their faults.
+    List {
+        /// Also the schedules random seeds 1..=N draw.
+        #[arg(long, value_name = "N")]
+        random: Option<u64>,
+    },
+    /// One scenario; `random` draws its faults and times from the seed.
+    Run {
+        /// A name from `lab list`, or `random`.
+        scenario: String,
+        /// The seed: picks a random schedule's faults and times, a flapping link's intervals.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+    },
+    /// Every scenario and random seeds 1, 2, 3, 7, 8, as a table (--ci: the short subset CI runs).
+    Matrix {
+        #[arg(long)]
+        ci: bool,
+    },
+    /// One system under random faults for M minutes, memory and descriptors sampled.
+    Soak {
+        #[arg(long, value_name = "M")]
+        minutes: u64,
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+    },
+    /// Removes every lab LAN left on this host (after a run killed with SIGKILL), other
+    /// runs' included.
+    Clean,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match execute(&cli) {
+        Ok(code) => code,
+        Err(error) => {
+            eprintln!("lab: {error}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn execute(cli: &Cli) -> Result<ExitCode, LabError> {
+    if let Command::List { random } = cli.command {
+        for s in scenario::named() {
+            let ci = if s.in_ci { " [ci]" } else { "" };
+            println!(
+                "{:<34}{}{ci}\n{:<34}{}",
+                s.name,
+                s.about,
+                "",
+                scenario::describe(&s.steps)
+            );
+        }
+        println!("{:<34}a seeded random schedule (--seed N)", "random");
+        for seed in 1..=random.unwrap_or(0) {
+            println!(
+                "  --seed {seed}: {}",
+                scenario::describe(&scenario::random(seed).steps)
+            );
+        }
+        return Ok(ExitCode::SUCCESS);
+    }
+    host::require_root()?;
+    host::require_tools()?;
+    lab::lan::install_signal_cleanup()?;
+    if let Command::Clean = cli.command {
+        for prefix in lab::lan::remove_all_leftovers() {
+            println!("removed {prefix}");
+        }
+        return Ok(ExitCode::SUCCESS);
+    }
+    let setup = setup(cli)?;
+    std::fs::create_dir_all(&cli.out).map_err(|e| LabError::output(&cli.out, e))?;
+    let passed = match &cli.command {
+        Command::Run { scenario, seed } => {
+            let found =
+                scenario::find(scenario, *seed).ok_or_else(|| LabError::UnknownScenario {
+                    name: scenario.clone(),
+                })?;
+            let outcome = run::run(&found, *seed, &setup, &cli.out)?;
+            print!("{}", run::summary(&outcome));
+            outcome.passed()
+        }
+        Command::Matrix { ci } => {
+            let outcomes = matrix::run_matrix(*ci, &setup, &cli.out)?;
+            let failed: Vec<&run::Outcome> = outcomes.iter().filter(|o| !o.passed()).collect();
+            for o in &failed {
+                eprintln!(
+                    "lab: FAILED {} (seed {}): {}\n  replay: {}",
+                    o.scenario,
+                    o.seed,
+                    o.failures.join("; "),
+                    o.replay
+                );
+            }
+            failed.is_empty()
+        }
+        Command::Soak { minutes, seed } => {
+            let failures = soak::soak(*minutes, *seed, &setup, &cli.out)?;
+            for failure in &failures {
+                eprintln!("lab soak: FAILED {failure}");
+            }
+            failures.is_empty()
+        }
+        Command::List { .. } | Command::Clean => true,
+    };
+    Ok(if passed {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+fn setup(cli: &Cli) -> Result<Setup, LabError> {
+    let rl = match &cli.rl {
+        Some(path) => path.clone(),
+        None => std::env::current_exe()
+            .ok()
+            .and_then(|exe| exe.parent().map(|dir| dir.join("rl")))
+            .unwrap_or_else(|| PathBuf::from("target/release/rl")),
+    };
+    if !rl.is_file() {
+        return Err(LabError::NoRlBinary { path: rl });
+    }
+    let connext = host::connext_available();
+    if !connext {
+        eprintln!("lab: python3 cannot import rticonnextdds_connector: the Connext judge is skipped (pip install {})", host::CONNEXT_PACKAGE);
+    }
+    Ok(Setup {
+        rl,
+        domain: cli.domain,
+        connext,
+    })
+}

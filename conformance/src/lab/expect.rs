@@ -1,0 +1,157 @@
+//! What the judges expect of each scenario, in one place, so a protocol change (e.g. one that
+//! stops a cut-off or paused Primary from taking its role back after the heal) tightens the
+//! figures here and nowhere else.
+//!
+//! Every run is judged on: the owner changes each fault caused at each actuator (at most
+//! `owner_changes_per_fault`, where judged), the largest command gap at each (at most
+//! `largest_gap_ms`), the time two controllers claimed top strength at once (at most
+//! `two_at_top_ms`), the recorded controller events against the model (`model_accepts`), the
+//! rounds from the last heal until every live controller has settled (at most
+//! `settle_rounds`; the model's bound [`SETTLE_ROUNDS`] unless said otherwise), and every
+//! process alive with no panic. The figures are what was measured on main with a margin
+//! (docs/faults.md has the runs); each one that is looser than a crash's says why.
+
+use super::faults::Fault;
+
+/// The model's bound: 8 fault-free rounds after the last fault every live controller has
+/// settled ("settles after faults stop", docs/protocol.md).
+pub const SETTLE_ROUNDS: u64 = 8;
+
+/// What one scenario's judges accept.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Expected {
+    /// `None`: measured and reported, not judged (see [`for_scenario`] for which and why).
+    pub owner_changes_per_fault: Option<usize>,
+    pub largest_gap_ms: f64,
+    pub two_at_top_ms: f64,
+    /// Whether the recorded controller events must be a behaviour of the model.
+    pub model_accepts: bool,
+    pub settle_rounds: u64,
+}
+
+/// What a crash must give: one owner change per fault, a gap within the Connext reader's
+/// 200 ms deadline plus the re-publish period and slack (`rl servo`'s deadline is 100 ms),
+/// never two at top strength, the model's bound for settling.
+const CLEAN: Expected = Expected {
+    owner_changes_per_fault: Some(1),
+    largest_gap_ms: 250.0,
+    two_at_top_ms: 0.0,
+    model_accepts: true,
+    settle_rounds: SETTLE_ROUNDS,
+};
+
+/// A pause (SIGSTOP, SIGCONT) of the Primary: what a crash gives, except that on main the
+/// resumed controller can win the actuators back for a few milliseconds right after SIGCONT,
+/// before its writer falls silent (`impl/src/stall.rs`): measured with a 2.1 s pause (random
+/// seed 7) 3 owner changes in 3 of 3 runs (back to it for 7 ms, then away again), with a 3 s
+/// pause 1 in 6 of 6. A resumed controller that never writes again before rejoining tightens
+/// this to 1.
+const PAUSE: Expected = Expected {
+    owner_changes_per_fault: Some(3),
+    ..CLEAN
+};
+
+/// A split (F9, docs/findings.md): a controller that hears nobody cannot tell a dead peer from
+/// a dead link, so each side has a Primary at strength 30 while it lasts, and on main the
+/// cut-off Primary takes its role back after the heal (failback). The merge is a burst: the
+/// actuator meets the other side's Primary at the same strength (DDS ranks equal strengths by
+/// GUID), then both re-create their writers at new strengths: measured 0 to 6 owner changes
+/// within 0.6 s of the heal over the splits of three full matrices. A protocol without
+/// failback should tighten this to 1.
+const SPLIT: Expected = Expected {
+    owner_changes_per_fault: Some(6),
+    largest_gap_ms: 250.0,
+    two_at_top_ms: 10_000.0,
+    model_accepts: true,
+    settle_rounds: SETTLE_ROUNDS,
+};
+
+/// What one fault, on its own, may cause: the named scenario that applies it alone. A split
+/// around a controller other than the Primary may leave the actuator alone with a weaker
+/// writer: measured 402 ms at the Connext reader (two of its deadlines), so 500 ms. And when
+/// that controller has the lower id, the merge after the heal makes it Primary over the
+/// majority's (two Primaries are ranked by id), the owner moving back and forth within 0.6 s
+/// (5 and 6 owner changes, `random --seed 1`).
+pub fn for_fault(fault: &Fault) -> Expected {
+    match fault {
+        Fault::Kill(_) => CLEAN,
+        Fault::Pause(_) => PAUSE,
+        Fault::Partition { .. } | Fault::Cut(_) => Expected {
+            largest_gap_ms: 500.0,
+            ..SPLIT
+        },
+        Fault::OneWay(..) => for_scenario("one-way-out"),
+        Fault::MulticastOnly(_) => for_scenario("multicast-drop"),
+        Fault::ClockOffset(_, offset_s) => {
+            let period_s = rl::config::Config::default().timing.heartbeat_period_ms as f64 / 1000.0;
+            let whole_periods = (offset_s / period_s - (offset_s / period_s).round()).abs() < 1e-6;
+            if whole_periods {
+                CLEAN
+            } else {
+                for_scenario("clock-0.1s")
+            }
+        }
+        Fault::Loss(..) | Fault::Flap(..) | Fault::RateLimit(..) => for_scenario("loss-20"),
+    }
+}
+
+/// A schedule of several faults: the loosest of what each fault may cause.
+pub fn for_faults<'a>(faults: impl IntoIterator<Item = &'a Fault>) -> Expected {
+    faults
+        .into_iter()
+        .map(for_fault)
+        .fold(CLEAN, |a, b| Expected {
+            owner_changes_per_fault: a
+                .owner_changes_per_fault
+                .zip(b.owner_changes_per_fault)
+                .map(|(x, y)| x.max(y)),
+            largest_gap_ms: a.largest_gap_ms.max(b.largest_gap_ms),
+            two_at_top_ms: a.two_at_top_ms.max(b.two_at_top_ms),
+            model_accepts: a.model_accepts && b.model_accepts,
+            settle_rounds: a.settle_rounds.max(b.settle_rounds),
+        })
+}
+
+/// The expectations of named scenario `name` (random schedules: [`for_faults`]).
+pub fn for_scenario(name: &str) -> Expected {
+    match name {
+        "kill-primary" | "clock-period" | "clock-10s" | "clock-minus-1h" => CLEAN,
+        "pause-primary" => PAUSE,
+        // A clock offset by a fraction of a period puts that controller's decisions into
+        // another round than the model's shared rounds: the protocol copes (one change per
+        // kill), the model's synchronous rounds do not describe it.
+        "clock-0.1s" => Expected {
+            model_accepts: false,
+            ..CLEAN
+        },
+        "cut-primary" | "partition-actuator-with-primary" | "partition-actuator-with-two" => SPLIT,
+        // The cut-off Secondary becomes Primary of its own side at 30; the actuator may follow
+        // it by GUID (DDS orders equal strengths by GUID, not by vote) and back at the heal.
+        "cut-secondary" => SPLIT,
+        // The deaf or unheard Primary is outvoted, fails itself and is restarted (exit 75)
+        // while the loss lasts; its new participant's discovery announcements were lost, and
+        // RustDDS repeats them every 10 s (SPDP), so it can rejoin up to 10 s after the heal.
+        "one-way-out" | "one-way-in" => Expected {
+            settle_rounds: 48,
+            two_at_top_ms: 1_000.0,
+            ..SPLIT
+        },
+        // Multicast carries the heartbeats: without it the Primary and the others split as
+        // in a cut, for as long as it lasts.
+        "multicast-drop" => Expected {
+            two_at_top_ms: 15_000.0,
+            ..SPLIT
+        },
+        // Packet loss, a flapping link or a starved one: ownership moves at the DDS level.
+        // The Connext reader's reliable, deadline-checked reader switches whenever a lost
+        // sample's repair outlasts its 200 ms deadline (dozens of changes at 20% loss while
+        // rl servo sees none), so owner changes are reported, not judged.
+        _ => Expected {
+            owner_changes_per_fault: None,
+            largest_gap_ms: 250.0,
+            two_at_top_ms: 15_000.0,
+            model_accepts: true,
+            settle_rounds: SETTLE_ROUNDS,
+        },
+    }
+}

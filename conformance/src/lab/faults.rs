@@ -1,0 +1,324 @@
+//! The faults, each with `apply` and `heal`: process faults (kill -9 and restart, SIGSTOP and
+//! SIGCONT, a restart with an offset wall clock), network faults as nftables tables in the
+//! namespaces they touch (partition, cut, one-way loss, random loss, multicast drop), a
+//! flapping link (a thread that takes the host end of a veth down and up at seeded random
+//! intervals) and a rate-limited link (tbf both ways). A [`Target`] names a controller by id
+//! or by the role it holds when the fault is applied.
+
+use super::error::LabError;
+use super::host;
+use super::lan::{Lan, Net, Node, CONTROLLER_IDS};
+use super::nft::{self, Rules};
+use super::procs::Procs;
+use rand::{Rng, SeedableRng};
+use std::fmt;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+/// Which controller a fault hits.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Target {
+    Id(u8),
+    /// The controller that reports itself Primary when the fault is applied.
+    Primary,
+    Secondary,
+}
+
+/// Which way one-way loss goes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Direction {
+    /// The target's packets never reach its peers; it hears them.
+    Out,
+    /// The target hears nobody; its peers hear it.
+    In,
+}
+
+/// A fault as a scenario states it.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Fault {
+    /// `kill -9`; healed by starting a new process with the same id.
+    Kill(Target),
+    /// SIGSTOP; healed by SIGCONT.
+    Pause(Target),
+    /// The target alone on one side, the other two controllers on the other; the actuator and
+    /// camera on the target's side or the other.
+    Partition {
+        alone: Target,
+        actuator_with_alone: bool,
+    },
+    /// The target cut off from the other controllers but not from the actuator or camera.
+    Cut(Target),
+    /// Loss between the target and its peers, one way.
+    OneWay(Target, Direction),
+    /// Random loss of UDP packets both ways on the target's link.
+    Loss(Target, u8),
+    /// Multicast dropped both ways at the target.
+    MulticastOnly(Target),
+    /// The target's link goes down and up every 0.5 to 3 s (seeded).
+    Flap(Target, u64),
+    /// The target restarted with its wall clock offset by `offset_s`; healed by a restart on
+    /// the true clock. Only the glibc build of `rl` can be offset (libfaketime).
+    ClockOffset(Target, f64),
+    /// tbf at `kbit` kbit/s both ways on the target's link.
+    RateLimit(Target, u32),
+}
+
+impl fmt::Display for Target {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Target::Id(id) => write!(f, "C{id}"),
+            Target::Primary => f.write_str("the Primary"),
+            Target::Secondary => f.write_str("the Secondary"),
+        }
+    }
+}
+
+impl fmt::Display for Fault {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Fault::Kill(t) => write!(f, "kill -9 {t}, restart"),
+            Fault::Pause(t) => write!(f, "SIGSTOP {t}, SIGCONT"),
+            Fault::Partition {
+                alone,
+                actuator_with_alone,
+            } => {
+                let side = if *actuator_with_alone {
+                    "with it"
+                } else {
+                    "with the two"
+                };
+                write!(
+                    f,
+                    "partition: {t} apart from the other two, actuator {side}",
+                    t = alone
+                )
+            }
+            Fault::Cut(t) => write!(f, "{t} cut off from its peers (not the actuator)"),
+            Fault::OneWay(t, Direction::Out) => {
+                write!(f, "one-way loss: {t}'s packets to its peers")
+            }
+            Fault::OneWay(t, Direction::In) => write!(f, "one-way loss: its peers' packets to {t}"),
+            Fault::Loss(t, p) => write!(f, "{p}% random loss at {t}"),
+            Fault::MulticastOnly(t) => write!(f, "multicast dropped at {t}"),
+            Fault::Flap(t, _) => write!(f, "{t}'s link flapping (0.5-3 s)"),
+            Fault::ClockOffset(t, s) => write!(f, "{t} restarted with its clock {s:+} s"),
+            Fault::RateLimit(t, kbit) => write!(f, "{t}'s link at {kbit} kbit/s (tbf)"),
+        }
+    }
+}
+
+impl Fault {
+    /// The fault's target.
+    pub fn target(&self) -> Target {
+        match self {
+            Fault::Kill(t)
+            | Fault::Pause(t)
+            | Fault::Partition { alone: t, .. }
+            | Fault::Cut(t)
+            | Fault::OneWay(t, _)
+            | Fault::Loss(t, _)
+            | Fault::MulticastOnly(t)
+            | Fault::Flap(t, _)
+            | Fault::ClockOffset(t, _)
+            | Fault::RateLimit(t, _) => *t,
+        }
+    }
+
+    /// The same fault aimed at controller `id`.
+    pub fn at(&self, id: u8) -> Fault {
+        let t = Target::Id(id);
+        match self.clone() {
+            Fault::Kill(_) => Fault::Kill(t),
+            Fault::Pause(_) => Fault::Pause(t),
+            Fault::Partition {
+                actuator_with_alone,
+                ..
+            } => Fault::Partition {
+                alone: t,
+                actuator_with_alone,
+            },
+            Fault::Cut(_) => Fault::Cut(t),
+            Fault::OneWay(_, d) => Fault::OneWay(t, d),
+            Fault::Loss(_, p) => Fault::Loss(t, p),
+            Fault::MulticastOnly(_) => Fault::MulticastOnly(t),
+            Fault::Flap(_, s) => Fault::Flap(t, s),
+            Fault::ClockOffset(_, s) => Fault::ClockOffset(t, s),
+            Fault::RateLimit(_, k) => Fault::RateLimit(t, k),
+        }
+    }
+}
+
+/// A fault in force: what healing it must undo.
+pub struct Applied {
+    /// The fault with its target resolved to an id.
+    pub fault: Fault,
+    pub id: u8,
+    /// The nftables table it created, in these namespaces.
+    tables: Vec<(String, String)>,
+    flapper: Option<(Arc<AtomicBool>, JoinHandle<()>)>,
+}
+
+/// The other two controllers.
+fn peers(id: u8) -> Vec<Node> {
+    CONTROLLER_IDS
+        .iter()
+        .filter(|p| **p != id)
+        .map(|p| Node::Controller(*p))
+        .collect()
+}
+
+/// Applies `fault` (its target resolved to `id`); `table` names its nftables table.
+pub fn apply(
+    fault: &Fault,
+    id: u8,
+    table: &str,
+    lan: &Lan,
+    procs: &mut Procs,
+) -> Result<Applied, LabError> {
+    let mut applied = Applied {
+        fault: fault.at(id),
+        id,
+        tables: Vec::new(),
+        flapper: None,
+    };
+    let me = Node::Controller(id);
+    let mut rules: Vec<(Node, Rules)> = Vec::new();
+    match fault {
+        Fault::Kill(_) => procs.kill(id),
+        Fault::Pause(_) => procs.pause(id, true)?,
+        Fault::Partition {
+            actuator_with_alone,
+            ..
+        } => {
+            let (mut alone, mut others) = (vec![me], peers(id));
+            let side = if *actuator_with_alone {
+                &mut alone
+            } else {
+                &mut others
+            };
+            side.extend([Node::Actuator, Node::Camera]);
+            rules.extend(alone.iter().map(|n| (*n, Rules::isolate_from(&others))));
+            rules.extend(others.iter().map(|n| (*n, Rules::isolate_from(&alone))));
+        }
+        Fault::Cut(_) => {
+            rules.push((me, Rules::isolate_from(&peers(id))));
+            rules.extend(
+                peers(id)
+                    .into_iter()
+                    .map(|n| (n, Rules::isolate_from(&[me]))),
+            );
+        }
+        Fault::OneWay(_, Direction::Out) => {
+            rules.extend(peers(id).into_iter().map(|n| (n, Rules::deaf_to(&[me]))));
+        }
+        Fault::OneWay(_, Direction::In) => rules.push((me, Rules::deaf_to(&peers(id)))),
+        Fault::Loss(_, percent) => rules.push((me, Rules::random_loss(*percent))),
+        Fault::MulticastOnly(_) => rules.push((me, Rules::no_multicast())),
+        Fault::Flap(_, seed) => applied.flapper = Some(start_flapping(lan.link(me, Net::A), *seed)),
+        Fault::ClockOffset(_, offset_s) => {
+            procs.clock_offsets_s.insert(id, *offset_s);
+            procs.stop(id);
+            procs.start_controller(id)?;
+        }
+        Fault::RateLimit(_, kbit) => rate_limit(lan, me, Some(*kbit))?,
+    }
+    for (node, node_rules) in rules {
+        let ns = lan.ns(node);
+        host::nft(&ns, &node_rules.script(table))?;
+        applied.tables.push((ns, table.to_string()));
+    }
+    Ok(applied)
+}
+
+/// Undoes an applied fault.
+pub fn heal(applied: Applied, lan: &Lan, procs: &mut Procs) -> Result<(), LabError> {
+    let id = applied.id;
+    for (ns, table) in &applied.tables {
+        host::nft(ns, &nft::delete_script(table))?;
+    }
+    if let Some((stop, thread)) = applied.flapper {
+        stop.store(true, Ordering::Relaxed);
+        let _ = thread.join();
+        host::run(
+            "ip",
+            &["link", "set", &lan.link(Node::Controller(id), Net::A), "up"],
+        )?;
+    }
+    match applied.fault {
+        Fault::Kill(_) => procs.start_controller(id),
+        Fault::Pause(_) => procs.pause(id, false),
+        Fault::ClockOffset(..) => {
+            procs.clock_offsets_s.remove(&id);
+            procs.stop(id);
+            procs.start_controller(id)
+        }
+        Fault::RateLimit(..) => {
+            // Another overlapping rate limit on the same link may have removed it already.
+            let _ = rate_limit(lan, Node::Controller(id), None);
+            Ok(())
+        }
+        _ => Ok(()),
+    }
+}
+
+/// tbf at `kbit` on both ends of a node's net-A link (`None` removes it).
+fn rate_limit(lan: &Lan, node: Node, kbit: Option<u32>) -> Result<(), LabError> {
+    let outside = lan.link(node, Net::A);
+    let ns = lan.ns(node);
+    let ends: [Vec<&str>; 2] = [vec![], vec!["-n", &ns]];
+    let devs = [outside.as_str(), "a0"];
+    for (prefix, dev) in ends.iter().zip(devs) {
+        let mut args: Vec<String> = prefix.iter().map(|s| s.to_string()).collect();
+        match kbit {
+            Some(kbit) => args.extend(
+                [
+                    "qdisc",
+                    "replace",
+                    "dev",
+                    dev,
+                    "root",
+                    "tbf",
+                    "rate",
+                    &format!("{kbit}kbit"),
+                    "burst",
+                    "4kbit",
+                    "latency",
+                    "300ms",
+                ]
+                .map(String::from),
+            ),
+            None => args.extend(["qdisc", "del", "dev", dev, "root"].map(String::from)),
+        }
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        host::run("tc", &args)?;
+    }
+    Ok(())
+}
+
+/// A thread that takes `link` down and up, each state lasting 0.5 to 3 s (seeded).
+fn start_flapping(link: String, seed: u64) -> (Arc<AtomicBool>, JoinHandle<()>) {
+    let stop = Arc::new(AtomicBool::new(false));
+    let stopped = Arc::clone(&stop);
+    let thread = std::thread::spawn(move || {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let mut up = true;
+        while !stopped.load(Ordering::Relaxed) {
+            let hold = Duration::from_millis(rng.random_range(500..=3000));
+            let until = std::time::Instant::now() + hold;
+            while std::time::Instant::now() < until && !stopped.load(Ordering::Relaxed) {
+                std::thread::sleep(Duration::from_millis(20));
+            }
+            if stopped.load(Ordering::Relaxed) {
+                break;
+            }
+            up = !up;
+            let _ = host::run(
+                "ip",
+                &["link", "set", &link, if up { "up" } else { "down" }],
+            );
+        }
+    });
+    (stop, thread)
+}

@@ -1,0 +1,40 @@
+//! # The fault lab: RL under real network and process faults
+//!
+//! Each run builds a virtual LAN of network namespaces (three controllers, the actuator side,
+//! the camera; two bridges), starts real `rl` processes in it, forms P/S/T, applies a
+//! scenario's faults (kill, pause, partitions, cuts, one-way and random loss, multicast drop,
+//! flapping, clock offsets, a rate-limited link), heals them, lets the system settle, and
+//! judges what the actuators (`rl servo --json` and an RTI Connext reader) and the
+//! controllers' own events show. docs/faults.md has the scenarios, the judges and the figures.
+//!
+//! Modules, in the order a run uses them:
+//! - [`host`]: root, tools, system commands; [`lan`]: the namespaces, links and bridges, and
+//!   their removal (drop, signals); [`clock`]: the lab clock;
+//! - [`procs`]: the processes in their namespaces; [`session`]: a formed system and its
+//!   schedule; [`faults`] (with [`nft`]): each fault's apply and heal;
+//! - [`scenario`]: named and seeded random schedules; [`expect`]: what each one's judges
+//!   accept, in one place;
+//! - [`observe`]: the lines taken in, on one clock; [`judge`]: the measurements and the
+//!   verdict; [`validation`]: the recorded events against the model;
+//! - [`run`]: one run start to verdict and its output; [`plot`]: its picture; [`matrix`]:
+//!   many runs and the table; [`soak`]: long runs with resource sampling.
+
+pub mod clock;
+pub mod error;
+pub mod expect;
+pub mod faults;
+pub mod host;
+pub mod judge;
+pub mod lan;
+pub mod matrix;
+pub mod nft;
+pub mod observe;
+pub mod plot;
+pub mod procs;
+pub mod run;
+pub mod scenario;
+pub mod session;
+pub mod soak;
+pub mod validation;
+
+pub use error::LabError;

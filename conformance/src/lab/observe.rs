@@ -1,0 +1,220 @@
+//! What a run observed, on the lab clock: every controller life's JSON events, the servo's
+//! accepted commands and owner changes, the Connext reader's samples, and every stderr line.
+//! Owners are named by controller life (`C1`, `C1#2`): a writer's participant (the first 12
+//! bytes of its GUID) is one process, across the writers it re-creates at new strengths; which
+//! controller it is comes from the servo (which learns it from heartbeats), which life from
+//! the processes started with that id.
+
+use super::clock::LabClock;
+use super::procs::{Life, Line};
+use rl::event::EventLine;
+use rl::procs::ServoEvent;
+use std::collections::BTreeMap;
+
+/// A controller event on the lab clock.
+#[derive(Clone, Debug)]
+pub struct ControllerEvent {
+    /// `C1#2`.
+    pub life: String,
+    pub at_ms: f64,
+    pub line: EventLine,
+}
+
+/// A command the actuator accepted, or an owner change it reported, on the lab clock.
+#[derive(Clone, Debug)]
+pub struct ActuatorSample {
+    pub at_ms: f64,
+    pub participant: String,
+    /// The servo's own time (ms since it started), for exact gaps.
+    pub own_ms: f64,
+}
+
+/// Everything a run observed.
+#[derive(Default)]
+pub struct Observations {
+    pub controller: Vec<ControllerEvent>,
+    /// Each life's JSON lines as printed (the recording trace validation reads).
+    pub controller_lines: BTreeMap<String, Vec<String>>,
+    /// Accepted commands at `rl servo`.
+    pub servo_commands: Vec<ActuatorSample>,
+    /// Samples at the Connext reader.
+    pub connext: Vec<ActuatorSample>,
+    /// The controller id of each participant, as the servo learned it.
+    pub participant_ids: BTreeMap<String, u8>,
+    /// stderr lines, `(source, text)`.
+    pub stderr: Vec<(String, String)>,
+    /// The servo's clock origin on the lab clock (the smallest read time minus servo time).
+    servo_origin_ms: Option<f64>,
+}
+
+/// The participant of a writer: its GUID's first 12 bytes (24 hex digits).
+pub fn participant_of(guid_hex: &str) -> String {
+    guid_hex.chars().take(24).collect()
+}
+
+impl Observations {
+    /// Takes in one line; `lives` gives a controller life's clock offset.
+    pub fn ingest(&mut self, line: Line, clock: &LabClock, lives: &[Life]) {
+        if let Some(source) = line.source.strip_suffix('!') {
+            self.stderr.push((source.to_string(), line.text));
+            return;
+        }
+        match line.source.as_str() {
+            "servo" => self.ingest_servo(&line),
+            "connext" => self.ingest_connext(&line, clock),
+            source if source.starts_with('C') => {
+                let Some(event) = EventLine::parse(&line.text) else {
+                    return;
+                };
+                let offset_ms = lives
+                    .iter()
+                    .find(|l| l.label() == source)
+                    .map_or(0.0, |l| l.clock_offset_s * 1000.0);
+                self.controller.push(ControllerEvent {
+                    life: source.to_string(),
+                    at_ms: clock.of_wall_ms(event.t_ms as f64 - offset_ms),
+                    line: event,
+                });
+                let lines = self.controller_lines.entry(source.to_string()).or_default();
+                lines.push(line.text);
+            }
+            _ => {}
+        }
+    }
+
+    fn ingest_servo(&mut self, line: &Line) {
+        let Some(event) = rl::procs::parse_servo_event(&line.text) else {
+            return;
+        };
+        let (ServoEvent::Command { t_ms, .. } | ServoEvent::OwnerChanged { t_ms, .. }) = &event;
+        let own_ms = *t_ms as f64;
+        let origin = self
+            .servo_origin_ms
+            .map_or(line.at_ms - own_ms, |o| o.min(line.at_ms - own_ms));
+        self.servo_origin_ms = Some(origin);
+        if let ServoEvent::Command {
+            writer_guid,
+            controller_id,
+            ..
+        } = event
+        {
+            let participant = participant_of(&writer_guid);
+            if let Some(id) = controller_id {
+                self.participant_ids.insert(participant.clone(), id);
+            }
+            self.servo_commands.push(ActuatorSample {
+                at_ms: origin + own_ms,
+                participant,
+                own_ms,
+            });
+        }
+    }
+
+    fn ingest_connext(&mut self, line: &Line, clock: &LabClock) {
+        let Ok(value) = serde_json::from_str::<serde_json::Value>(&line.text) else {
+            return;
+        };
+        if let (Some(t_ms), Some(guid)) = (value["t_ms"].as_f64(), value["writer_guid"].as_str()) {
+            self.connext.push(ActuatorSample {
+                at_ms: clock.of_wall_ms(t_ms),
+                participant: participant_of(guid),
+                own_ms: t_ms,
+            });
+        }
+    }
+
+    /// The controller life a participant is: the life of its controller id that ran when the
+    /// actuator first heard it; `?` and the participant when its id is unknown.
+    pub fn owner_name(&self, participant: &str, first_heard_ms: f64, lives: &[Life]) -> String {
+        let Some(id) = self.participant_ids.get(participant) else {
+            return format!("?{participant}");
+        };
+        lives
+            .iter()
+            .rfind(|l| l.id == *id && l.started_ms <= first_heard_ms)
+            .map_or_else(|| format!("C{id}"), Life::label)
+    }
+}
+
+/// An owner span at one actuator: from `from_ms` to `to_ms`, `owner` (a life's name).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct OwnerSpan {
+    pub from_ms: f64,
+    pub to_ms: f64,
+    pub owner: String,
+}
+
+/// The owner spans of a sample sequence: a new span whenever the participant changes.
+pub fn owner_spans(
+    samples: &[ActuatorSample],
+    name: impl Fn(&str, f64) -> String,
+) -> Vec<OwnerSpan> {
+    let mut spans: Vec<(OwnerSpan, String)> = Vec::new();
+    for sample in samples {
+        match spans.last_mut() {
+            Some((span, participant)) if *participant == sample.participant => {
+                span.to_ms = sample.at_ms
+            }
+            _ => spans.push((
+                OwnerSpan {
+                    from_ms: sample.at_ms,
+                    to_ms: sample.at_ms,
+                    owner: name(&sample.participant, sample.at_ms),
+                },
+                sample.participant.clone(),
+            )),
+        }
+    }
+    spans.into_iter().map(|(span, _)| span).collect()
+}
+
+/// The largest gap between consecutive samples from `from_ms` on (lab clock), measured on
+/// the samples' own clock; with when it ended.
+pub fn largest_gap(samples: &[ActuatorSample], from_ms: f64) -> Option<(f64, f64)> {
+    samples
+        .iter()
+        .filter(|s| s.at_ms >= from_ms)
+        .collect::<Vec<_>>()
+        .windows(2)
+        .map(|w| (w[1].own_ms - w[0].own_ms, w[1].at_ms))
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample(at_ms: f64, participant: &str) -> ActuatorSample {
+        ActuatorSample {
+            at_ms,
+            participant: participant.into(),
+            own_ms: at_ms,
+        }
+    }
+
+    #[test]
+    fn spans_change_with_the_participant() {
+        let samples = [
+            sample(0.0, "a"),
+            sample(10.0, "a"),
+            sample(20.0, "b"),
+            sample(30.0, "a"),
+        ];
+        let spans = owner_spans(&samples, |p, _| p.to_uppercase());
+        let owners: Vec<&str> = spans.iter().map(|s| s.owner.as_str()).collect();
+        assert_eq!(owners, ["A", "B", "A"]);
+        assert_eq!((spans[0].from_ms, spans[0].to_ms), (0.0, 10.0));
+    }
+
+    #[test]
+    fn the_largest_gap_counts_from_the_judged_start() {
+        let samples = [
+            sample(0.0, "a"),
+            sample(500.0, "a"),
+            sample(600.0, "b"),
+            sample(810.0, "b"),
+        ];
+        assert_eq!(largest_gap(&samples, 0.0), Some((500.0, 500.0)));
+        assert_eq!(largest_gap(&samples, 400.0), Some((210.0, 810.0)));
+    }
+}

@@ -1,0 +1,388 @@
+//! The processes of a run, each inside its node's namespace: three `rl controller
+//! --json-events`, `rl servo --json` and the Connext reader on the actuator side, `rl shapes`
+//! on the camera. Every line they print comes back on one channel stamped with the lab clock.
+//!
+//! A controller's life is one process: `C2` for the first, `C2#2` after a restart. A
+//! controller that exits 75 (it voted itself FAILED) is restarted a second later, as the
+//! systemd unit does (`impl/debian/rl@.service`, `RestartForceExitStatus=75`); any other exit
+//! of a process that should be running is a death the alive judge reports.
+
+use super::clock::LabClock;
+use super::error::LabError;
+use super::host::LIBFAKETIME;
+use super::lan::{Lan, Node};
+use std::collections::BTreeMap;
+use std::io::{BufRead, BufReader};
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc::Sender;
+use std::time::Duration;
+
+/// A line a process printed: when (lab ms), which process (`C1#2`, `servo`, ...; stderr lines
+/// carry `!` after the name) and the text.
+#[derive(Clone, Debug)]
+pub struct Line {
+    pub at_ms: f64,
+    pub source: String,
+    pub text: String,
+}
+
+/// One controller life as the run saw it.
+#[derive(Clone, Debug)]
+pub struct Life {
+    pub id: u8,
+    /// 1 for the first process with this id, 2 after its first restart, ...
+    pub number: u32,
+    pub pid: u32,
+    /// Its wall clock's offset (seconds): the clock-offset fault.
+    pub clock_offset_s: f64,
+    pub started_ms: f64,
+    /// When it was killed, stopped or exited (lab ms).
+    pub ended_ms: Option<f64>,
+    /// SIGSTOP .. SIGCONT intervals (lab ms).
+    pub paused: Vec<(f64, Option<f64>)>,
+    /// How it ended, when it ended by itself.
+    pub exit: Option<String>,
+}
+
+impl Life {
+    /// `C2`, or `C2#3` for its third process.
+    pub fn label(&self) -> String {
+        label(self.id, self.number)
+    }
+}
+
+/// `C2`, or `C2#3` for the third process of controller 2.
+pub fn label(id: u8, number: u32) -> String {
+    match number {
+        1 => format!("C{id}"),
+        n => format!("C{id}#{n}"),
+    }
+}
+
+/// A process that is not a controller: the servo, the camera, the Connext reader.
+struct Helper {
+    name: &'static str,
+    child: Child,
+    exited: Option<String>,
+}
+
+/// The processes of a run.
+pub struct Procs {
+    rl: PathBuf,
+    domain: u16,
+    clock: LabClock,
+    lines: Sender<Line>,
+    namespaces: BTreeMap<Node, String>,
+    /// Every controller life, in start order.
+    pub lives: Vec<Life>,
+    running: BTreeMap<u8, Child>,
+    /// The clock offset each controller id gets when it next starts.
+    pub clock_offsets_s: BTreeMap<u8, f64>,
+    helpers: Vec<Helper>,
+    /// Restarts due (lab ms) of controllers that exited 75.
+    restarts_due: BTreeMap<u8, f64>,
+}
+
+impl Procs {
+    pub fn new(rl: PathBuf, domain: u16, lan: &Lan, clock: LabClock, lines: Sender<Line>) -> Procs {
+        Procs {
+            rl,
+            domain,
+            clock,
+            lines,
+            namespaces: Node::all().iter().map(|n| (*n, lan.ns(*n))).collect(),
+            lives: Vec::new(),
+            running: BTreeMap::new(),
+            clock_offsets_s: BTreeMap::new(),
+            helpers: Vec::new(),
+            restarts_due: BTreeMap::new(),
+        }
+    }
+
+    /// `ip netns exec NS env [faketime] program args`.
+    fn command(
+        &self,
+        node: Node,
+        env: &[(String, String)],
+        program: &str,
+        args: &[&str],
+    ) -> Command {
+        let mut command = Command::new("ip");
+        command
+            .args(["netns", "exec", &self.namespaces[&node], "env"])
+            .args(env.iter().map(|(k, v)| format!("{k}={v}")))
+            .arg(program)
+            .args(args)
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped());
+        command
+    }
+
+    fn forward(&self, child: &mut Child, source: &str) {
+        if let Some(stdout) = child.stdout.take() {
+            spawn_reader(stdout, source.to_string(), self.clock, self.lines.clone());
+        }
+        if let Some(stderr) = child.stderr.take() {
+            spawn_reader(stderr, format!("{source}!"), self.clock, self.lines.clone());
+        }
+    }
+
+    /// Starts the next life of controller `id` (with its clock offset, if it has one).
+    pub fn start_controller(&mut self, id: u8) -> Result<(), LabError> {
+        if self.running.contains_key(&id) {
+            // Overlapping faults may both restart it: one process per id.
+            return Ok(());
+        }
+        let offset_s = self.clock_offsets_s.get(&id).copied().unwrap_or(0.0);
+        let env = if offset_s == 0.0 {
+            Vec::new()
+        } else {
+            vec![
+                ("LD_PRELOAD".into(), LIBFAKETIME.into()),
+                ("FAKETIME".into(), format!("{offset_s:+}")),
+                ("FAKETIME_DONT_FAKE_MONOTONIC".into(), "1".into()),
+            ]
+        };
+        let rl = self.rl.display().to_string();
+        let (id_text, domain) = (id.to_string(), self.domain.to_string());
+        let args = [
+            "controller",
+            "--id",
+            &id_text,
+            "--json-events",
+            "--domain",
+            &domain,
+        ];
+        let number = self.lives.iter().filter(|l| l.id == id).count() as u32 + 1;
+        let mut child = self
+            .command(Node::Controller(id), &env, &rl, &args)
+            .spawn()
+            .map_err(|source| LabError::Spawn {
+                what: label(id, number),
+                source,
+            })?;
+        self.forward(&mut child, &label(id, number));
+        self.lives.push(Life {
+            id,
+            number,
+            pid: child.id(),
+            clock_offset_s: offset_s,
+            started_ms: self.clock.now_ms(),
+            ended_ms: None,
+            paused: Vec::new(),
+            exit: None,
+        });
+        self.running.insert(id, child);
+        Ok(())
+    }
+
+    /// The life of controller `id` that runs now.
+    pub fn current(&mut self, id: u8) -> Option<&mut Life> {
+        self.running.contains_key(&id).then_some(())?;
+        self.lives.iter_mut().rev().find(|l| l.id == id)
+    }
+
+    /// `kill -9` (after SIGCONT if paused) and reap.
+    pub fn kill(&mut self, id: u8) {
+        self.end(id, libc::SIGKILL);
+    }
+
+    /// SIGTERM, so it says `stopped`; SIGKILL after two seconds.
+    pub fn stop(&mut self, id: u8) {
+        self.end(id, libc::SIGTERM);
+    }
+
+    fn end(&mut self, id: u8, signal: i32) {
+        let now = self.clock.now_ms();
+        let Some(mut child) = self.running.remove(&id) else {
+            return;
+        };
+        let _ = rl::procs::signal(child.id(), libc::SIGCONT);
+        let _ = rl::procs::signal(child.id(), signal);
+        let deadline = std::time::Instant::now() + Duration::from_secs(2);
+        while !matches!(child.try_wait(), Ok(Some(_))) && std::time::Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        let _ = child.kill();
+        let _ = child.wait();
+        if let Some(life) = self.lives.iter_mut().rev().find(|l| l.id == id) {
+            life.ended_ms = Some(now);
+            close_pause(life, now);
+        }
+    }
+
+    /// SIGSTOP (`stop`) or SIGCONT to controller `id`.
+    pub fn pause(&mut self, id: u8, stop: bool) -> Result<(), LabError> {
+        let now = self.clock.now_ms();
+        let Some(pid) = self.running.get(&id).map(Child::id) else {
+            return Ok(());
+        };
+        let signal = if stop { libc::SIGSTOP } else { libc::SIGCONT };
+        rl::procs::signal(pid, signal).map_err(|e| {
+            LabError::command(
+                "kill",
+                &[if stop { "-STOP" } else { "-CONT" }],
+                e.to_string(),
+            )
+        })?;
+        if let Some(life) = self.current(id) {
+            if stop {
+                life.paused.push((now, None));
+            } else {
+                close_pause(life, now);
+            }
+        }
+        Ok(())
+    }
+
+    /// Starts a helper process on `node`: `rl` with `args`, or another program.
+    pub fn start_helper(
+        &mut self,
+        name: &'static str,
+        node: Node,
+        program: Option<&str>,
+        args: &[&str],
+    ) -> Result<(), LabError> {
+        let rl = self.rl.display().to_string();
+        let program = program.unwrap_or(&rl);
+        let mut child = self
+            .command(node, &[], program, args)
+            .spawn()
+            .map_err(|source| LabError::Spawn {
+                what: name.into(),
+                source,
+            })?;
+        self.forward(&mut child, name);
+        self.helpers.push(Helper {
+            name,
+            child,
+            exited: None,
+        });
+        Ok(())
+    }
+
+    /// Notices exits: a controller that exited 75 is restarted a second later; any other exit
+    /// is recorded on its life (or helper) for the alive judge.
+    pub fn poll(&mut self) -> Result<(), LabError> {
+        let now = self.clock.now_ms();
+        let mut exited = Vec::new();
+        for (id, child) in &mut self.running {
+            if let Ok(Some(status)) = child.try_wait() {
+                exited.push((*id, status));
+            }
+        }
+        for (id, status) in exited {
+            self.running.remove(&id);
+            if let Some(life) = self.lives.iter_mut().rev().find(|l| l.id == id) {
+                life.ended_ms = Some(now);
+                life.exit = Some(status.to_string());
+            }
+            if status.code() == Some(rl::failed_exit::EXIT_STATUS.into()) {
+                self.restarts_due.insert(id, now + 1000.0);
+            }
+        }
+        let due: Vec<u8> = self
+            .restarts_due
+            .iter()
+            .filter(|(_, at)| **at <= now)
+            .map(|(id, _)| *id)
+            .collect();
+        for id in due {
+            self.restarts_due.remove(&id);
+            self.start_controller(id)?;
+        }
+        for helper in &mut self.helpers {
+            if helper.exited.is_none() {
+                if let Ok(Some(status)) = helper.child.try_wait() {
+                    helper.exited = Some(status.to_string());
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Whether controller `id` has a running process.
+    pub fn is_running(&self, id: u8) -> bool {
+        self.running.contains_key(&id)
+    }
+
+    /// The pid of controller `id`'s running process.
+    pub fn pid(&self, id: u8) -> Option<u32> {
+        self.running.get(&id).map(Child::id)
+    }
+
+    /// Processes that should run and do not: controllers without a process (and no restart
+    /// due) and helpers that exited, each with how it ended.
+    pub fn dead(&self, ids: &[u8]) -> Vec<String> {
+        let mut dead = Vec::new();
+        for id in ids {
+            if !self.running.contains_key(id) && !self.restarts_due.contains_key(id) {
+                let how = self
+                    .lives
+                    .iter()
+                    .rev()
+                    .find(|l| l.id == *id)
+                    .and_then(|l| l.exit.clone())
+                    .unwrap_or_else(|| "never started".into());
+                dead.push(format!("C{id} ({how})"));
+            }
+        }
+        for helper in &self.helpers {
+            if let Some(how) = &helper.exited {
+                dead.push(format!("{} ({how})", helper.name));
+            }
+        }
+        dead
+    }
+
+    /// Stops everything: controllers with SIGTERM (their `stopped` event), helpers killed.
+    /// The actuators go first, so they never see the controllers leave.
+    pub fn stop_all(&mut self) {
+        for helper in &mut self.helpers {
+            let _ = helper.child.kill();
+            let _ = helper.child.wait();
+        }
+        self.helpers.clear();
+        let ids: Vec<u8> = self.running.keys().copied().collect();
+        for id in ids {
+            self.stop(id);
+        }
+    }
+}
+
+impl Drop for Procs {
+    fn drop(&mut self) {
+        self.stop_all();
+    }
+}
+
+fn close_pause(life: &mut Life, now: f64) {
+    if let Some(last) = life.paused.last_mut() {
+        if last.1.is_none() {
+            last.1 = Some(now);
+        }
+    }
+}
+
+/// A thread that sends each line of `input` until it or the channel closes.
+fn spawn_reader(
+    input: impl std::io::Read + Send + 'static,
+    source: String,
+    clock: LabClock,
+    to: Sender<Line>,
+) {
+    std::thread::spawn(move || {
+        for text in BufReader::new(input).lines().map_while(Result::ok) {
+            let line = Line {
+                at_ms: clock.now_ms(),
+                source: source.clone(),
+                text,
+            };
+            if to.send(line).is_err() {
+                break;
+            }
+        }
+    });
+}

@@ -1,0 +1,200 @@
+//! One run of a scenario, start to verdict: a session on its own LAN, the safety phase (the
+//! schedule's faults), the liveness phase (no faults: it must settle), the judges, and the
+//! run's output: `DIR/NAME-seedN/` with `result.json` (measurements, verdict, the replay
+//! command), `timeline.txt`, `stderr.log` and `events/` (the recording trace validation
+//! reads), and the picture `DIR/NAME-seedN.svg` beside it.
+
+use super::error::LabError;
+use super::expect::SETTLE_ROUNDS;
+use super::judge::{self, FaultRecord, Metrics};
+use super::plot;
+use super::scenario::Scenario;
+use super::session::{Session, Setup};
+use super::validation::{self, Verdict};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+/// The fault-free phase after the last heal: the model's bound and room for DDS discovery
+/// of a restarted controller.
+pub const LIVENESS: Duration = Duration::from_secs(10);
+/// Trace validation of a long or lossy run can search for a while; past this it is reported
+/// as not finished (a failure when the scenario expects the model to accept).
+const VALIDATION_TIMEOUT: Duration = Duration::from_secs(180);
+
+/// What a run measured and decided.
+#[derive(Clone, Debug, Serialize)]
+pub struct Outcome {
+    pub scenario: String,
+    pub about: String,
+    pub seed: u64,
+    pub faults: Vec<FaultRecord>,
+    pub metrics: Metrics,
+    pub validation: Verdict,
+    /// Every expectation missed; empty: the run passed.
+    pub failures: Vec<String>,
+    pub dir: PathBuf,
+    pub picture: PathBuf,
+    /// The command that runs this again.
+    pub replay: String,
+}
+
+impl Outcome {
+    pub fn passed(&self) -> bool {
+        self.failures.is_empty()
+    }
+}
+
+/// The command that replays scenario `name` with `seed`.
+pub fn replay_command(name: &str, seed: u64) -> String {
+    format!("cargo run --release -p conformance --bin lab -- run {name} --seed {seed}")
+}
+
+/// Runs `scenario` (seed `seed`) and writes its output under `out`.
+pub fn run(scenario: &Scenario, seed: u64, setup: &Setup, out: &Path) -> Result<Outcome, LabError> {
+    let mut session = Session::start(setup)?;
+    eprintln!(
+        "lab: {} (seed {seed}) on LAN {}: formed at {:.1} s; {}",
+        scenario.name,
+        session.prefix(),
+        session.judged_from_ms / 1000.0,
+        super::scenario::describe(&scenario.steps)
+    );
+    session.play(&scenario.steps)?;
+    session.pump(LIVENESS)?;
+    let dead = session.dead();
+    let end_ms = session.clock.now_ms();
+    let lives = session.procs.lives.clone();
+    session.stop()?;
+    let period_ms = rl::config::Config::default().timing.heartbeat_period_ms as f64;
+    let mut metrics = judge::measure(
+        &session.observed,
+        &lives,
+        &session.faults,
+        session.judged_from_ms,
+        end_ms,
+        period_ms,
+    );
+    metrics.dead = dead;
+    let dir = out.join(format!("{}-seed{seed}", scenario.name));
+    let _ = std::fs::remove_dir_all(&dir);
+    let events = dir.join("events");
+    validation::write_recording(&events, &session.observed, &lives)?;
+    let validation = validate_with_timeout(events);
+    let failures = judge::failures(
+        &metrics,
+        &scenario.expected,
+        validation.as_ref().map(|_| ()).map_err(String::as_str),
+    );
+    let picture = out.join(format!("{}-seed{seed}.svg", scenario.name));
+    let outcome = Outcome {
+        scenario: scenario.name.clone(),
+        about: scenario.about.clone(),
+        seed,
+        faults: session.faults.clone(),
+        metrics,
+        validation,
+        failures,
+        dir: dir.clone(),
+        picture: picture.clone(),
+        replay: replay_command(&scenario.name, seed),
+    };
+    plot::draw(&picture, &outcome, &session.observed, &lives, end_ms)?;
+    write_outputs(&dir, &outcome, &session)?;
+    Ok(outcome)
+}
+
+/// Trace validation in a thread, given up after [`VALIDATION_TIMEOUT`].
+pub fn validate_with_timeout(dir: PathBuf) -> Verdict {
+    let (sender, receiver) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let _ = sender.send(validation::validate_recording(&dir));
+    });
+    receiver
+        .recv_timeout(VALIDATION_TIMEOUT)
+        .unwrap_or_else(|_| {
+            Err(format!(
+                "did not finish within {} s",
+                VALIDATION_TIMEOUT.as_secs()
+            ))
+        })
+}
+
+fn write_outputs(dir: &Path, outcome: &Outcome, session: &Session) -> Result<(), LabError> {
+    let write = |name: &str, text: String| {
+        let path = dir.join(name);
+        std::fs::write(&path, text).map_err(|e| LabError::output(&path, e))
+    };
+    write(
+        "result.json",
+        serde_json::to_string_pretty(outcome).unwrap_or_default(),
+    )?;
+    let stderr: String = session
+        .observed
+        .stderr
+        .iter()
+        .map(|(source, text)| format!("{source}: {text}\n"))
+        .collect();
+    write("stderr.log", stderr)?;
+    write("timeline.txt", timeline(outcome))
+}
+
+/// Faults and owner changes at both actuators in time order (seconds on the lab clock).
+pub fn timeline(outcome: &Outcome) -> String {
+    let mut entries: Vec<(f64, String)> = Vec::new();
+    for fault in &outcome.faults {
+        entries.push((fault.applied_ms, format!("fault     {}", fault.label)));
+        if let Some(healed) = fault.healed_ms {
+            entries.push((healed, format!("heal      {}", fault.label)));
+        }
+    }
+    let m = &outcome.metrics;
+    entries.push((m.judged_from_ms, "lab       judging starts".into()));
+    for (judge, spans) in [
+        ("rl servo", Some(&m.servo_owners)),
+        ("connext", m.connext_owners.as_ref()),
+    ] {
+        for span in spans.into_iter().flatten() {
+            entries.push((span.from_ms, format!("{judge:<9} owner {}", span.owner)));
+        }
+    }
+    entries.sort_by(|a, b| a.0.total_cmp(&b.0));
+    entries
+        .into_iter()
+        .map(|(at, text)| format!("{:>8.3} s  {text}\n", at / 1000.0))
+        .collect()
+}
+
+/// The run's summary: measurements, verdict and, on failure, the replay command.
+pub fn summary(outcome: &Outcome) -> String {
+    let m = &outcome.metrics;
+    let gap = |g: Option<(f64, f64)>| g.map_or("-".into(), |(ms, _)| format!("{ms:.0} ms"));
+    let mut text = format!(
+        "{} (seed {}): {}\n  owner changes per fault (servo/connext): {}\n  largest gap: servo {}, connext {}\n  two at top strength: {:.0} ms\n  settled: {}\n  model: {}\n  final roles: {}\n  picture: {}\n",
+        outcome.scenario,
+        outcome.seed,
+        if outcome.passed() { "PASS" } else { "FAIL" },
+        m.changes_per_fault
+            .iter()
+            .map(|c| format!("{} ({}/{})", c.fault, c.servo, c.connext.map_or("-".into(), |n| n.to_string())))
+            .collect::<Vec<_>>()
+            .join("; "),
+        gap(m.servo_gap),
+        gap(m.connext_gap),
+        m.two_at_top_ms,
+        m.settle_rounds.map_or("never".into(), |r| format!("{r} rounds after the last heal (model's bound {SETTLE_ROUNDS})")),
+        match &outcome.validation {
+            Ok(_) => "accepted".to_string(),
+            Err(why) => format!("rejected or unchecked: {}", why.lines().next().unwrap_or("")),
+        },
+        m.final_roles.join(" "),
+        outcome.picture.display(),
+    );
+    for failure in &outcome.failures {
+        text.push_str(&format!("  FAILED: {failure}\n"));
+    }
+    if !outcome.passed() {
+        text.push_str(&format!("  replay: {}\n", outcome.replay));
+    }
+    text
+}

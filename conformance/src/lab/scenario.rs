@@ -1,0 +1,349 @@
+//! The scenarios: named fault schedules (`lab list`) and seeded random ones (`random`, whose
+//! seed picks the faults, their targets and their times). Each step applies a fault at
+//! `at_ms` after judging starts (the system formed, both actuators following the Primary) and
+//! heals it `lasts_ms` later; after the last heal a fault-free liveness phase must settle.
+
+use super::expect::{self, Expected};
+use super::faults::{Direction, Fault, Target};
+use rand::{Rng, SeedableRng};
+
+/// One fault of a schedule.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Step {
+    pub at_ms: u64,
+    pub fault: Fault,
+    pub lasts_ms: u64,
+}
+
+/// A named schedule with what its judges expect.
+#[derive(Clone, Debug)]
+pub struct Scenario {
+    pub name: String,
+    pub about: String,
+    pub steps: Vec<Step>,
+    /// Part of `matrix --ci` (the short subset CI runs).
+    pub in_ci: bool,
+    pub expected: Expected,
+}
+
+impl Scenario {
+    /// When the last fault is healed (ms after judging starts).
+    pub fn last_heal_ms(&self) -> u64 {
+        self.steps
+            .iter()
+            .map(|s| s.at_ms + s.lasts_ms)
+            .max()
+            .unwrap_or(0)
+    }
+}
+
+fn step(at_s: f64, fault: Fault, lasts_s: f64) -> Step {
+    Step {
+        at_ms: (at_s * 1000.0) as u64,
+        fault,
+        lasts_ms: (lasts_s * 1000.0) as u64,
+    }
+}
+
+fn one(name: &str, about: &str, in_ci: bool, fault: Fault, lasts_s: f64) -> Scenario {
+    Scenario {
+        name: name.into(),
+        about: about.into(),
+        steps: vec![step(2.0, fault, lasts_s)],
+        in_ci,
+        expected: expect::for_scenario(name),
+    }
+}
+
+/// A clock offset on C3 for most of the run, with two kills of the Primary meanwhile, so the
+/// offset controller ends up Primary before it is restarted on the true clock.
+fn clock(name: &str, offset_s: f64, in_ci: bool) -> Scenario {
+    let p = Target::Primary;
+    Scenario {
+        name: name.into(),
+        about: format!("C3's wall clock {offset_s:+} s, two kills of the Primary meanwhile"),
+        steps: vec![
+            step(1.0, Fault::ClockOffset(Target::Id(3), offset_s), 16.0),
+            step(5.0, Fault::Kill(p), 2.0),
+            step(10.0, Fault::Kill(p), 2.0),
+        ],
+        in_ci,
+        expected: expect::for_scenario(name),
+    }
+}
+
+/// Process faults and splits.
+fn process_and_split_scenarios() -> Vec<Scenario> {
+    let p = Target::Primary;
+    vec![
+        one(
+            "kill-primary",
+            "kill -9 of the Primary, restarted 3 s later",
+            true,
+            Fault::Kill(p),
+            3.0,
+        ),
+        one(
+            "pause-primary",
+            "SIGSTOP of the Primary for 3 s",
+            true,
+            Fault::Pause(p),
+            3.0,
+        ),
+        one(
+            "partition-actuator-with-primary",
+            "the Primary alone with the actuator | the other two, 5 s",
+            true,
+            Fault::Partition {
+                alone: p,
+                actuator_with_alone: true,
+            },
+            5.0,
+        ),
+        one(
+            "partition-actuator-with-two",
+            "the Primary alone | the other two with the actuator, 5 s",
+            true,
+            Fault::Partition {
+                alone: p,
+                actuator_with_alone: false,
+            },
+            5.0,
+        ),
+        one(
+            "cut-primary",
+            "the Primary cut off from its peers, not the actuator, 3 s (F9)",
+            true,
+            Fault::Cut(p),
+            3.0,
+        ),
+        one(
+            "cut-secondary",
+            "the Secondary cut off from its peers, not the actuator, 3 s",
+            false,
+            Fault::Cut(Target::Secondary),
+            3.0,
+        ),
+    ]
+}
+
+/// Loss, link and clock faults.
+fn link_and_clock_scenarios() -> Vec<Scenario> {
+    let p = Target::Primary;
+    vec![
+        one(
+            "one-way-out",
+            "the Primary's packets to its peers lost (it hears them), 3 s",
+            false,
+            Fault::OneWay(p, Direction::Out),
+            3.0,
+        ),
+        one(
+            "one-way-in",
+            "the Primary hears nobody (its peers hear it), 3 s",
+            false,
+            Fault::OneWay(p, Direction::In),
+            3.0,
+        ),
+        one(
+            "loss-5",
+            "5% random loss on the Primary's link, 10 s",
+            false,
+            Fault::Loss(p, 5),
+            10.0,
+        ),
+        one(
+            "loss-20",
+            "20% random loss on the Primary's link, 10 s",
+            true,
+            Fault::Loss(p, 20),
+            10.0,
+        ),
+        one(
+            "loss-40",
+            "40% random loss on the Primary's link, 10 s",
+            false,
+            Fault::Loss(p, 40),
+            10.0,
+        ),
+        one(
+            "multicast-drop",
+            "multicast dropped at the Primary, 10 s",
+            false,
+            Fault::MulticastOnly(p),
+            10.0,
+        ),
+        one(
+            "flap-primary",
+            "the Primary's link down/up every 0.5-3 s for 10 s",
+            false,
+            Fault::Flap(p, 7),
+            10.0,
+        ),
+        one(
+            "tbf-primary",
+            "the Primary's link at 64 kbit/s (tbf), 10 s",
+            false,
+            Fault::RateLimit(p, 64),
+            10.0,
+        ),
+        clock("clock-0.1s", 0.1, false),
+        clock("clock-period", 0.25, false),
+        clock("clock-10s", 10.0, false),
+        clock("clock-minus-1h", -3600.0, true),
+    ]
+}
+
+/// Every named scenario, in `lab list` order.
+pub fn named() -> Vec<Scenario> {
+    let mut all = process_and_split_scenarios();
+    all.extend(link_and_clock_scenarios());
+    all
+}
+
+/// The named scenario `name`, or `random` with `seed`.
+pub fn find(name: &str, seed: u64) -> Option<Scenario> {
+    if name == "random" {
+        return Some(random(seed));
+    }
+    let mut scenario = named().into_iter().find(|s| s.name == name)?;
+    // The seed varies what a named scenario leaves to chance (the flapping intervals).
+    for step in &mut scenario.steps {
+        if let Fault::Flap(target, _) = step.fault {
+            step.fault = Fault::Flap(target, seed);
+        }
+    }
+    Some(scenario)
+}
+
+/// The faults a random schedule draws from (targets are drawn separately).
+fn random_fault(rng: &mut impl Rng, target: Target, seed: u64) -> Fault {
+    match rng.random_range(0..10) {
+        0 => Fault::Kill(target),
+        1 => Fault::Pause(target),
+        2 => Fault::Partition {
+            alone: target,
+            actuator_with_alone: rng.random_bool(0.5),
+        },
+        3 => Fault::Cut(target),
+        4 => Fault::OneWay(
+            target,
+            if rng.random_bool(0.5) {
+                Direction::Out
+            } else {
+                Direction::In
+            },
+        ),
+        5 => Fault::Loss(target, [5, 20, 40][rng.random_range(0..3)]),
+        6 => Fault::MulticastOnly(target),
+        7 => Fault::Flap(target, seed ^ rng.random::<u64>()),
+        8 => Fault::RateLimit(target, 64),
+        _ => Fault::ClockOffset(target, [0.1, 0.25, 10.0, -3600.0][rng.random_range(0..4)]),
+    }
+}
+
+/// A seeded random schedule: 2 to 4 faults in a safety phase of about 20 s, one after the
+/// other with random gaps (a fault may start before the previous one is healed when they hit
+/// different controllers and neither is a partition or a cut, which involve everyone).
+pub fn random(seed: u64) -> Scenario {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let count = rng.random_range(2..=4);
+    let mut steps: Vec<Step> = Vec::new();
+    let mut at_ms = 1000;
+    for _ in 0..count {
+        let target = match rng.random_range(0..4) {
+            0 => Target::Primary,
+            n => Target::Id(n as u8),
+        };
+        let fault = random_fault(&mut rng, target, seed);
+        let lasts_ms = rng.random_range(1000..=5000);
+        let overlaps_allowed = steps.last().is_some_and(|prev| {
+            !involves_everyone(&prev.fault)
+                && !involves_everyone(&fault)
+                && prev.fault.target() != target
+                && target != Target::Primary
+                && prev.fault.target() != Target::Primary
+        });
+        if let Some(prev) = steps.last() {
+            let prev_end = prev.at_ms + prev.lasts_ms;
+            at_ms = if overlaps_allowed && rng.random_bool(0.5) {
+                rng.random_range(prev.at_ms + 200..=prev_end)
+            } else {
+                prev_end + rng.random_range(500..=4000)
+            };
+        }
+        steps.push(Step {
+            at_ms,
+            fault,
+            lasts_ms,
+        });
+    }
+    Scenario {
+        name: "random".into(),
+        about: format!("seed {seed}: {}", describe(&steps)),
+        expected: expect::for_faults(steps.iter().map(|s| &s.fault)),
+        steps,
+        in_ci: false,
+    }
+}
+
+fn involves_everyone(fault: &Fault) -> bool {
+    matches!(
+        fault,
+        Fault::Partition { .. } | Fault::Cut(_) | Fault::OneWay(..)
+    )
+}
+
+/// `at 1.0 s for 3.2 s: kill -9 C2, restart; ...`.
+pub fn describe(steps: &[Step]) -> String {
+    steps
+        .iter()
+        .map(|s| {
+            format!(
+                "at {:.1} s for {:.1} s: {}",
+                s.at_ms as f64 / 1000.0,
+                s.lasts_ms as f64 / 1000.0,
+                s.fault
+            )
+        })
+        .collect::<Vec<_>>()
+        .join("; ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_seed_gives_the_same_schedule_every_time() {
+        assert_eq!(random(42).steps, random(42).steps);
+        assert_ne!(random(42).steps, random(43).steps);
+    }
+
+    #[test]
+    fn names_are_unique_and_found() {
+        let names: Vec<String> = named().into_iter().map(|s| s.name).collect();
+        let mut unique = names.clone();
+        unique.sort();
+        unique.dedup();
+        assert_eq!(names.len(), unique.len());
+        assert!(names.iter().all(|n| find(n, 1).is_some()));
+        assert!(find("random", 5).is_some());
+        assert!(find("no-such", 5).is_none());
+    }
+
+    #[test]
+    fn random_schedules_never_overlap_a_partition() {
+        for seed in 0..200 {
+            let steps = random(seed).steps;
+            for pair in steps.windows(2) {
+                if involves_everyone(&pair[0].fault) || involves_everyone(&pair[1].fault) {
+                    assert!(
+                        pair[1].at_ms >= pair[0].at_ms + pair[0].lasts_ms,
+                        "seed {seed}"
+                    );
+                }
+            }
+        }
+    }
+}

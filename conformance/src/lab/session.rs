@@ -1,0 +1,260 @@
+//! One system under test on its own virtual LAN: the LAN built, the processes started, the
+//! formation awaited (P=C1 S=C2 T=C3 steady, both actuators following C1 for a second), then
+//! faults applied and healed on schedule while every line is taken in, then a fault-free
+//! liveness phase. Dropping a session stops its processes and then removes its LAN.
+
+use super::clock::LabClock;
+use super::error::LabError;
+use super::faults::{self, Applied, Target};
+use super::judge::FaultRecord;
+use super::lan::{Lan, Node, CONTROLLER_IDS};
+use super::observe::Observations;
+use super::procs::{Line, Procs};
+use super::scenario::Step;
+use rl::core::{Phase, Role, Status};
+use std::path::PathBuf;
+use std::sync::mpsc::{self, Receiver};
+use std::time::{Duration, Instant};
+
+/// How a session is set up.
+#[derive(Clone, Debug)]
+pub struct Setup {
+    /// The `rl` binary (glibc build: the clock faults preload libfaketime into it).
+    pub rl: PathBuf,
+    /// DDS domain inside the namespaces (they isolate runs from each other).
+    pub domain: u16,
+    /// Start the Connext reader as a second actuator judge.
+    pub connext: bool,
+}
+
+/// The Connext reader's command deadline: the paper's reader QoS, as the actuator tests use.
+const CONNEXT_DEADLINE_MS: &str = "200";
+/// Formation, including the Connext reader's start (Python, Connext, discovery).
+const FORMATION_TIMEOUT: Duration = Duration::from_secs(60);
+
+/// A running system under test. Field order is drop order: processes before the LAN.
+pub struct Session {
+    pub procs: Procs,
+    lan: Lan,
+    pub clock: LabClock,
+    lines: Receiver<Line>,
+    pub observed: Observations,
+    pub faults: Vec<FaultRecord>,
+    pub judged_from_ms: f64,
+    applied: Vec<Option<Applied>>,
+    /// The position in `faults` of each applied step's record.
+    record_of_step: std::collections::BTreeMap<usize, usize>,
+    connext: bool,
+}
+
+impl Session {
+    /// Builds the LAN, starts every process and waits for the formation.
+    pub fn start(setup: &Setup) -> Result<Session, LabError> {
+        let lan = Lan::build(&Lan::fresh_prefix())?;
+        let clock = LabClock::start();
+        let (sender, lines) = mpsc::channel();
+        let mut procs = Procs::new(setup.rl.clone(), setup.domain, &lan, clock, sender);
+        let domain = setup.domain.to_string();
+        procs.start_helper(
+            "servo",
+            Node::Actuator,
+            None,
+            &["servo", "--json", "--domain", &domain],
+        )?;
+        procs.start_helper(
+            "camera",
+            Node::Camera,
+            None,
+            &["shapes", "--domain", &domain],
+        )?;
+        for id in CONTROLLER_IDS {
+            procs.start_controller(id)?;
+        }
+        if setup.connext {
+            let script = concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../impl/tests/interop/connext_reader.py"
+            );
+            let args = [
+                script,
+                &domain,
+                "--duration",
+                "1000000",
+                "--deadline-ms",
+                CONNEXT_DEADLINE_MS,
+            ];
+            procs.start_helper("connext", Node::Actuator, Some("python3"), &args)?;
+        }
+        let mut session = Session {
+            procs,
+            lan,
+            clock,
+            lines,
+            observed: Observations::default(),
+            faults: Vec::new(),
+            judged_from_ms: 0.0,
+            applied: Vec::new(),
+            record_of_step: Default::default(),
+            connext: setup.connext,
+        };
+        session.await_formation()?;
+        session.judged_from_ms = session.clock.now_ms();
+        Ok(session)
+    }
+
+    /// Takes in every line and notices exits for `duration`.
+    pub fn pump(&mut self, duration: Duration) -> Result<(), LabError> {
+        let until = Instant::now() + duration;
+        loop {
+            let left = until.saturating_duration_since(Instant::now());
+            if let Ok(line) = self.lines.recv_timeout(left.min(Duration::from_millis(20))) {
+                self.observed.ingest(line, &self.clock, &self.procs.lives);
+                while let Ok(line) = self.lines.try_recv() {
+                    self.observed.ingest(line, &self.clock, &self.procs.lives);
+                }
+            }
+            self.procs.poll()?;
+            if left.is_zero() {
+                return Ok(());
+            }
+        }
+    }
+
+    /// The last status the running life of controller `id` reported.
+    pub fn status(&self, id: u8) -> Option<&Status> {
+        let life = self
+            .procs
+            .lives
+            .iter()
+            .rev()
+            .find(|l| l.id == id && l.ended_ms.is_none())?;
+        let label = life.label();
+        self.observed
+            .controller
+            .iter()
+            .rev()
+            .filter(|e| e.life == label)
+            .find_map(|e| e.line.status())
+    }
+
+    /// Which controller a target names now (the role's holder; C1 if nobody claims it).
+    pub fn resolve(&self, target: Target) -> u8 {
+        let holder = |role: Role| {
+            CONTROLLER_IDS.into_iter().find(|id| {
+                self.status(*id)
+                    .is_some_and(|s| s.report.role == Some(role))
+            })
+        };
+        match target {
+            Target::Id(id) => id,
+            Target::Primary => holder(Role::Primary).unwrap_or(1),
+            Target::Secondary => holder(Role::Secondary).unwrap_or(2),
+        }
+    }
+
+    /// Whether every sample of the last second at an actuator came from controller `id`.
+    fn actuators_follow(&self, id: u8) -> bool {
+        let now = self.clock.now_ms();
+        let follows = |samples: &[super::observe::ActuatorSample]| {
+            let recent: Vec<_> = samples.iter().filter(|s| s.at_ms >= now - 1000.0).collect();
+            recent.len() >= 5
+                && recent
+                    .iter()
+                    .all(|s| self.observed.participant_ids.get(&s.participant) == Some(&id))
+        };
+        follows(&self.observed.servo_commands) && (!self.connext || follows(&self.observed.connext))
+    }
+
+    fn await_formation(&mut self) -> Result<(), LabError> {
+        let started = Instant::now();
+        let roles = [
+            (1, Role::Primary),
+            (2, Role::Secondary),
+            (3, Role::Tertiary),
+        ];
+        loop {
+            let formed = roles.iter().all(|(id, role)| {
+                self.status(*id).is_some_and(|s| {
+                    s.report.phase == Phase::Steady && s.report.role == Some(*role)
+                })
+            });
+            if formed && self.actuators_follow(1) {
+                return Ok(());
+            }
+            if started.elapsed() > FORMATION_TIMEOUT {
+                let detail = format!(
+                    "formed: {formed}; servo commands {}, Connext samples {}; dead: {:?}; stderr: {:?}",
+                    self.observed.servo_commands.len(),
+                    self.observed.connext.len(),
+                    self.procs.dead(&CONTROLLER_IDS),
+                    self.observed.stderr.iter().rev().take(5).collect::<Vec<_>>()
+                );
+                return Err(LabError::NoFormation {
+                    waited_s: FORMATION_TIMEOUT.as_secs(),
+                    detail,
+                });
+            }
+            self.pump(Duration::from_millis(100))?;
+        }
+    }
+
+    /// The safety phase: applies and heals `steps` on schedule (times after judging starts).
+    pub fn play(&mut self, steps: &[Step]) -> Result<(), LabError> {
+        let origin = self.clock.now_ms();
+        let base = self.applied.len();
+        self.applied.extend(steps.iter().map(|_| None));
+        let mut due: Vec<(u64, bool, usize)> = steps
+            .iter()
+            .enumerate()
+            .flat_map(|(i, s)| [(s.at_ms, true, i), (s.at_ms + s.lasts_ms, false, i)])
+            .collect();
+        due.sort_by_key(|(at, apply, _)| (*at, *apply));
+        for (at_ms, apply, i) in due {
+            let wait_ms = (origin + at_ms as f64 - self.clock.now_ms()).max(0.0);
+            self.pump(Duration::from_secs_f64(wait_ms / 1000.0))?;
+            if apply {
+                self.apply(&steps[i], base + i)?;
+            } else if let Some(applied) = self.applied[base + i].take() {
+                let healed_ms = self.clock.now_ms();
+                faults::heal(applied, &self.lan, &mut self.procs)?;
+                let record = self.record_of_step.get(&(base + i)).copied();
+                if let Some(record) = record.and_then(|r| self.faults.get_mut(r)) {
+                    record.healed_ms = Some(healed_ms);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn apply(&mut self, step: &Step, index: usize) -> Result<(), LabError> {
+        let id = self.resolve(step.fault.target());
+        let table = format!("labf{index}");
+        // Before applying: a restart takes time, and what it causes counts from its start.
+        let applied_ms = self.clock.now_ms();
+        let applied = faults::apply(&step.fault, id, &table, &self.lan, &mut self.procs)?;
+        self.record_of_step.insert(index, self.faults.len());
+        self.faults.push(FaultRecord {
+            label: applied.fault.to_string(),
+            applied_ms,
+            healed_ms: None,
+        });
+        self.applied[index] = Some(applied);
+        Ok(())
+    }
+
+    /// The processes that should run and do not, now.
+    pub fn dead(&self) -> Vec<String> {
+        self.procs.dead(&CONTROLLER_IDS)
+    }
+
+    /// Stops every process (controllers with SIGTERM) and takes in their last lines.
+    pub fn stop(&mut self) -> Result<(), LabError> {
+        self.procs.stop_all();
+        self.pump(Duration::from_millis(300))
+    }
+
+    /// The LAN's prefix (names of its namespaces and links).
+    pub fn prefix(&self) -> &str {
+        &self.lan.prefix
+    }
+}
