@@ -11,12 +11,12 @@ use std::process::ExitCode;
 /// partitions, cuts, one-way and random loss, multicast drop, flapping links, clock offsets
 /// and rate limits.
 ///
-/// Every run forms P/S/T, applies its faults, heals them, and must settle within 8 rounds. It
-/// is judged on the owner changes each fault caused at both actuators, the largest command
-/// gap, the time two controllers claimed top strength, the controllers' recorded events
-/// against the model, and every process alive without a panic. A run leaves its recording,
-/// result.json and timeline in OUT/NAME-seedN/ and its picture in OUT/NAME-seedN.svg; a
-/// failing run prints the command that replays it.
+/// Every run forms P/S/T, applies its faults, heals them, and must settle within the model's
+/// bound (10 rounds). It is judged on the owner changes each fault caused at both actuators,
+/// the largest command gap, the time two controllers claimed top strength, the controllers'
+/// recorded events against the model, and every process alive without a panic. A run leaves
+/// its recording, result.json and timeline in OUT/NAME-seedN/ and its picture in
+/// OUT/NAME-seedN.svg; a failing run prints the command that replays it.
 ///
 /// Needs root, iproute2 (ip, tc), nftables and faketime (apt-get install nftables faketime);
 /// the Connext judge needs `pip install rticonnextdds-connector==1.2.4` (skipped with a

@@ -13,9 +13,10 @@
 
 use super::faults::Fault;
 
-/// The model's bound: 8 fault-free rounds after the last fault every live controller has
-/// settled ("settles after faults stop", docs/protocol.md).
-pub const SETTLE_ROUNDS: u64 = 8;
+/// The model's bound: 10 fault-free rounds after the last fault every live controller has
+/// settled ("settles after faults stop", docs/protocol.md; `model::Config`'s
+/// `settle_within_rounds`, which a test keeps this equal to).
+pub const SETTLE_ROUNDS: u64 = 10;
 
 /// What one scenario's judges accept.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -153,5 +154,14 @@ pub fn for_scenario(name: &str) -> Expected {
             model_accepts: true,
             settle_rounds: SETTLE_ROUNDS,
         },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn the_settle_bound_is_the_models() {
+        let model_bound = model::Config::default().settle_within_rounds;
+        assert_eq!(super::SETTLE_ROUNDS, u64::from(model_bound));
     }
 }
