@@ -244,6 +244,8 @@ impl Voting {
             }
             if let Some(stalled) = self.shared.loop_clock.mark() {
                 self.start_again(stalled);
+                // Only now that the silent status is in place may the writer follow it.
+                self.shared.loop_clock.resumed();
             }
             #[cfg(feature = "fault-injection")]
             fault_injection::stall();

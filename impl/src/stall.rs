@@ -11,7 +11,9 @@
 //! The voting loop marks the [`LoopClock`] at every iteration and restarts the core when the
 //! gap since the last mark reaches the peer deadline. The command writer, which runs in the
 //! application's thread and may wake first after a stop, checks the same clock and writes
-//! nothing while the loop has not run for that long.
+//! nothing while the loop has not run for that long, and after a stall until the loop has put
+//! the new, silent core's status in place ([`LoopClock::resumed`]): in between the status
+//! still says what the controller was before it stopped.
 
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
@@ -33,13 +35,23 @@ impl LoopClock {
     }
 
     /// The voting loop runs now; returns the stall it comes back from, if the gap since the
-    /// last mark reached the peer deadline.
+    /// last mark reached the peer deadline. After a stall the clock stays stalled until
+    /// [`LoopClock::resumed`].
     pub fn mark(&self) -> Option<Duration> {
         let now = Instant::now();
         let mut last = self.last_mark.lock().unwrap_or_else(|e| e.into_inner());
         let gap = now.saturating_duration_since(*last);
+        if gap >= self.stall_after {
+            return Some(gap);
+        }
         *last = now;
-        (gap >= self.stall_after).then_some(gap)
+        None
+    }
+
+    /// The voting loop has started again after a stall and published its new status:
+    /// commands may follow that status from now on.
+    pub fn resumed(&self) {
+        *self.last_mark.lock().unwrap_or_else(|e| e.into_inner()) = Instant::now();
     }
 
     /// The voting loop has not run for the peer deadline (it is stopped, or has just resumed
@@ -74,7 +86,13 @@ mod tests {
         );
         let gap = clock.mark().expect("50 ms is a stall");
         assert!(gap >= Duration::from_millis(40));
-        assert!(!clock.stalled(), "marked: running again");
+        assert!(
+            clock.stalled(),
+            "still stalled until the loop has restarted the core"
+        );
+        clock.resumed();
+        assert!(!clock.stalled(), "running again");
+        assert_eq!(clock.mark(), None);
     }
 
     #[test]
