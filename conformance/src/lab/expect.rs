@@ -125,9 +125,11 @@ pub fn for_scenario(name: &str) -> Expected {
         // The deaf or unheard Primary is outvoted, fails itself and is restarted (exit 75)
         // while the loss lasts; its new participant's discovery announcements were lost, and
         // RustDDS repeats them every 10 s (SPDP), so it can rejoin up to 10 s after the heal.
+        // Until it fails itself the outvoted Primary keeps 30 beside the majority's new one:
+        // measured 999 and 1000 ms (four rounds), so 1500 ms.
         "one-way-out" | "one-way-in" => Expected {
             settle_rounds: 48,
-            two_at_top_ms: 1_000.0,
+            two_at_top_ms: 1_500.0,
             ..SPLIT
         },
         // Multicast carries the heartbeats: without it the Primary and the others split as
