@@ -123,50 +123,56 @@ pub fn actions(config: &Config, state: &State, out: &mut Vec<Action>) {
             }
         }
     }
-    for id in ids.clone() {
-        let c = state.controller(id);
-        match c.life {
-            Life::Up => {
-                if state.history.crashes < config.max_crashes {
-                    out.push(Action::Crash { controller: id });
-                }
-                // One pause or cut at a time, of a full running system that has settled, its
-                // writers established (a split at formation, of a system of two, or in three,
-                // has no majority anywhere: F9).
-                let running = state.isolated == 0
-                    && state
-                        .controllers
-                        .iter()
-                        .all(|c| c.life != Life::Paused && !c.fresh_writer)
-                    && crate::properties::settled(state)
-                        .is_some_and(|agreed| agreed.len() == ROLE_COUNT);
-                if running && state.history.pauses < config.max_pauses {
-                    out.push(Action::Pause { controller: id });
-                }
-                if running && state.history.isolations < config.max_isolations {
-                    out.push(Action::Isolate { controller: id });
-                }
-                if c.phase == Phase::Failed && state.history.restarts < config.max_restarts {
-                    out.push(Action::Restart { controller: id });
-                }
-            }
-            Life::Down => {
-                if state.history.restarts < config.max_restarts {
-                    out.push(Action::Restart { controller: id });
-                }
-            }
-            Life::Paused => out.push(Action::Resume { controller: id }),
-            Life::NotStarted => out.push(Action::Join { controller: id }),
-        }
-        if state.isolated & (1 << (id - 1)) != 0 {
-            out.push(Action::Heal { controller: id });
-        }
-        if c.is_up() && c.undiscovered {
-            out.push(Action::DiscoverWriter { controller: id });
-        }
+    for id in ids {
+        lifecycle_actions(config, state, id, out);
     }
     for to in actuator::tie_break_targets(state) {
         out.push(Action::TieBreak { to });
+    }
+}
+
+/// The faults and process events open to controller `id`: crash, pause, cut, restart, resume,
+/// join, heal, and the actuator discovering its newest writer.
+fn lifecycle_actions(config: &Config, state: &State, id: Id, out: &mut Vec<Action>) {
+    let c = state.controller(id);
+    match c.life {
+        Life::Up => {
+            if state.history.crashes < config.max_crashes {
+                out.push(Action::Crash { controller: id });
+            }
+            // One pause or cut at a time, of a full running system that has settled, its
+            // writers established (a split at formation, of a system of two, or in three,
+            // has no majority anywhere: F9).
+            let running = state.isolated == 0
+                && state
+                    .controllers
+                    .iter()
+                    .all(|c| c.life != Life::Paused && !c.fresh_writer)
+                && crate::properties::settled(state)
+                    .is_some_and(|agreed| agreed.len() == ROLE_COUNT);
+            if running && state.history.pauses < config.max_pauses {
+                out.push(Action::Pause { controller: id });
+            }
+            if running && state.history.isolations < config.max_isolations {
+                out.push(Action::Isolate { controller: id });
+            }
+            if c.phase == Phase::Failed && state.history.restarts < config.max_restarts {
+                out.push(Action::Restart { controller: id });
+            }
+        }
+        Life::Down => {
+            if state.history.restarts < config.max_restarts {
+                out.push(Action::Restart { controller: id });
+            }
+        }
+        Life::Paused => out.push(Action::Resume { controller: id }),
+        Life::NotStarted => out.push(Action::Join { controller: id }),
+    }
+    if state.isolated & (1 << (id - 1)) != 0 {
+        out.push(Action::Heal { controller: id });
+    }
+    if c.is_up() && c.undiscovered {
+        out.push(Action::DiscoverWriter { controller: id });
     }
 }
 

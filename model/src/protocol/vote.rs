@@ -63,33 +63,7 @@ pub fn compute_vote(config: &Config, c: &Controller) -> Assignment {
             },
         })
         .collect();
-    // Each known result with its epoch (F11; 0 without it).
-    // Who holds the result matters only between results of one epoch (see the ranking).
-    let mut known: Vec<(Assignment, u8, bool, Id)> = c
-        .agreed
-        .map(|a| (a, c.epoch, c.provisional, c.id))
-        .into_iter()
-        .collect();
-    // F6: every incumbent's result, as heartbeats carry it. F1 alone gives that knowledge to
-    // a late joiner without a result of its own (it "takes the running system's result").
-    let joining = c.agreed.is_none() && c.late_joiner;
-    if rules.f6_vote_from_knowledge || (rules.f1_late_join_by_heartbeat && joining) {
-        known.extend(
-            c.peers
-                .iter()
-                .enumerate()
-                .filter(|(_, p)| p.incumbent())
-                .filter_map(|(index, p)| {
-                    let id = (index + 1) as Id;
-                    p.heard_agreed
-                        .map(|a| (a, p.heard_epoch, p.heard_provisional, id))
-                }),
-        );
-    }
-    if !rules.f5_decide_on_heartbeats && joining {
-        // Paper: a late joiner "assesses the existing system priority" from durable votes.
-        known.extend(durable_result(config, c).map(|a| (a, 0, false, 0)));
-    }
+    let known = known_results(config, c);
     // F11: a member's place in the newest result that has it comes first, a backed result
     // before a provisional one: after a merge the side that kept a majority keeps its roles.
     // Two results of one epoch (agreed concurrently while heartbeats were lost) may give one
@@ -133,6 +107,38 @@ pub fn compute_vote(config: &Config, c: &Controller) -> Assignment {
         });
     }
     vote
+}
+
+/// Every agreed result `c` knows, with its epoch and standing (F11; 0 and backed without it)
+/// and the controller that holds it (who holds it matters only between results of one epoch).
+fn known_results(config: &Config, c: &Controller) -> Vec<(Assignment, u8, bool, Id)> {
+    let rules = config.rules();
+    let mut known: Vec<(Assignment, u8, bool, Id)> = c
+        .agreed
+        .map(|a| (a, c.epoch, c.provisional, c.id))
+        .into_iter()
+        .collect();
+    // F6: every incumbent's result, as heartbeats carry it. F1 alone gives that knowledge to
+    // a late joiner without a result of its own (it "takes the running system's result").
+    let joining = c.agreed.is_none() && c.late_joiner;
+    if rules.f6_vote_from_knowledge || (rules.f1_late_join_by_heartbeat && joining) {
+        known.extend(
+            c.peers
+                .iter()
+                .enumerate()
+                .filter(|(_, p)| p.incumbent())
+                .filter_map(|(index, p)| {
+                    let id = (index + 1) as Id;
+                    p.heard_agreed
+                        .map(|a| (a, p.heard_epoch, p.heard_provisional, id))
+                }),
+        );
+    }
+    if !rules.f5_decide_on_heartbeats && joining {
+        // Paper: a late joiner "assesses the existing system priority" from durable votes.
+        known.extend(durable_result(config, c).map(|a| (a, 0, false, 0)));
+    }
+    known
 }
 
 /// The running system's result from the durable votes of live peers: the assignment most of
