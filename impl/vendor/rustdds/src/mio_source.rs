@@ -281,6 +281,10 @@ impl NotificationSender {
 
 impl NotificationReceiver {
   pub(crate) fn try_recv(&self) -> Result<(), std::sync::mpsc::TryRecvError> {
+    // The mio-0.6 channel gets a notification for each one of the std channel's: drain it
+    // along, or it fills up (100) and, full, its readiness never fires again.
+    #[cfg(feature = "mio_06")]
+    let _ = self.legacy_receiver.try_recv();
     self.receiver.try_recv()
   }
 }
