@@ -36,6 +36,7 @@ pub mod failed_exit;
 pub mod leds;
 pub mod logging;
 pub mod procs;
+pub mod round_clock;
 pub mod runtime;
 pub mod service;
 pub mod sim;

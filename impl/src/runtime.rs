@@ -12,9 +12,10 @@
 //! later, once a heartbeat has announced FAILED, and the thread ends with
 //! [`crate::Error::Failed`]: `rl controller` exits to be restarted (crate::failed_exit).
 //!
-//! The core's clock: milliseconds of the wall clock read once at start, advanced by the
-//! monotonic clock. Controllers whose wall clocks agree (NTP) share round boundaries, and a
-//! wall-clock step while running cannot stall or rush the rounds.
+//! The core's clock (crate::round_clock): milliseconds of the wall clock read once at start,
+//! advanced by the monotonic clock, so a wall-clock step while running cannot stall or rush
+//! the rounds, and moved to follow the Primary's round phase, so the controllers share round
+//! boundaries whether or not their wall clocks agree.
 
 use crate::api::{Options, Shared};
 use crate::config::{Config, LedBackend};
@@ -22,41 +23,17 @@ use crate::core::{
     AlarmReason, Command, ControllerId, Core, CoreConfig, Input, Phase, Status, VoteRecord,
 };
 use crate::dds::{Reader, Session, Writer};
-use crate::event::{Event, EventLine};
+use crate::event::Event;
 use crate::failed_exit::{Failure, PendingExit};
-use crate::leds::{ConsoleLeds, LedBank, LedPattern};
+use crate::leds::{ConsoleLeds, LedPattern};
+use crate::round_clock::{PhaseFollower, RoundClock};
 use crate::wire::{AlarmSample, ControllerAlarm, HeartbeatSample, VoteSample};
 use rustdds::mio::{Events, Poll, PollOpt, Ready, Token};
-use std::io::Write;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
-use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
-use tracing::{info, warn};
-
-/// Milliseconds on the wall clock at start, advanced monotonically.
-#[derive(Clone, Copy, Debug)]
-pub struct RoundClock {
-    started: Instant,
-    started_wall_ms: u64,
-}
-
-impl RoundClock {
-    pub fn start() -> RoundClock {
-        let started_wall_ms = SystemTime::now()
-            .duration_since(UNIX_EPOCH)
-            .map(|d| d.as_millis() as u64)
-            .unwrap_or(0);
-        RoundClock {
-            started: Instant::now(),
-            started_wall_ms,
-        }
-    }
-
-    pub fn now_ms(&self) -> u64 {
-        self.started_wall_ms + self.started.elapsed().as_millis() as u64
-    }
-}
+use std::time::Duration;
+use tracing::{debug, info, warn};
 
 /// The longest the thread sleeps without looking at its flags (stop, fault).
 const FLAG_CHECK_MS: u64 = 100;
@@ -128,6 +105,8 @@ pub(crate) fn spawn(
     });
     let thread_shared = Arc::clone(&shared);
     let failed_exit_delay_ms = config.timing.failed_exit_delay_ms;
+    let period_ms = core.config().heartbeat_period_ms;
+    let heartbeat_offset_ms = core.config().heartbeat_offset_ms();
     let thread = std::thread::Builder::new()
         .name(format!("rl-voting-{id}"))
         .spawn(move || {
@@ -135,6 +114,7 @@ pub(crate) fn spawn(
             let mut voting = Voting {
                 core,
                 clock,
+                phase: PhaseFollower::new(period_ms, heartbeat_offset_ms),
                 endpoints,
                 shared: thread_shared,
                 options,
@@ -143,6 +123,8 @@ pub(crate) fn spawn(
                 shown_leds: LedPattern::ALL_OFF,
                 failed_exit_delay_ms,
                 pending_exit: None,
+                stale_heartbeats_until_ms: None,
+                heartbeat_woke: false,
             };
             voting.run()
         })
@@ -209,6 +191,8 @@ fn led_bank(config: &Config) -> Leds {
 struct Voting {
     core: Core,
     clock: RoundClock,
+    /// Moves `clock` onto the Primary's round phase.
+    phase: PhaseFollower,
     endpoints: Endpoints,
     shared: Arc<Shared>,
     options: Options,
@@ -221,6 +205,10 @@ struct Voting {
     failed_exit_delay_ms: u64,
     /// Set when the core reported FAILED: why, and when the thread stops.
     pending_exit: Option<PendingExit>,
+    /// After a stall: heartbeats taken before this round-clock time are dropped as stale.
+    stale_heartbeats_until_ms: Option<u64>,
+    /// The last wait ended because a heartbeat arrived.
+    heartbeat_woke: bool,
 }
 
 impl Voting {
@@ -255,9 +243,7 @@ impl Voting {
             if self.shared.fault.swap(false, Ordering::SeqCst) {
                 self.step(Input::LocalFault);
             }
-            while let Some(timer) = self.core.due_timer(self.clock.now_ms()) {
-                self.step(Input::Timer(timer));
-            }
+            self.fire_due_timers();
             let now_ms = self.clock.now_ms();
             if let Some(exit) = self.pending_exit.take_if(|exit| exit.is_due(now_ms)) {
                 failed = Some(exit.failure);
@@ -272,7 +258,9 @@ impl Voting {
                 .min(exit_wait_ms.unwrap_or(FLAG_CHECK_MS))
                 .min(FLAG_CHECK_MS);
             match poll.poll(&mut events, Some(Duration::from_millis(wait_ms))) {
-                Ok(_) => {}
+                Ok(_) => {
+                    self.heartbeat_woke = events.iter().any(|e| e.token() == HEARTBEATS);
+                }
                 // SIGSTOP/SIGCONT interrupts the wait: not an error.
                 Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
                 Err(e) => return Err(crate::Error::io("waiting for DDS samples", e)),
@@ -307,15 +295,73 @@ impl Voting {
         );
         self.core = Core::new(config, now_ms);
         self.pending_exit = None;
+        // What arrives before the next boundary may be up to a stall old: the kernel kept the
+        // datagrams that came while the process stood still (or dropped the newest ones when
+        // its buffer filled), and DDS hands them over now. The new incarnation hears from the
+        // next round on, as if it had just started.
+        let period_ms = config.heartbeat_period_ms.max(1);
+        self.stale_heartbeats_until_ms = Some((now_ms / period_ms + 1) * period_ms);
         self.event(Event::Resumed {
             stalled_ms: u64::try_from(stalled.as_millis()).unwrap_or(u64::MAX),
         });
         self.show(self.core.status());
     }
 
+    fn fire_due_timers(&mut self) {
+        while let Some(timer) = self.core.due_timer(self.clock.now_ms()) {
+            self.step(Input::Timer(timer));
+        }
+    }
+
+    /// Moves the round clock if `heartbeat` is from the peer whose phase this controller
+    /// follows and arrived off its expected place in the round (crate::round_clock).
+    fn follow_phase(&mut self, heartbeat: &crate::core::Heartbeat) {
+        // Where the boundaries will be: also while the clock holds still after a move back.
+        let now_ms = self.clock.unheld_ms();
+        if let Some(by_ms) = self
+            .phase
+            .on_heartbeat(self.core.state(), heartbeat, now_ms)
+        {
+            self.clock.shift(by_ms);
+            // Moved forward across a boundary: that round ends before this heartbeat, which
+            // arrived in the next one.
+            self.fire_due_timers();
+            // A newcomer's first move, or clocks that drifted apart: worth a line. Jitter
+            // corrections are small.
+            let period_ms = self.core.config().heartbeat_period_ms;
+            if by_ms.unsigned_abs() >= period_ms / 8 {
+                info!(
+                    "round phase moved by {by_ms} ms to follow C{} ({} ms in all)",
+                    heartbeat.id,
+                    self.clock.moved_ms()
+                );
+            } else {
+                debug!(
+                    "round phase moved by {by_ms} ms to follow C{}",
+                    heartbeat.id
+                );
+            }
+        }
+    }
+
     /// Drains both readers (edge-triggered: whatever woke the poll).
     fn take_samples(&mut self) {
-        for heartbeat in self.endpoints.heartbeats_in.take() {
+        let now_ms = self.clock.now_ms();
+        if self
+            .stale_heartbeats_until_ms
+            .is_some_and(|until_ms| now_ms >= until_ms)
+        {
+            self.stale_heartbeats_until_ms = None;
+        }
+        let stale = self.stale_heartbeats_until_ms.is_some();
+        let heartbeats = self.endpoints.heartbeats_in.take();
+        // Only a heartbeat whose arrival woke the loop arrived now (a wake-up can come late:
+        // the timeout finds what arrived without one): the newest of those sets the phase.
+        let on_time = std::mem::take(&mut self.heartbeat_woke).then_some(heartbeats.len());
+        for (number, heartbeat) in (1..).zip(heartbeats) {
+            if stale {
+                continue;
+            }
             #[cfg(feature = "fault-injection")]
             if fault_injection::dropped(heartbeat.value.id) {
                 // Logged: an injected loss must be told apart from a real one.
@@ -323,6 +369,9 @@ impl Voting {
                     from: heartbeat.value.id,
                 });
                 continue;
+            }
+            if on_time == Some(number) {
+                self.follow_phase(&heartbeat.value);
             }
             self.step(Input::Heartbeat(heartbeat.value));
         }
@@ -353,53 +402,6 @@ impl Voting {
         // `journalctl -p warning` finds it.
         warn!("{}", exit.notice(now_ms));
         self.pending_exit = Some(exit);
-    }
-
-    /// What a person sees follows the status: the status event and console line when it
-    /// changed, the LEDs when their pattern did.
-    fn show(&mut self, status: Status) {
-        let leds = crate::leds::pattern_of(&status);
-        if leds != self.shown_leds {
-            self.shown_leds = leds;
-            self.show_leds(leds);
-        }
-        if status == self.shown_status {
-            return;
-        }
-        if status.duplicate_id_heartbeats > self.shown_status.duplicate_id_heartbeats {
-            warn!(
-                "another controller is using id {} (its heartbeats are ignored; check --id)",
-                status.report.id
-            );
-        }
-        self.console(&crate::console::console_line(&status));
-        self.status(status.clone());
-        self.shown_status = status;
-    }
-
-    fn show_leds(&mut self, pattern: LedPattern) {
-        let shown = match &mut self.leds {
-            Leds::Gpio(bank) => Some(bank.show(pattern)),
-            Leds::Console(console) if self.options.console_leds && !self.options.json_events => {
-                Some(console.show(pattern))
-            }
-            Leds::Console(_) => None,
-        };
-        if let Some(Err(error)) = shown {
-            warn!("LEDs: {error}");
-        }
-        self.event(Event::Leds {
-            leds: pattern.to_string(),
-        });
-    }
-
-    /// A line for the operator: on stdout, or in the log when stdout carries JSON events.
-    fn console(&self, line: &str) {
-        if self.options.json_events {
-            info!("{line}");
-        } else {
-            println!("{line}");
-        }
     }
 
     fn perform(&mut self, command: Command) {
@@ -467,109 +469,8 @@ impl Voting {
             warn!("alarm not published: {error}");
         }
     }
-
-    fn publish_ros_status(&self, status: &Status) {
-        if let Some(ros) = &self.endpoints.ros_status {
-            if let Ok(text) = serde_json::to_string(status) {
-                if let Err(error) = ros.publish(&text) {
-                    warn!("ROS 2 status not published: {error}");
-                }
-            }
-        }
-    }
-
-    fn status(&mut self, status: Status) {
-        self.publish_ros_status(&status);
-        self.event(Event::Status {
-            status: status.clone(),
-        });
-        *self.shared.status() = status;
-    }
-
-    /// One JSON event line on stdout (with `--json-events`): the record of what it did.
-    fn event(&self, event: Event) {
-        if !self.options.json_events {
-            return;
-        }
-        let line = EventLine {
-            t_ms: self.clock.now_ms(),
-            id: self.core.config().id,
-            incarnation: self.core.config().incarnation,
-            event,
-        };
-        let mut out = std::io::stdout().lock();
-        let _ = writeln!(out, "{}", line.to_json());
-        let _ = out.flush();
-    }
 }
 
-/// Test-only fault injection (feature `fault-injection`): heartbeats from the peers named on
-/// stdin are dropped on arrival, as if the network lost them one way, each drop logged as a
-/// `heartbeat_dropped` event (with `--json-events`); `stall-voting-loop <ms>`
-/// blocks the voting loop once for that long, as a hung loop would (the watchdog test).
 #[cfg(feature = "fault-injection")]
-mod fault_injection {
-    use std::collections::BTreeSet;
-    use std::io::BufRead;
-    use std::sync::Mutex;
-    use std::time::Duration;
-
-    static DROPPED: Mutex<BTreeSet<u8>> = Mutex::new(BTreeSet::new());
-    static STALL: Mutex<Option<Duration>> = Mutex::new(None);
-
-    /// Blocks the calling (voting) thread if a stall was asked for.
-    pub fn stall() {
-        let stall = STALL.lock().unwrap_or_else(|e| e.into_inner()).take();
-        if let Some(duration) = stall {
-            tracing::warn!("fault injection: voting loop stalled for {duration:?}");
-            std::thread::sleep(duration);
-        }
-    }
-
-    pub fn dropped(from: u8) -> bool {
-        DROPPED
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .contains(&from)
-    }
-
-    /// Reads `drop-heartbeats-from <id>`, `accept-heartbeats-from <id>` and
-    /// `stall-voting-loop <ms>` lines.
-    pub fn listen_on_stdin() {
-        let _ = std::thread::Builder::new()
-            .name("rl-fault-injection".into())
-            .spawn(|| {
-                for line in std::io::stdin().lock().lines().map_while(Result::ok) {
-                    let mut words = line.split_whitespace();
-                    let (Some(verb), Some(id)) = (words.next(), words.next()) else {
-                        continue;
-                    };
-                    if verb == "stall-voting-loop" {
-                        match id.parse::<u64>() {
-                            Ok(ms) => {
-                                *STALL.lock().unwrap_or_else(|e| e.into_inner()) =
-                                    Some(Duration::from_millis(ms));
-                            }
-                            Err(_) => tracing::warn!("fault injection: bad duration in {line:?}"),
-                        }
-                        continue;
-                    }
-                    let Ok(id) = id.parse::<u8>() else {
-                        tracing::warn!("fault injection: bad id in {line:?}");
-                        continue;
-                    };
-                    let mut dropped = DROPPED.lock().unwrap_or_else(|e| e.into_inner());
-                    match verb {
-                        "drop-heartbeats-from" => {
-                            dropped.insert(id);
-                        }
-                        "accept-heartbeats-from" => {
-                            dropped.remove(&id);
-                        }
-                        _ => tracing::warn!("fault injection: unknown command {line:?}"),
-                    }
-                    tracing::info!("fault injection: dropping heartbeats from {dropped:?}");
-                }
-            });
-    }
-}
+mod fault_injection;
+mod output;

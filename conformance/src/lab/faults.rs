@@ -61,6 +61,10 @@ pub enum Fault {
     /// The target restarted with its wall clock offset by `offset_s`; healed by a restart on
     /// the true clock. Only the glibc build of `rl` can be offset (libfaketime).
     ClockOffset(Target, f64),
+    /// The target restarted with its clocks, wall and monotonic, running `rate` times as fast
+    /// as the true clock (a crystal that is off, exaggerated: a Pi's is within about 100 ppm);
+    /// healed by a restart on the true clock. glibc builds only, like `ClockOffset`.
+    ClockRate(Target, f64),
     /// tbf at `kbit` kbit/s both ways on the target's link.
     RateLimit(Target, u32),
 }
@@ -104,6 +108,10 @@ impl fmt::Display for Fault {
             Fault::MulticastOnly(t) => write!(f, "multicast dropped at {t}"),
             Fault::Flap(t, _) => write!(f, "{t}'s link flapping (0.5-3 s)"),
             Fault::ClockOffset(t, s) => write!(f, "{t} restarted with its clock {s:+} s"),
+            Fault::ClockRate(t, rate) => {
+                let fast_percent = (rate - 1.0) * 100.0;
+                write!(f, "{t} restarted with its clock {fast_percent:+.1}% fast")
+            }
             Fault::RateLimit(t, kbit) => write!(f, "{t}'s link at {kbit} kbit/s (tbf)"),
         }
     }
@@ -122,6 +130,7 @@ impl Fault {
             | Fault::MulticastOnly(t)
             | Fault::Flap(t, _)
             | Fault::ClockOffset(t, _)
+            | Fault::ClockRate(t, _)
             | Fault::RateLimit(t, _) => *t,
         }
     }
@@ -145,6 +154,7 @@ impl Fault {
             Fault::MulticastOnly(_) => Fault::MulticastOnly(t),
             Fault::Flap(_, s) => Fault::Flap(t, s),
             Fault::ClockOffset(_, s) => Fault::ClockOffset(t, s),
+            Fault::ClockRate(_, rate) => Fault::ClockRate(t, rate),
             Fault::RateLimit(_, k) => Fault::RateLimit(t, k),
         }
     }
@@ -222,6 +232,11 @@ pub fn apply(
             procs.stop(id);
             procs.start_controller(id)?;
         }
+        Fault::ClockRate(_, rate) => {
+            procs.clock_rates.insert(id, *rate);
+            procs.stop(id);
+            procs.start_controller(id)?;
+        }
         Fault::RateLimit(_, kbit) => rate_limit(lan, me, Some(*kbit))?,
     }
     for (node, node_rules) in rules {
@@ -249,8 +264,9 @@ pub fn heal(applied: Applied, lan: &Lan, procs: &mut Procs) -> Result<(), LabErr
     match applied.fault {
         Fault::Kill(_) => procs.start_controller(id),
         Fault::Pause(_) => procs.pause(id, false),
-        Fault::ClockOffset(..) => {
+        Fault::ClockOffset(..) | Fault::ClockRate(..) => {
             procs.clock_offsets_s.remove(&id);
+            procs.clock_rates.remove(&id);
             procs.stop(id);
             procs.start_controller(id)
         }

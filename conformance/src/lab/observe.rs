@@ -69,7 +69,7 @@ impl Observations {
                 let offset_ms = lives
                     .iter()
                     .find(|l| l.label() == source)
-                    .map_or(0.0, |l| l.clock_offset_s * 1000.0);
+                    .map_or(0.0, |l| l.round_clock_offset_ms() as f64);
                 self.controller.push(ControllerEvent {
                     life: source.to_string(),
                     at_ms: clock.of_wall_ms(event.t_ms as f64 - offset_ms),

@@ -46,6 +46,16 @@ pub struct Life {
 }
 
 impl Life {
+    /// What the lab takes off this life's event times: its clock offset to the nearest whole
+    /// heartbeat period. Controllers follow the Primary's round phase (`rl::round_clock`), so
+    /// the rest of an offset is absorbed by the controllers themselves, and taking off the
+    /// whole periods puts every life on the system's shared round clock (the model's rounds).
+    pub fn round_clock_offset_ms(&self) -> i64 {
+        let period_ms = rl::config::Config::default().timing.heartbeat_period_ms as f64;
+        let offset_ms = self.clock_offset_s * 1000.0;
+        ((offset_ms / period_ms).round() * period_ms) as i64
+    }
+
     /// `C2`, or `C2#3` for its third process.
     pub fn label(&self) -> String {
         label(self.id, self.number)
@@ -79,6 +89,8 @@ pub struct Procs {
     running: BTreeMap<u8, Child>,
     /// The clock offset each controller id gets when it next starts.
     pub clock_offsets_s: BTreeMap<u8, f64>,
+    /// The clock rate (1.0: true) each controller id gets when it next starts.
+    pub clock_rates: BTreeMap<u8, f64>,
     helpers: Vec<Helper>,
     /// Restarts due (lab ms) of controllers that exited 75.
     restarts_due: BTreeMap<u8, f64>,
@@ -95,6 +107,7 @@ impl Procs {
             lives: Vec::new(),
             running: BTreeMap::new(),
             clock_offsets_s: BTreeMap::new(),
+            clock_rates: BTreeMap::new(),
             helpers: Vec::new(),
             restarts_due: BTreeMap::new(),
         }
@@ -136,13 +149,21 @@ impl Procs {
             return Ok(());
         }
         let offset_s = self.clock_offsets_s.get(&id).copied().unwrap_or(0.0);
-        let env = if offset_s == 0.0 {
+        let rate = self.clock_rates.get(&id).copied().unwrap_or(1.0);
+        let env = if offset_s == 0.0 && rate == 1.0 {
             Vec::new()
-        } else {
+        } else if rate == 1.0 {
+            // The wall clock only: the round clock then starts off and runs true.
             vec![
                 ("LD_PRELOAD".into(), LIBFAKETIME.into()),
                 ("FAKETIME".into(), format!("{offset_s:+}")),
                 ("FAKETIME_DONT_FAKE_MONOTONIC".into(), "1".into()),
+            ]
+        } else {
+            // Every clock, monotonic included, and sleeps, at `rate`: a fast crystal.
+            vec![
+                ("LD_PRELOAD".into(), LIBFAKETIME.into()),
+                ("FAKETIME".into(), format!("{offset_s:+} x{rate}")),
             ]
         };
         let rl = self.rl.display().to_string();

@@ -58,12 +58,31 @@ fn one(name: &str, about: &str, in_ci: bool, fault: Fault, lasts_s: f64) -> Scen
 /// A clock offset on C3 for most of the run, with two kills of the Primary meanwhile, so the
 /// offset controller ends up Primary before it is restarted on the true clock.
 fn clock(name: &str, offset_s: f64, in_ci: bool) -> Scenario {
+    let about = format!("C3's wall clock {offset_s:+} s, two kills of the Primary meanwhile");
+    clock_fault(
+        name,
+        about,
+        Fault::ClockOffset(Target::Id(3), offset_s),
+        in_ci,
+    )
+}
+
+/// [`clock`] with C3's clock running fast instead: 1% (10,000 ppm, a hundred times a bad
+/// crystal's error) moves its rounds by a quarter period, the heartbeats' margin, in about
+/// 6 s, where a Pi's crystal would take ten minutes or more.
+fn clock_drift(name: &str, rate: f64, in_ci: bool) -> Scenario {
+    let fast_percent = (rate - 1.0) * 100.0;
+    let about = format!("C3's clock {fast_percent:+.1}% fast, two kills of the Primary meanwhile");
+    clock_fault(name, about, Fault::ClockRate(Target::Id(3), rate), in_ci)
+}
+
+fn clock_fault(name: &str, about: String, fault: Fault, in_ci: bool) -> Scenario {
     let p = Target::Primary;
     Scenario {
         name: name.into(),
-        about: format!("C3's wall clock {offset_s:+} s, two kills of the Primary meanwhile"),
+        about,
         steps: vec![
-            step(1.0, Fault::ClockOffset(Target::Id(3), offset_s), 16.0),
+            step(1.0, fault, 16.0),
             step(5.0, Fault::Kill(p), 2.0),
             step(10.0, Fault::Kill(p), 2.0),
         ],
@@ -191,6 +210,7 @@ fn link_and_clock_scenarios() -> Vec<Scenario> {
         clock("clock-period", 0.25, false),
         clock("clock-10s", 10.0, false),
         clock("clock-minus-1h", -3600.0, true),
+        clock_drift("clock-drift", 1.01, false),
     ]
 }
 

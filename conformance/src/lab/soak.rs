@@ -79,9 +79,12 @@ pub fn soak(minutes: u64, seed: u64, setup: &Setup, out: &Path) -> Result<Vec<St
     let mut cycle = 0u64;
     while started.elapsed() < total {
         let mut schedule = scenario::random(seed.wrapping_add(cycle));
-        schedule
-            .steps
-            .retain(|s| !matches!(s.fault, Fault::Kill(_) | Fault::ClockOffset(..)));
+        schedule.steps.retain(|s| {
+            !matches!(
+                s.fault,
+                Fault::Kill(_) | Fault::ClockOffset(..) | Fault::ClockRate(..)
+            )
+        });
         let cycle_from_ms = session.clock.now_ms();
         let first_fault = session.faults.len();
         session.play(&schedule.steps)?;

@@ -1,7 +1,8 @@
 //! The recorded controller events of a run checked against the model, by the same trace
 //! validation `validate-run` does (`crate::validate`). Each life's events are written to
-//! `events/C1.log`, `events/C1#2.log`, ... in the run's directory, with `t_ms` taken back to
-//! the true clock for a life whose clock was offset (the model's rounds are shared), so
+//! `events/C1.log`, `events/C1#2.log`, ... in the run's directory, with `t_ms` taken back by
+//! whole periods of a life's clock offset, onto the rounds the controllers share (the model's
+//! rounds; `Life::round_clock_offset_ms`), so
 //! `cargo run --release -p conformance --bin validate-run -- DIR/events` repeats the check.
 
 use super::error::LabError;
@@ -25,7 +26,7 @@ pub fn write_recording(
     for life in lives {
         let path = dir.join(format!("{}.log", life.label()));
         let mut file = std::fs::File::create(&path).map_err(|e| LabError::output(&path, e))?;
-        let offset_ms = (life.clock_offset_s * 1000.0).round() as i64;
+        let offset_ms = life.round_clock_offset_ms();
         for event in observed
             .controller
             .iter()

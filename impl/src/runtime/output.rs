@@ -1,0 +1,93 @@
+//! What the voting loop shows of its status: the console line, the LEDs, the JSON event
+//! lines, the ROS 2 status topic and the status the application reads. Apart from the
+//! loop, which decides, so each stays short.
+
+use super::{Leds, Voting};
+use crate::core::Status;
+use crate::event::{Event, EventLine};
+use crate::leds::{LedBank, LedPattern};
+use std::io::Write;
+use tracing::{info, warn};
+
+impl Voting {
+    /// What a person sees follows the status: the status event and console line when it
+    /// changed, the LEDs when their pattern did.
+    pub(super) fn show(&mut self, status: Status) {
+        let leds = crate::leds::pattern_of(&status);
+        if leds != self.shown_leds {
+            self.shown_leds = leds;
+            self.show_leds(leds);
+        }
+        if status == self.shown_status {
+            return;
+        }
+        if status.duplicate_id_heartbeats > self.shown_status.duplicate_id_heartbeats {
+            warn!(
+                "another controller is using id {} (its heartbeats are ignored; check --id)",
+                status.report.id
+            );
+        }
+        self.console(&crate::console::console_line(&status));
+        self.status(status.clone());
+        self.shown_status = status;
+    }
+
+    pub(super) fn show_leds(&mut self, pattern: LedPattern) {
+        let shown = match &mut self.leds {
+            Leds::Gpio(bank) => Some(bank.show(pattern)),
+            Leds::Console(console) if self.options.console_leds && !self.options.json_events => {
+                Some(console.show(pattern))
+            }
+            Leds::Console(_) => None,
+        };
+        if let Some(Err(error)) = shown {
+            warn!("LEDs: {error}");
+        }
+        self.event(Event::Leds {
+            leds: pattern.to_string(),
+        });
+    }
+
+    /// A line for the operator: on stdout, or in the log when stdout carries JSON events.
+    pub(super) fn console(&self, line: &str) {
+        if self.options.json_events {
+            info!("{line}");
+        } else {
+            println!("{line}");
+        }
+    }
+
+    pub(super) fn publish_ros_status(&self, status: &Status) {
+        if let Some(ros) = &self.endpoints.ros_status {
+            if let Ok(text) = serde_json::to_string(status) {
+                if let Err(error) = ros.publish(&text) {
+                    warn!("ROS 2 status not published: {error}");
+                }
+            }
+        }
+    }
+
+    pub(super) fn status(&mut self, status: Status) {
+        self.publish_ros_status(&status);
+        self.event(Event::Status {
+            status: status.clone(),
+        });
+        *self.shared.status() = status;
+    }
+
+    /// One JSON event line on stdout (with `--json-events`): the record of what it did.
+    pub(super) fn event(&self, event: Event) {
+        if !self.options.json_events {
+            return;
+        }
+        let line = EventLine {
+            t_ms: self.clock.now_ms(),
+            id: self.core.config().id,
+            incarnation: self.core.config().incarnation,
+            event,
+        };
+        let mut out = std::io::stdout().lock();
+        let _ = writeln!(out, "{}", line.to_json());
+        let _ = out.flush();
+    }
+}
