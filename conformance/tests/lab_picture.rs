@@ -76,6 +76,7 @@ fn sample_run(picture: &Path) -> (Outcome, Observations, Vec<Life>) {
         scenario: "kill-primary".into(),
         about: "a drawn example".into(),
         seed: 1,
+        mutation: None,
         faults: vec![FaultRecord {
             label: "kill -9 C1, restart".into(),
             applied_ms: 3000.0,

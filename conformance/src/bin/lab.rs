@@ -1,6 +1,7 @@
 //! `lab`: the fault lab. Real `rl` processes on a virtual LAN of network namespaces, under
 //! real faults, judged at two actuators and against the model (docs/faults.md).
 
+use clap::builder::PossibleValuesParser;
 use clap::{Parser, Subcommand};
 use conformance::lab::{self, host, matrix, run, scenario, session::Setup, soak, LabError};
 use std::path::PathBuf;
@@ -26,6 +27,7 @@ use std::process::ExitCode;
 ///   lab list
 ///   lab run cut-primary
 ///   lab run random --seed 17
+///   lab run kill-primary --mutation failback --rl target/fault-injection/release/rl
 ///   lab matrix --ci
 ///   lab soak --minutes 30
 #[derive(Parser)]
@@ -60,6 +62,12 @@ enum Command {
         /// The seed: picks a random schedule's faults and times, a flapping link's intervals.
         #[arg(long, default_value_t = 1)]
         seed: u64,
+        /// Run the controllers with a deliberately broken voting rule (RL_MUTATION=NAME, set
+        /// for the controllers only), to see the lab catch it: the run must FAIL. Needs an rl
+        /// built with the `mutation` feature (--rl; e.g. target/fault-injection/release/rl,
+        /// which the DDS replay builds); with any other rl the run stops with an error.
+        #[arg(long, value_name = "NAME", value_parser = PossibleValuesParser::new(lab::mutation::NAMES))]
+        mutation: Option<String>,
     },
     /// Every scenario and random seeds 1, 2, 3, 7, 8, as a table (--ci: the short subset CI runs).
     Matrix {
@@ -122,7 +130,7 @@ fn execute(cli: &Cli) -> Result<ExitCode, LabError> {
     let setup = setup(cli)?;
     std::fs::create_dir_all(&cli.out).map_err(|e| LabError::output(&cli.out, e))?;
     let passed = match &cli.command {
-        Command::Run { scenario, seed } => {
+        Command::Run { scenario, seed, .. } => {
             let found =
                 scenario::find(scenario, *seed).ok_or_else(|| LabError::UnknownScenario {
                     name: scenario.clone(),
@@ -176,9 +184,14 @@ fn setup(cli: &Cli) -> Result<Setup, LabError> {
     if !connext {
         eprintln!("lab: python3 cannot import rticonnextdds_connector: the Connext judge is skipped (pip install {})", host::CONNEXT_PACKAGE);
     }
+    let mutation = match &cli.command {
+        Command::Run { mutation, .. } => mutation.clone(),
+        _ => None,
+    };
     Ok(Setup {
         rl,
         domain: cli.domain,
         connext,
+        mutation,
     })
 }

@@ -44,6 +44,21 @@ pub enum LabError {
     /// The system did not form before faults were due (P, S, T steady, the actuator following).
     #[error("no formation within {waited_s} s: {detail}")]
     NoFormation { waited_s: u64, detail: String },
+    /// `--mutation NAME`, and a controller's `rl` exited saying it knows no such mutation.
+    #[error("the rl at {} rejected the mutation {name:?}: {message}", rl.display())]
+    MutationRejected {
+        name: String,
+        rl: PathBuf,
+        message: String,
+    },
+    /// `--mutation NAME`, and controllers formed without saying they run it: their `rl` was
+    /// built without the `mutation` feature, which ignores `RL_MUTATION`.
+    #[error("the rl at {} does not run the mutation {name:?} ({silent} never announced it): --mutation needs an rl built with the `mutation` feature (cargo build --release -p rl --features mutation, or the DDS replay's target/fault-injection/release/rl)", rl.display())]
+    MutationIgnored {
+        name: String,
+        rl: PathBuf,
+        silent: String,
+    },
 }
 
 impl LabError {

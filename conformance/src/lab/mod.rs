@@ -17,7 +17,8 @@
 //! - [`observe`]: the lines taken in, on one clock; [`judge`]: the measurements and the
 //!   verdict; [`validation`]: the recorded events against the model;
 //! - [`run`]: one run start to verdict and its output; [`plot`]: its picture; [`matrix`]:
-//!   many runs and the table; [`soak`]: long runs with resource sampling.
+//!   many runs and the table; [`soak`]: long runs with resource sampling; [`mutation`]: runs
+//!   against a deliberately broken `rl`, which must fail.
 
 pub mod clock;
 pub mod error;
@@ -27,6 +28,7 @@ pub mod host;
 pub mod judge;
 pub mod lan;
 pub mod matrix;
+pub mod mutation;
 pub mod nft;
 pub mod observe;
 pub mod plot;

@@ -84,7 +84,14 @@ pub fn draw(
     let x0 = (outcome.metrics.judged_from_ms / 1000.0 - 2.0).max(0.0);
     let x1 = end_ms / 1000.0;
     let verdict = if outcome.passed() { "PASS" } else { "FAIL" };
-    let title = format!("{} (seed {}): {verdict}", outcome.scenario, outcome.seed);
+    let broken = outcome
+        .mutation
+        .as_ref()
+        .map_or(String::new(), |m| format!(", mutation {m}"));
+    let title = format!(
+        "{} (seed {}{broken}): {verdict}",
+        outcome.scenario, outcome.seed
+    );
     let mut chart = ChartBuilder::on(&root)
         .caption(title, ("sans-serif", 20))
         .margin(10)

@@ -94,6 +94,8 @@ pub struct Procs {
     helpers: Vec<Helper>,
     /// Restarts due (lab ms) of controllers that exited 75.
     restarts_due: BTreeMap<u8, f64>,
+    /// The deliberately broken rule every controller life runs (`RL_MUTATION`), if any.
+    pub mutation: Option<String>,
 }
 
 impl Procs {
@@ -110,10 +112,18 @@ impl Procs {
             clock_rates: BTreeMap::new(),
             helpers: Vec::new(),
             restarts_due: BTreeMap::new(),
+            mutation: None,
         }
     }
 
-    /// `ip netns exec NS env [faketime] program args`.
+    /// The `rl` binary the processes run.
+    pub fn rl(&self) -> &std::path::Path {
+        &self.rl
+    }
+
+    /// `ip netns exec NS env [faketime] [RL_MUTATION] program args`. `ip netns exec` passes
+    /// the lab's environment on; `RL_MUTATION` is taken out of it, so only a controller of a
+    /// `--mutation` run ever has it.
     fn command(
         &self,
         node: Node,
@@ -123,6 +133,7 @@ impl Procs {
     ) -> Command {
         let mut command = Command::new("ip");
         command
+            .env_remove(super::mutation::VARIABLE)
             .args(["netns", "exec", &self.namespaces[&node], "env"])
             .args(env.iter().map(|(k, v)| format!("{k}={v}")))
             .arg(program)
@@ -150,7 +161,7 @@ impl Procs {
         }
         let offset_s = self.clock_offsets_s.get(&id).copied().unwrap_or(0.0);
         let rate = self.clock_rates.get(&id).copied().unwrap_or(1.0);
-        let env = if offset_s == 0.0 && rate == 1.0 {
+        let mut env = if offset_s == 0.0 && rate == 1.0 {
             Vec::new()
         } else if rate == 1.0 {
             // The wall clock only: the round clock then starts off and runs true.
@@ -166,6 +177,9 @@ impl Procs {
                 ("FAKETIME".into(), format!("{offset_s:+} x{rate}")),
             ]
         };
+        if let Some(name) = &self.mutation {
+            env.push((super::mutation::VARIABLE.into(), name.clone()));
+        }
         let rl = self.rl.display().to_string();
         let (id_text, domain) = (id.to_string(), self.domain.to_string());
         let args = [

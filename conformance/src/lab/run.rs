@@ -2,7 +2,9 @@
 //! schedule's faults), the liveness phase (no faults: it must settle), the judges, and the
 //! run's output: `DIR/NAME-seedN/` with `result.json` (measurements, verdict, the replay
 //! command), `timeline.txt`, `stderr.log` and `events/` (the recording trace validation
-//! reads), and the picture `DIR/NAME-seedN.svg` beside it.
+//! reads), and the picture `DIR/NAME-seedN.svg` beside it. A run against a deliberately
+//! broken `rl` (`--mutation M`, `super::mutation`) is `NAME-seedN-mutation-M`, and says so in
+//! its result and summary.
 
 use super::error::LabError;
 use super::expect::SETTLE_ROUNDS;
@@ -28,6 +30,8 @@ pub struct Outcome {
     pub scenario: String,
     pub about: String,
     pub seed: u64,
+    /// The deliberately broken rule the controllers ran (`--mutation`); `None`: RL's rules.
+    pub mutation: Option<String>,
     pub faults: Vec<FaultRecord>,
     pub metrics: Metrics,
     pub validation: Verdict,
@@ -45,16 +49,37 @@ impl Outcome {
     }
 }
 
-/// The command that replays scenario `name` with `seed`.
-pub fn replay_command(name: &str, seed: u64) -> String {
-    format!("cargo run --release -p conformance --bin lab -- run {name} --seed {seed}")
+/// The command that replays scenario `name` with `seed` (and `setup`'s mutation, with its
+/// `rl`, which must be a `mutation` build).
+pub fn replay_command(name: &str, seed: u64, setup: &Setup) -> String {
+    let command =
+        format!("cargo run --release -p conformance --bin lab -- run {name} --seed {seed}");
+    match &setup.mutation {
+        Some(mutation) => format!(
+            "{command} --rl {} --mutation {mutation}",
+            setup.rl.display()
+        ),
+        None => command,
+    }
+}
+
+/// `NAME-seedN`, or `NAME-seedN-mutation-M`: the name of a run's output.
+fn output_name(name: &str, seed: u64, mutation: Option<&str>) -> String {
+    match mutation {
+        Some(mutation) => format!("{name}-seed{seed}-mutation-{mutation}"),
+        None => format!("{name}-seed{seed}"),
+    }
 }
 
 /// Runs `scenario` (seed `seed`) and writes its output under `out`.
 pub fn run(scenario: &Scenario, seed: u64, setup: &Setup, out: &Path) -> Result<Outcome, LabError> {
     let mut session = Session::start(setup)?;
+    let broken = setup
+        .mutation
+        .as_ref()
+        .map_or(String::new(), |m| format!(", mutation {m}"));
     eprintln!(
-        "lab: {} (seed {seed}) on LAN {}: formed at {:.1} s; {}",
+        "lab: {} (seed {seed}{broken}) on LAN {}: formed at {:.1} s; {}",
         scenario.name,
         session.prefix(),
         session.judged_from_ms / 1000.0,
@@ -76,7 +101,8 @@ pub fn run(scenario: &Scenario, seed: u64, setup: &Setup, out: &Path) -> Result<
         period_ms,
     );
     metrics.dead = dead;
-    let dir = out.join(format!("{}-seed{seed}", scenario.name));
+    let name = output_name(&scenario.name, seed, setup.mutation.as_deref());
+    let dir = out.join(&name);
     let _ = std::fs::remove_dir_all(&dir);
     let events = dir.join("events");
     validation::write_recording(&events, &session.observed, &lives)?;
@@ -86,18 +112,19 @@ pub fn run(scenario: &Scenario, seed: u64, setup: &Setup, out: &Path) -> Result<
         &scenario.expected,
         validation.as_ref().map(|_| ()).map_err(String::as_str),
     );
-    let picture = out.join(format!("{}-seed{seed}.svg", scenario.name));
+    let picture = out.join(format!("{name}.svg"));
     let outcome = Outcome {
         scenario: scenario.name.clone(),
         about: scenario.about.clone(),
         seed,
+        mutation: setup.mutation.clone(),
         faults: session.faults.clone(),
         metrics,
         validation,
         failures,
         dir: dir.clone(),
         picture: picture.clone(),
-        replay: replay_command(&scenario.name, seed),
+        replay: replay_command(&scenario.name, seed, setup),
     };
     plot::draw(&picture, &outcome, &session.observed, &lives, end_ms)?;
     write_outputs(&dir, &outcome, &session)?;
@@ -169,8 +196,11 @@ pub fn timeline(outcome: &Outcome) -> String {
 pub fn summary(outcome: &Outcome) -> String {
     let m = &outcome.metrics;
     let gap = |g: Option<(f64, f64)>| g.map_or("-".into(), |(ms, _)| format!("{ms:.0} ms"));
+    let broken = outcome.mutation.as_ref().map_or(String::new(), |m| {
+        format!(", mutation {m}: a deliberately broken rl")
+    });
     let mut text = format!(
-        "{} (seed {}): {}\n  owner changes per fault (servo/connext): {}\n  largest gap: servo {}, connext {}\n  two at top strength: {:.0} ms\n  settled: {}\n  model: {}\n  final roles: {}\n  picture: {}\n",
+        "{} (seed {}{broken}): {}\n  owner changes per fault (servo/connext): {}\n  largest gap: servo {}, connext {}\n  two at top strength: {:.0} ms\n  settled: {}\n  model: {}\n  final roles: {}\n  picture: {}\n",
         outcome.scenario,
         outcome.seed,
         if outcome.passed() { "PASS" } else { "FAIL" },

@@ -25,6 +25,9 @@ pub struct Setup {
     pub domain: u16,
     /// Start the Connext reader as a second actuator judge.
     pub connext: bool,
+    /// The deliberately broken rule the controllers run (`RL_MUTATION`; a `mutation` build of
+    /// `rl` only): `super::mutation`.
+    pub mutation: Option<String>,
 }
 
 /// The Connext reader's command deadline: the paper's reader QoS, as the actuator tests use.
@@ -54,6 +57,7 @@ impl Session {
         let clock = LabClock::start();
         let (sender, lines) = mpsc::channel();
         let mut procs = Procs::new(setup.rl.clone(), setup.domain, &lan, clock, sender);
+        procs.mutation = setup.mutation.clone();
         let domain = setup.domain.to_string();
         procs.start_helper(
             "servo",
@@ -178,7 +182,11 @@ impl Session {
                     s.report.phase == Phase::Steady && s.report.role == Some(*role)
                 })
             });
-            if formed && self.actuators_follow(1) {
+            let formed = formed && self.actuators_follow(1);
+            if let Some(refused) = self.mutation_refused(formed) {
+                return Err(refused);
+            }
+            if formed {
                 return Ok(());
             }
             if started.elapsed() > FORMATION_TIMEOUT {
@@ -196,6 +204,14 @@ impl Session {
             }
             self.pump(Duration::from_millis(100))?;
         }
+    }
+
+    /// With a mutation: why the controllers do not run it, if they do not (`super::mutation`).
+    fn mutation_refused(&self, formed: bool) -> Option<LabError> {
+        let name = self.procs.mutation.as_deref()?;
+        let labels: Vec<String> = self.procs.lives.iter().map(|l| l.label()).collect();
+        let rl = self.procs.rl();
+        super::mutation::refused(name, rl, &self.observed.stderr, &labels, formed)
     }
 
     /// The safety phase: applies and heals `steps` on schedule (times after judging starts).
