@@ -39,7 +39,8 @@
 //! [`state`] (what one controller knows), `rules` (the model's rules, one function each),
 //! [`report`] (the self-report sent as heartbeat and shown as status), [`io`] (inputs,
 //! timers, commands), [`config`], and `mutation` (deliberately broken rules, feature
-//! `mutation` only).
+//! `mutation` only). [`network`] is the network alarm participant, a second pure state
+//! machine of the same shape that watches both networks between the like controllers.
 
 #![deny(missing_docs)]
 
@@ -49,6 +50,7 @@ mod invariants;
 pub mod io;
 #[cfg(feature = "mutation")]
 pub mod mutation;
+pub mod network;
 pub mod report;
 mod rules;
 pub mod state;
