@@ -78,6 +78,8 @@ pub struct DomainParticipantBuilder {
 
   same_host_loopback: bool, // prefer loopback for same-host peers + localhost SPDP discovery peers
 
+  send_on_every_interface: bool, // never narrow a reader to one learnt route
+
   socket_receive_buffer_size: usize,
   socket_send_buffer_size: usize,
 
@@ -93,6 +95,7 @@ impl DomainParticipantBuilder {
       domain_id,
       only_networks: None,
       same_host_loopback: true,
+      send_on_every_interface: false,
       socket_receive_buffer_size: Self::DEFAULT_SOCKET_RECEIVE_BUFFER_SIZE,
       socket_send_buffer_size: Self::DEFAULT_SOCKET_SEND_BUFFER_SIZE,
       #[cfg(feature = "security")]
@@ -126,6 +129,21 @@ impl DomainParticipantBuilder {
   /// `src/rtps/loopback_same_host_design.md`.
   pub fn same_host_loopback(mut self, enabled: bool) -> Self {
     self.same_host_loopback = enabled;
+    self
+  }
+
+  /// Send every datagram to every locator a reader advertised, on every local
+  /// multicast interface (default: disabled).
+  ///
+  /// By default a writer narrows each remote reader to one route, learnt from
+  /// where that reader's participant was heard first, and keeps it until the
+  /// route has been silent for 30 s. On a host with two networks that means a
+  /// writer whose chosen network dies is not heard for ~35 s although the other
+  /// network works. Enabled, both networks carry every datagram (readers drop
+  /// the duplicates by sequence number), so losing either loses nothing. This
+  /// also disables the same-host loopback route preference.
+  pub fn send_on_every_interface(mut self, enabled: bool) -> Self {
+    self.send_on_every_interface = enabled;
     self
   }
 
@@ -344,6 +362,7 @@ impl DomainParticipantBuilder {
       self.socket_send_buffer_size,
       self.only_networks,
       self.same_host_loopback,
+      self.send_on_every_interface,
       dp_waker,
       discovery_sample_sender,
     )?;
@@ -977,6 +996,7 @@ impl DomainParticipantDisc {
     socket_send_buffer_size: usize,
     only_networks: Option<Vec<IpAddr>>,
     same_host_loopback: bool,
+    send_on_every_interface: bool,
     dp_waker: LoopWaker,
     discovery_sample_sender: ReadySender<mio1::Token>,
   ) -> CreateResult<Self> {
@@ -994,6 +1014,7 @@ impl DomainParticipantDisc {
       socket_send_buffer_size,
       only_networks,
       same_host_loopback,
+      send_on_every_interface,
       dp_waker,
       discovery_sample_sender,
     )?;
@@ -1236,6 +1257,7 @@ impl DomainParticipantInner {
     socket_send_buffer_size: usize,
     only_networks: Option<Vec<IpAddr>>,
     same_host_loopback: bool,
+    send_on_every_interface: bool,
     dp_waker: LoopWaker,
     discovery_sample_sender: ReadySender<mio1::Token>,
   ) -> CreateResult<Self> {
@@ -1412,6 +1434,7 @@ impl DomainParticipantInner {
           only_networks_for_ev_loop,
           socket_send_buffer_size,
           same_host_loopback,
+          send_on_every_interface,
           reader_ready_rx,
           writer_ready_rx,
           dp_waker,

@@ -140,6 +140,9 @@ pub struct DPEventLoop {
   // route same-host peers over loopback. See
   // `src/rtps/loopback_same_host_design.md`.
   same_host_loopback: bool,
+
+  // Participant-builder `send_on_every_interface` knob, handed to every writer.
+  send_on_every_interface: bool,
 }
 
 impl DPEventLoop {
@@ -164,6 +167,7 @@ impl DPEventLoop {
     only_networks: Option<Arc<[IpAddr]>>,
     socket_send_buffer_size: usize,
     same_host_loopback: bool,
+    send_on_every_interface: bool,
     reader_ready: ReadyReceiver<EntityId>,
     writer_ready: ReadyReceiver<EntityId>,
     waker: LoopWaker,
@@ -257,6 +261,7 @@ impl DPEventLoop {
       participant_status_sender,
       discovery_command_sender,
       same_host_loopback,
+      send_on_every_interface,
     })
   }
 
@@ -1115,6 +1120,7 @@ impl DPEventLoop {
     // - every writer may route a confirmed same-host peer over loopback.
     // See `src/rtps/loopback_same_host_design.md`.
     new_writer.set_prefer_loopback_same_host(self.same_host_loopback);
+    new_writer.set_send_on_every_interface(self.send_on_every_interface);
     if self.same_host_loopback
       && new_writer.guid().entity_id == EntityId::SPDP_BUILTIN_PARTICIPANT_WRITER
     {
@@ -1346,6 +1352,7 @@ mod tests {
         None,
         0,
         true,
+        false,
         reader_ready,
         writer_ready,
         waker,

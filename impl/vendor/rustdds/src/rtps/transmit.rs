@@ -268,12 +268,17 @@ pub struct DefaultRouteSelector {
   /// disable the same-host loopback preference (see the participant-builder
   /// `same_host_loopback` knob).
   pub prefer_loopback_same_host: bool,
+  /// When `true`, never narrow: every reader gets [`SendRoute::fallback`], so
+  /// each datagram goes to every advertised locator on every local interface
+  /// (the participant-builder `send_on_every_interface` knob).
+  pub every_interface: bool,
 }
 
 impl Default for DefaultRouteSelector {
   fn default() -> Self {
     Self {
       prefer_loopback_same_host: true,
+      every_interface: false,
     }
   }
 }
@@ -282,7 +287,14 @@ impl DefaultRouteSelector {
   pub fn new(prefer_loopback_same_host: bool) -> Self {
     Self {
       prefer_loopback_same_host,
+      every_interface: false,
     }
+  }
+
+  /// See [`Self::every_interface`].
+  pub fn every_interface(mut self, enabled: bool) -> Self {
+    self.every_interface = enabled;
+    self
   }
 }
 
@@ -302,8 +314,9 @@ impl RouteSelector for DefaultRouteSelector {
     observed: Option<&ObservedRoutes>,
     local_multicast_ifaces: &[InterfaceSelector],
   ) -> SendRoute {
-    // No origin knowledge -> cannot narrow safely.
-    let Some(obs) = observed else {
+    // No origin knowledge -> cannot narrow safely. Narrowing switched off ->
+    // keep every path (a multi-homed host survives losing one network).
+    let Some(obs) = observed.filter(|_| !self.every_interface) else {
       return SendRoute::fallback();
     };
 
@@ -462,6 +475,21 @@ mod tests {
       Some(&obs),
       &[iface([10, 0, 0, 1])],
     );
+    assert!(route.fallback);
+  }
+
+  #[test]
+  fn every_interface_never_narrows() {
+    let mut obs = InterfaceObservations::new();
+    let p = GuidPrefix::new(&[1; 12]);
+    obs.record(p, Some(iface([10, 0, 0, 1])), sockaddr([10, 0, 0, 9], 5000));
+    let mc = udp([239, 255, 0, 1], 7401);
+    let ifaces = [iface([10, 0, 0, 1]), iface([10, 1, 0, 1])];
+    let narrowing = DefaultRouteSelector::default();
+    let route = narrowing.select(&[udp([10, 0, 0, 9], 7411)], &[mc], &[], obs.get(p), &ifaces);
+    assert!(!route.fallback);
+    let every = DefaultRouteSelector::default().every_interface(true);
+    let route = every.select(&[udp([10, 0, 0, 9], 7411)], &[mc], &[], obs.get(p), &ifaces);
     assert!(route.fallback);
   }
 

@@ -205,6 +205,10 @@ pub(crate) struct Writer {
   // default. Passed into `DefaultRouteSelector` on every route resolution.
   prefer_loopback_same_host: bool,
 
+  // Mirrors the participant-builder `send_on_every_interface` knob; `false` by
+  // default. When set, route selection never narrows a reader to one path.
+  send_on_every_interface: bool,
+
   // Interface-aware transmit: per-remote observed receive interfaces/addresses,
   // shared (intra-thread) with the MessageReceiver that records them. Consulted
   // when (re)resolving each reader proxy's SendRoute.
@@ -349,6 +353,7 @@ impl Writer {
       udp_sender,
       extra_unicast_destinations: Vec::new(),
       prefer_loopback_same_host: true,
+      send_on_every_interface: false,
       interface_observations,
       local_interfaces,
       min_datagram_payload: FALLBACK_MAX_AGGREGATED_DATAGRAM_SIZE,
@@ -1968,6 +1973,12 @@ impl Writer {
     self.prefer_loopback_same_host = enabled;
   }
 
+  /// Enable/disable sending every datagram on every path. See the
+  /// participant-builder `send_on_every_interface` knob.
+  pub fn set_send_on_every_interface(&mut self, enabled: bool) {
+    self.send_on_every_interface = enabled;
+  }
+
   pub fn update_reader_proxy(
     &mut self,
     reader_proxy: &RtpsReaderProxy,
@@ -2076,7 +2087,8 @@ impl Writer {
     let is_volatile = self.qos().is_volatile(); // Get this in advance to work with the borrow checker
                                                 // Capture the interface set once; resolution consults current observations.
     let multicast_ifaces = self.udp_sender.multicast_interfaces();
-    let selector = DefaultRouteSelector::new(self.prefer_loopback_same_host);
+    let selector = DefaultRouteSelector::new(self.prefer_loopback_same_host)
+      .every_interface(self.send_on_every_interface);
     self
       .readers
       .entry(updated_reader_proxy.remote_reader_guid)
@@ -2135,7 +2147,8 @@ impl Writer {
   /// observations for that participant may have arrived (e.g. periodic SPDP).
   pub fn recompute_routes_for(&mut self, prefix: GuidPrefix) {
     let multicast_ifaces = self.udp_sender.multicast_interfaces();
-    let selector = DefaultRouteSelector::new(self.prefer_loopback_same_host);
+    let selector = DefaultRouteSelector::new(self.prefer_loopback_same_host)
+      .every_interface(self.send_on_every_interface);
     {
       let observations = self.interface_observations.borrow();
       for rp in self.readers.values_mut() {
