@@ -192,7 +192,7 @@ pub struct Peer {
     /// Its last heartbeat said it commands at Primary strength.
     pub claims_primary: bool,
     /// The epoch of the agreed result its last heartbeat carried (F11).
-    pub heard_epoch: u8,
+    pub heard_epoch: u32,
     /// That result was provisional (F11).
     pub heard_provisional: bool,
     /// The established command strength its last heartbeat reported (F13).
@@ -232,7 +232,7 @@ pub struct Controller {
     /// Indexed by id - 1; its own entry is unused.
     pub peers: [Peer; MAX_CONTROLLERS],
     /// F11: the epoch of its agreed result.
-    pub epoch: u8,
+    pub epoch: u32,
     /// F11: bit `id - 1` for each member of the last result agreed with a majority.
     pub quorum_base: u8,
     /// F11: its agreed result lacks a majority of `quorum_base`.

@@ -35,7 +35,7 @@ pub(super) struct Branch {
 pub(super) type Visible = (
     (Life, u8, Phase, Option<model::Role>, Option<u8>),
     (Option<Assignment>, Option<Assignment>),
-    (u8, bool, Option<u8>),
+    (u32, bool, Option<u8>),
 );
 
 pub(super) fn visible(c: &Controller) -> Visible {

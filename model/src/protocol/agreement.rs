@@ -182,7 +182,7 @@ fn take_epoch(c: &mut Controller, agreed: Assignment) {
 }
 
 /// The newest epoch it knows: its own and every incumbent's.
-fn known_epoch(c: &Controller) -> u8 {
+fn known_epoch(c: &Controller) -> u32 {
     c.peers
         .iter()
         .filter(|p| p.incumbent())

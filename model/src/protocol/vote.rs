@@ -69,7 +69,7 @@ pub fn compute_vote(config: &Config, c: &Controller) -> Assignment {
     // Two results of one epoch (agreed concurrently while heartbeats were lost) may give one
     // role to two members: the one that holds that result itself comes first, so a
     // controller that took a role keeps it and a newcomer the other result named waits.
-    let rank = |member: &Holder| -> (std::cmp::Reverse<u8>, bool, usize, bool) {
+    let rank = |member: &Holder| -> (std::cmp::Reverse<u32>, bool, usize, bool) {
         if config.mutated(Mutation::Failback) {
             return (std::cmp::Reverse(0), true, ROLE_COUNT, true);
         }
@@ -111,9 +111,9 @@ pub fn compute_vote(config: &Config, c: &Controller) -> Assignment {
 
 /// Every agreed result `c` knows, with its epoch and standing (F11; 0 and backed without it)
 /// and the controller that holds it (who holds it matters only between results of one epoch).
-fn known_results(config: &Config, c: &Controller) -> Vec<(Assignment, u8, bool, Id)> {
+fn known_results(config: &Config, c: &Controller) -> Vec<(Assignment, u32, bool, Id)> {
     let rules = config.rules();
-    let mut known: Vec<(Assignment, u8, bool, Id)> = c
+    let mut known: Vec<(Assignment, u32, bool, Id)> = c
         .agreed
         .map(|a| (a, c.epoch, c.provisional, c.id))
         .into_iter()
