@@ -15,9 +15,10 @@
 //! reference's heartbeat arrives in its own round and moves its [`RoundClock`] so that the
 //! heartbeat arrives a quarter period in. The reference is the Primary; before there is one,
 //! the lowest id heard below its own. A Primary follows nobody, so the system keeps the
-//! Primary's phase: a newcomer takes it at once, and a running system is never moved by a
-//! newcomer. A member of a result takes half of each correction, so two members that briefly
-//! name different Primaries meet halfway instead of swapping phases.
+//! Primary's phase: a newcomer takes it at its first heartbeat, before its first decision,
+//! and a running system is never moved by a newcomer. A member moves only on two
+//! measurements a round apart that agree, and by half, so two members that briefly name
+//! different Primaries meet halfway instead of swapping phases.
 
 use crate::core::{ControllerId, ControllerState, Role, SelfReport};
 use std::cell::Cell;
@@ -86,10 +87,10 @@ pub struct PhaseFollower {
     /// When a heartbeat reporting a Primary was last heard, to fall back on the lowest id only
     /// when there is none.
     primary_heard_ms: Option<u64>,
-    /// The last error measured and not yet acted on: (reference, error, when). A correction
-    /// needs two measurements a round apart that agree, because one heartbeat can arrive at
-    /// any time (delivered with others when DDS discovery matches its writer, or late when
-    /// its sender was not scheduled).
+    /// The last error measured and not yet acted on: (reference, error, when). A member's
+    /// correction needs two measurements a round apart that agree, because one heartbeat can
+    /// arrive late (delivered with others when DDS discovery matches its writer, or when its
+    /// sender was not scheduled in time).
     unconfirmed: Option<(ControllerId, i64, u64)>,
 }
 
@@ -128,19 +129,21 @@ impl PhaseFollower {
             self.unconfirmed = None;
             return None;
         }
+        let member = own.agreed.is_some() && own.role.is_some();
         let confirmed = self.unconfirmed.is_some_and(|(from, earlier_ms, at_ms)| {
             from == heartbeat.id
                 && now_ms.saturating_sub(at_ms) >= self.period_ms / 2
                 && (error_ms - earlier_ms).unsigned_abs() <= self.dead_zone_ms
         });
-        if !confirmed {
+        // A newcomer moves at once, before its first decision; a member's rounds are the
+        // system's, so it moves on nothing less than two measurements that agree.
+        if member && !confirmed {
             self.unconfirmed = Some((heartbeat.id, error_ms, now_ms));
             return None;
         }
         self.unconfirmed = None;
         // Ahead of the reference (its heartbeat arrives late in our round): move back.
         let correction_ms = -error_ms;
-        let member = own.agreed.is_some() && own.role.is_some();
         Some(if member {
             correction_ms / 2
         } else {
@@ -228,7 +231,7 @@ mod tests {
         // arrives 162 ms (+1 transit) into ours.
         let arrival_ms = 10 * PERIOD_MS + OFFSET_MS + 1 + 100;
         let from_primary = heartbeat(1, Some(Role::Primary));
-        let correction = confirmed(&mut follower, &newcomer, &from_primary, arrival_ms);
+        let correction = follower.on_heartbeat(&newcomer, &from_primary, arrival_ms);
         assert_eq!(correction, Some(-100));
     }
 
@@ -284,7 +287,7 @@ mod tests {
         );
         assert_eq!(
             twice(&mut fresh, &forming, &heartbeat(1, None)),
-            [None, Some(-100)]
+            [Some(-100), Some(-100)]
         );
         // A Secondary of C1's result does not follow C3 reporting itself Primary.
         let secondary = state(2, Some(Role::Secondary), Some(1));
@@ -299,7 +302,9 @@ mod tests {
         let joiner = state(3, None, None);
         let late_ms = 10 * PERIOD_MS + OFFSET_MS + 1 + 100;
         let from_primary = heartbeat(2, Some(Role::Primary));
-        assert!(confirmed(&mut follower, &joiner, &from_primary, late_ms).is_some());
+        assert!(follower
+            .on_heartbeat(&joiner, &from_primary, late_ms)
+            .is_some());
         // C1, a Tertiary now, is lower than C3 but not the Primary.
         let from_tertiary = heartbeat(1, Some(Role::Tertiary));
         assert_eq!(
@@ -309,9 +314,9 @@ mod tests {
     }
 
     #[test]
-    fn one_odd_arrival_moves_nothing() {
+    fn one_odd_arrival_moves_no_member() {
         let mut follower = PhaseFollower::new(PERIOD_MS, OFFSET_MS);
-        let joiner = state(3, None, None);
+        let joiner = state(3, Some(Role::Tertiary), Some(1));
         let from_primary = heartbeat(1, Some(Role::Primary));
         let round_ms = 10 * PERIOD_MS;
         // Delivered 100 ms late once (discovery, scheduling), then on time: nothing moves.
