@@ -245,6 +245,17 @@ pub enum LinkState {
     Fail,
 }
 
+impl LinkState {
+    /// `Fail` for a failed link, `Good` otherwise.
+    pub fn known(failed: bool) -> LinkState {
+        if failed {
+            LinkState::Fail
+        } else {
+            LinkState::Good
+        }
+    }
+}
+
 /// What one controller hears from its like peers, per peer slot and network: the row of the
 /// link matrix it reports in every network heartbeat. Its own slot stays `Unknown`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -294,12 +305,7 @@ impl LinkMatrix {
     pub fn with_failed(failed: LinkSet) -> LinkMatrix {
         let mut matrix = LinkMatrix::unknown();
         for link in Link::all() {
-            let state = if failed.contains(link) {
-                LinkState::Fail
-            } else {
-                LinkState::Good
-            };
-            matrix.set(link, state);
+            matrix.set(link, LinkState::known(failed.contains(link)));
         }
         matrix
     }

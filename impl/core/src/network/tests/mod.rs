@@ -66,12 +66,7 @@ fn seen(truth: &[Fault], members: Members, observer: ControllerId, view: View) -
     let mut matrix = LinkMatrix::unknown();
     for link in LinkSet::among(members).iter() {
         if view == View::Whole || reaches_observer(link.to) {
-            let state = if failed.contains(link) {
-                LinkState::Fail
-            } else {
-                LinkState::Good
-            };
-            matrix.set(link, state);
+            matrix.set(link, LinkState::known(failed.contains(link)));
         }
     }
     matrix
