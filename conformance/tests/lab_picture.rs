@@ -90,6 +90,7 @@ fn sample_run(picture: &Path) -> (Outcome, Observations, Vec<Life>) {
             ..Metrics::default()
         },
         validation: Ok("accepted".into()),
+        network: None,
         failures: Vec::new(),
         dir: PathBuf::new(),
         picture: picture.to_path_buf(),

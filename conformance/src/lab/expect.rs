@@ -96,6 +96,8 @@ pub fn for_fault(fault: &Fault) -> Expected {
         // wall clocks say or however fast their crystals run.
         Fault::ClockOffset(..) | Fault::ClockRate(..) => CLEAN,
         Fault::Loss(..) | Fault::Flap(..) | Fault::RateLimit(..) => for_scenario("loss-20"),
+        // One net, or one controller's link into one, lost: RL's traffic rides on the other.
+        Fault::LinkDown(..) | Fault::NetworkDown(_) => for_scenario("net-b-down"),
     }
 }
 
@@ -138,6 +140,30 @@ pub fn for_scenario(name: &str) -> Expected {
         "one-way-out" | "one-way-in" => Expected {
             settle_rounds: 48,
             two_at_top_ms: 1_500.0,
+            ..SPLIT
+        },
+        // One net down, or one controller's link into one: RL's own participant sends every
+        // datagram on both nets (docs/two-networks-draft.md), so voting and the actuators ride
+        // it out: no owner change, no gap beyond a crash's, nothing to settle. The network
+        // alarms are judged by `super::network_alarms`.
+        "net-b-down" | "c2-transceiver-a-down" => Expected {
+            owner_changes_per_fault: Some(0),
+            ..CLEAN
+        },
+        // C2 (the Secondary) cut off on both nets, from the actuator too: a partition of one
+        // with the actuator on the two's side.
+        "c2-both-links-down" => for_fault(&Fault::Partition {
+            alone: super::faults::Target::Id(2),
+            actuator_with_alone: false,
+        }),
+        // Both nets down: every controller and the actuator alone. The actuator hears no
+        // command for as long as it lasts (8 s), so the gap is the fault's length and a
+        // second; each controller is a side of its own (F9), and the actuator may follow any
+        // of the three at the heal before they reconverge: owner changes are reported, not
+        // judged.
+        "both-networks-down" => Expected {
+            owner_changes_per_fault: None,
+            largest_gap_ms: 9_000.0,
             ..SPLIT
         },
         // Multicast carries the heartbeats: without it the Primary and the others split as

@@ -1,9 +1,14 @@
 //! The faults, each with `apply` and `heal`: process faults (kill -9 and restart, SIGSTOP and
 //! SIGCONT, a restart with an offset wall clock), network faults as nftables tables in the
-//! namespaces they touch (partition, cut, one-way loss, random loss, multicast drop), a
-//! flapping link (a thread that takes the host end of a veth down and up at seeded random
-//! intervals) and a rate-limited link (tbf both ways). A [`Target`] names a controller by id
-//! or by the role it holds when the fault is applied.
+//! namespaces they touch (partition, cut, one-way loss, random loss, multicast drop, one
+//! controller's link into one net, a whole net), a flapping link (a thread that takes the host
+//! ends of a node's veths down and up at seeded random intervals) and a rate-limited link (tbf
+//! both ways). A [`Target`] names a controller by id or by the role it holds when the fault is
+//! applied.
+//!
+//! The controller-level faults (everything but `LinkDown` and `NetworkDown`) hit both nets:
+//! RL's traffic runs on both, so a fault on one would be a net fault, which the network alarm
+//! participants report and RL's voting rides out.
 
 use super::error::LabError;
 use super::host;
@@ -52,11 +57,11 @@ pub enum Fault {
     Cut(Target),
     /// Loss between the target and its peers, one way.
     OneWay(Target, Direction),
-    /// Random loss of UDP packets both ways on the target's link.
+    /// Random loss of UDP packets both ways on the target's links.
     Loss(Target, u8),
     /// Multicast dropped both ways at the target.
     MulticastOnly(Target),
-    /// The target's link goes down and up every 0.5 to 3 s (seeded).
+    /// The target's links (both nets at once) go down and up every 0.5 to 3 s (seeded).
     Flap(Target, u64),
     /// The target restarted with its wall clock offset by `offset_s`; healed by a restart on
     /// the true clock. Only the glibc build of `rl` can be offset (libfaketime).
@@ -65,8 +70,13 @@ pub enum Fault {
     /// as the true clock (a crystal that is off, exaggerated: a Pi's is within about 100 ppm);
     /// healed by a restart on the true clock. glibc builds only, like `ClockOffset`.
     ClockRate(Target, f64),
-    /// tbf at `kbit` kbit/s both ways on the target's link.
+    /// tbf at `kbit` kbit/s both ways on the target's links.
     RateLimit(Target, u32),
+    /// The target's link into one net dead, both ways (a pulled cable, a dead port); its
+    /// process keeps running and its link into the other net stays whole.
+    LinkDown(Target, Net),
+    /// A whole net dead for every node (a switch without power).
+    NetworkDown(Net),
 }
 
 impl fmt::Display for Target {
@@ -106,20 +116,22 @@ impl fmt::Display for Fault {
             Fault::OneWay(t, Direction::In) => write!(f, "one-way loss: its peers' packets to {t}"),
             Fault::Loss(t, p) => write!(f, "{p}% random loss at {t}"),
             Fault::MulticastOnly(t) => write!(f, "multicast dropped at {t}"),
-            Fault::Flap(t, _) => write!(f, "{t}'s link flapping (0.5-3 s)"),
+            Fault::Flap(t, _) => write!(f, "{t}'s links flapping (0.5-3 s)"),
             Fault::ClockOffset(t, s) => write!(f, "{t} restarted with its clock {s:+} s"),
             Fault::ClockRate(t, rate) => {
                 let fast_percent = (rate - 1.0) * 100.0;
                 write!(f, "{t} restarted with its clock {fast_percent:+.1}% fast")
             }
-            Fault::RateLimit(t, kbit) => write!(f, "{t}'s link at {kbit} kbit/s (tbf)"),
+            Fault::RateLimit(t, kbit) => write!(f, "{t}'s links at {kbit} kbit/s (tbf)"),
+            Fault::LinkDown(t, net) => write!(f, "{t}'s link into {net} down"),
+            Fault::NetworkDown(net) => write!(f, "{net} down"),
         }
     }
 }
 
 impl Fault {
-    /// The fault's target.
-    pub fn target(&self) -> Target {
+    /// The fault's target; `None` for a fault of a whole net.
+    pub fn target(&self) -> Option<Target> {
         match self {
             Fault::Kill(t)
             | Fault::Pause(t)
@@ -131,11 +143,13 @@ impl Fault {
             | Fault::Flap(t, _)
             | Fault::ClockOffset(t, _)
             | Fault::ClockRate(t, _)
-            | Fault::RateLimit(t, _) => *t,
+            | Fault::RateLimit(t, _)
+            | Fault::LinkDown(t, _) => Some(*t),
+            Fault::NetworkDown(_) => None,
         }
     }
 
-    /// The same fault aimed at controller `id`.
+    /// The same fault aimed at controller `id` (a fault without a target stays as it is).
     pub fn at(&self, id: u8) -> Fault {
         let t = Target::Id(id);
         match self.clone() {
@@ -156,6 +170,8 @@ impl Fault {
             Fault::ClockOffset(_, s) => Fault::ClockOffset(t, s),
             Fault::ClockRate(_, rate) => Fault::ClockRate(t, rate),
             Fault::RateLimit(_, k) => Fault::RateLimit(t, k),
+            Fault::LinkDown(_, net) => Fault::LinkDown(t, net),
+            fault @ Fault::NetworkDown(_) => fault,
         }
     }
 }
@@ -164,7 +180,8 @@ impl Fault {
 pub struct Applied {
     /// The fault with its target resolved to an id.
     pub fault: Fault,
-    pub id: u8,
+    /// That id; `None` for a fault without a target.
+    pub id: Option<u8>,
     /// The nftables table it created, in these namespaces.
     tables: Vec<(String, String)>,
     flapper: Option<(Arc<AtomicBool>, JoinHandle<()>)>,
@@ -179,17 +196,20 @@ fn peers(id: u8) -> Vec<Node> {
         .collect()
 }
 
-/// Applies `fault` (its target resolved to `id`); `table` names its nftables table.
+/// Applies `fault` (its target resolved to `target`: `None` for a fault without one, such as a
+/// whole net down); `table` names its nftables table.
 pub fn apply(
     fault: &Fault,
-    id: u8,
+    target: Option<u8>,
     table: &str,
     lan: &Lan,
     procs: &mut Procs,
 ) -> Result<Applied, LabError> {
+    // A fault without a target uses neither `id` nor `me`.
+    let id = target.unwrap_or(0);
     let mut applied = Applied {
-        fault: fault.at(id),
-        id,
+        fault: target.map_or_else(|| fault.clone(), |id| fault.at(id)),
+        id: target,
         tables: Vec::new(),
         flapper: None,
     };
@@ -226,7 +246,10 @@ pub fn apply(
         Fault::OneWay(_, Direction::In) => rules.push((me, Rules::deaf_to(&peers(id)))),
         Fault::Loss(_, percent) => rules.push((me, Rules::random_loss(*percent))),
         Fault::MulticastOnly(_) => rules.push((me, Rules::no_multicast())),
-        Fault::Flap(_, seed) => applied.flapper = Some(start_flapping(lan.link(me, Net::A), *seed)),
+        Fault::Flap(_, seed) => {
+            let links = Net::BOTH.map(|net| lan.link(me, net)).to_vec();
+            applied.flapper = Some(start_flapping(links, *seed));
+        }
         Fault::ClockOffset(_, offset_s) => {
             procs.clock_offsets_s.insert(id, *offset_s);
             procs.stop(id);
@@ -238,6 +261,14 @@ pub fn apply(
             procs.start_controller(id)?;
         }
         Fault::RateLimit(_, kbit) => rate_limit(lan, me, Some(*kbit))?,
+        // nftables in the node's namespace rather than `ip link set <veth> down`: a table of
+        // its own per fault composes with the others (a link down during a flapping link or a
+        // whole net down is healed without bringing up what another fault took down), it drops
+        // exactly that interface's traffic both ways while the kernel keeps its addresses and
+        // routes (the DDS sockets stay bound as on a pulled cable's host), and its counters
+        // show what it dropped.
+        Fault::LinkDown(_, net) => rules.push((me, Rules::link_down(*net))),
+        Fault::NetworkDown(net) => rules.extend(Node::all().map(|n| (n, Rules::link_down(*net)))),
     }
     for (node, node_rules) in rules {
         let ns = lan.ns(node);
@@ -249,17 +280,19 @@ pub fn apply(
 
 /// Undoes an applied fault.
 pub fn heal(applied: Applied, lan: &Lan, procs: &mut Procs) -> Result<(), LabError> {
-    let id = applied.id;
+    let id = applied.id.unwrap_or(0);
     for (ns, table) in &applied.tables {
         host::nft(ns, &nft::delete_script(table))?;
     }
     if let Some((stop, thread)) = applied.flapper {
         stop.store(true, Ordering::Relaxed);
         let _ = thread.join();
-        host::run(
-            "ip",
-            &["link", "set", &lan.link(Node::Controller(id), Net::A), "up"],
-        )?;
+        for net in Net::BOTH {
+            host::run(
+                "ip",
+                &["link", "set", &lan.link(Node::Controller(id), net), "up"],
+            )?;
+        }
     }
     match applied.fault {
         Fault::Kill(_) => procs.start_controller(id),
@@ -289,12 +322,21 @@ pub fn heal(applied: Applied, lan: &Lan, procs: &mut Procs) -> Result<(), LabErr
     }
 }
 
-/// tbf at `kbit` on both ends of a node's net-A link (`None` removes it).
+/// tbf at `kbit` on both ends of a node's links into both nets (`None` removes it).
 fn rate_limit(lan: &Lan, node: Node, kbit: Option<u32>) -> Result<(), LabError> {
-    let outside = lan.link(node, Net::A);
+    for net in Net::BOTH {
+        rate_limit_link(lan, node, net, kbit)?;
+    }
+    Ok(())
+}
+
+/// tbf at `kbit` on both ends of a node's link into `net` (`None` removes it).
+fn rate_limit_link(lan: &Lan, node: Node, net: Net, kbit: Option<u32>) -> Result<(), LabError> {
+    let outside = lan.link(node, net);
+    let inside = net.inside();
     let ns = lan.ns(node);
     let ends: [Vec<&str>; 2] = [vec![], vec!["-n", &ns]];
-    let devs = [outside.as_str(), "a0"];
+    let devs = [outside.as_str(), inside.as_str()];
     for (prefix, dev) in ends.iter().zip(devs) {
         let mut args: Vec<String> = prefix.iter().map(|s| s.to_string()).collect();
         match kbit {
@@ -323,8 +365,8 @@ fn rate_limit(lan: &Lan, node: Node, kbit: Option<u32>) -> Result<(), LabError> 
     Ok(())
 }
 
-/// A thread that takes `link` down and up, each state lasting 0.5 to 3 s (seeded).
-fn start_flapping(link: String, seed: u64) -> (Arc<AtomicBool>, JoinHandle<()>) {
+/// A thread that takes `links` down and up together, each state lasting 0.5 to 3 s (seeded).
+fn start_flapping(links: Vec<String>, seed: u64) -> (Arc<AtomicBool>, JoinHandle<()>) {
     let stop = Arc::new(AtomicBool::new(false));
     let stopped = Arc::clone(&stop);
     let thread = std::thread::spawn(move || {
@@ -340,10 +382,9 @@ fn start_flapping(link: String, seed: u64) -> (Arc<AtomicBool>, JoinHandle<()>) 
                 break;
             }
             up = !up;
-            let _ = host::run(
-                "ip",
-                &["link", "set", &link, if up { "up" } else { "down" }],
-            );
+            for link in &links {
+                let _ = host::run("ip", &["link", "set", link, if up { "up" } else { "down" }]);
+            }
         }
     });
     (stop, thread)

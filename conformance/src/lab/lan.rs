@@ -1,11 +1,17 @@
 //! The virtual LAN of one run: a network namespace per node (three controllers, the actuator
-//! side, the camera), each joined by a veth pair to two Linux bridges, net A and net B.
+//! side, the camera), each joined by a veth pair (`a0`, `b0` inside) to two Linux bridges,
+//! net A and net B.
 //!
-//! RL's DDS traffic runs on net A (10.201.1.0/24; multicast routed to it). Net B is wired and
-//! up but has no addresses yet: it is there for the network heartbeats and alarms of a later
-//! change, and while it has no addresses DDS cannot use it, so a fault on net A is a fault of
-//! RL's whole traffic. Names start with the run's prefix (`lab` and four hex digits), so
-//! interface names stay within Linux's 15 characters and runs never collide.
+//! Every node has an address on both nets with the same host byte (net A 10.201.1.N/24 on
+//! `a0`, net B 10.202.1.N/24 on `b0`; controllers 1-3, actuator 10, camera 20), and multicast
+//! is routed to `a0` (RustDDS picks its multicast interfaces itself and sends on both; the
+//! route is for peers that follow the routing table). There is no route and no forwarding
+//! between the nets. RL's own participant uses both nets, the controllers' network alarm
+//! participants one each (DDS domains `domain+1` on A, `domain+2` on B), so a controller-level
+//! fault (a partition, a cut, loss) must hit both nets, and a fault of one net or one link
+//! (`super::faults`: `LinkDown`, `NetworkDown`) leaves the other carrying RL's traffic.
+//! Names start with the run's prefix (`lab` and four hex digits), so interface names stay
+//! within Linux's 15 characters and runs never collide.
 //!
 //! Everything is removed when the [`Lan`] is dropped (also while a panic unwinds) and, on
 //! SIGINT, SIGTERM or SIGHUP, by the handler [`install_signal_cleanup`] starts: it removes
@@ -50,7 +56,7 @@ impl Node {
         }
     }
 
-    /// The last byte of its address on net A.
+    /// The last byte of its addresses, the same on both nets.
     fn host_byte(self) -> u8 {
         match self {
             Node::Controller(id) => id,
@@ -59,32 +65,66 @@ impl Node {
         }
     }
 
-    /// Its address on net A.
-    pub fn addr(self) -> String {
-        format!("10.201.1.{}", self.host_byte())
+    /// Its address on `net`.
+    pub fn addr(self, net: Net) -> String {
+        format!("{}.{}", net.subnet(), self.host_byte())
+    }
+
+    /// Its addresses on both nets, A first.
+    pub fn addrs(self) -> [String; 2] {
+        Net::BOTH.map(|net| self.addr(net))
     }
 }
 
-/// Net A's prefix (RL's traffic) and its multicast range.
-pub const NET_A: &str = "10.201.1.0/24";
+/// The multicast range, routed to net A.
 pub const MULTICAST: &str = "224.0.0.0/4";
 
 /// The run prefixes whose LANs exist now, for the signal handler.
 static LIVE_PREFIXES: Mutex<Vec<String>> = Mutex::new(Vec::new());
 
 /// The two nets.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize)]
 pub enum Net {
     A,
     B,
 }
 
 impl Net {
+    /// Both nets, A first.
+    pub const BOTH: [Net; 2] = [Net::A, Net::B];
+
     fn letter(self) -> char {
         match self {
             Net::A => 'a',
             Net::B => 'b',
         }
+    }
+
+    /// The first three bytes of its /24.
+    fn subnet(self) -> &'static str {
+        match self {
+            Net::A => "10.201.1",
+            Net::B => "10.202.1",
+        }
+    }
+
+    /// The interface inside each namespace that joins this net.
+    pub fn inside(self) -> String {
+        format!("{}0", self.letter())
+    }
+
+    /// `A` or `B`, as RL's network alarms name it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Net::A => "A",
+            Net::B => "B",
+        }
+    }
+}
+
+impl std::fmt::Display for Net {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "net {}", self.name())
     }
 }
 
@@ -111,7 +151,7 @@ impl Lan {
         let lan = Lan {
             prefix: prefix.to_string(),
         };
-        for net in [Net::A, Net::B] {
+        for net in Net::BOTH {
             let bridge = lan.bridge(net);
             host::run("ip", &["link", "add", &bridge, "type", "bridge"])?;
             host::run("ip", &["link", "set", &bridge, "up"])?;
@@ -122,14 +162,14 @@ impl Lan {
         Ok(lan)
     }
 
-    /// A node's namespace, its links to both bridges, its address and multicast route.
+    /// A node's namespace, its links to both bridges, its addresses and multicast route.
     fn wire(&self, node: Node) -> Result<(), LabError> {
         let ns = self.ns(node);
         host::run("ip", &["netns", "add", &ns])?;
         host::run("ip", &["-n", &ns, "link", "set", "lo", "up"])?;
-        for net in [Net::A, Net::B] {
+        for net in Net::BOTH {
             let outside = self.link(node, net);
-            let inside = format!("{}0", net.letter());
+            let inside = net.inside();
             host::run(
                 "ip",
                 &[
@@ -141,10 +181,14 @@ impl Lan {
                 &["link", "set", &outside, "master", &self.bridge(net), "up"],
             )?;
             host::run("ip", &["-n", &ns, "link", "set", &inside, "up"])?;
+            let addr = format!("{}/24", node.addr(net));
+            host::run("ip", &["-n", &ns, "addr", "add", &addr, "dev", &inside])?;
         }
-        let addr = format!("{}/24", node.addr());
-        host::run("ip", &["-n", &ns, "addr", "add", &addr, "dev", "a0"])?;
-        host::run("ip", &["-n", &ns, "route", "add", MULTICAST, "dev", "a0"])
+        let multicast_dev = Net::A.inside();
+        host::run(
+            "ip",
+            &["-n", &ns, "route", "add", MULTICAST, "dev", &multicast_dev],
+        )
     }
 
     pub fn ns(&self, node: Node) -> String {
@@ -263,6 +307,16 @@ mod tests {
         }
         assert!(lan.bridge(Net::B).len() <= 15);
         std::mem::forget(lan);
+    }
+
+    #[test]
+    fn a_node_has_the_same_host_byte_on_both_nets() {
+        assert_eq!(
+            Node::Controller(2).addrs(),
+            ["10.201.1.2".to_string(), "10.202.1.2".to_string()]
+        );
+        assert_eq!(Node::Camera.addr(Net::B), "10.202.1.20");
+        assert_eq!(Net::B.inside(), "b0");
     }
 
     #[test]

@@ -3,7 +3,8 @@
 //! Each run builds a virtual LAN of network namespaces (three controllers, the actuator side,
 //! the camera; two bridges), starts real `rl` processes in it, forms P/S/T, applies a
 //! scenario's faults (kill, pause, partitions, cuts, one-way and random loss, multicast drop,
-//! flapping, clock offsets, a rate-limited link), heals them, lets the system settle, and
+//! flapping, clock offsets, a rate-limited link, a link into one net or a whole net down),
+//! heals them, lets the system settle, and
 //! judges what the actuators (`rl servo --json` and an RTI Connext reader) and the
 //! controllers' own events show. docs/faults.md has the scenarios, the judges and the figures.
 //!
@@ -15,7 +16,8 @@
 //! - [`scenario`]: named and seeded random schedules; [`expect`]: what each one's judges
 //!   accept, in one place;
 //! - [`observe`]: the lines taken in, on one clock; [`judge`]: the measurements and the
-//!   verdict; [`validation`]: the recorded events against the model;
+//!   verdict; [`network_alarms`]: the network alarms of the net scenarios against what each
+//!   expects; [`validation`]: the recorded events against the model;
 //! - [`run`]: one run start to verdict and its output; [`plot`]: its picture; [`matrix`]:
 //!   many runs and the table; [`soak`]: long runs with resource sampling; [`mutation`]: runs
 //!   against a deliberately broken `rl`, which must fail.
@@ -29,6 +31,7 @@ pub mod judge;
 pub mod lan;
 pub mod matrix;
 pub mod mutation;
+pub mod network_alarms;
 pub mod nft;
 pub mod observe;
 pub mod plot;

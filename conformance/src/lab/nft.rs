@@ -1,8 +1,10 @@
 //! nftables rule sets for the network faults, as text (pure, so tests read them). Each fault
 //! gets its own table (`inet labfN`) in the namespaces it touches, so faults overlap freely and
-//! healing one deletes exactly its table.
+//! healing one deletes exactly its table. Rules that name nodes name them by their addresses
+//! on both nets: RL's traffic uses both, so a split that left one net whole would split
+//! nothing.
 
-use super::lan::{Node, MULTICAST};
+use super::lan::{Net, Node, MULTICAST};
 
 /// What one namespace drops for a fault: rules for its input and output hooks.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -38,6 +40,16 @@ impl Rules {
         }
     }
 
+    /// Drops everything in and out of the namespace's interface into `net`: that node's link
+    /// into the net is dead, its link into the other one whole.
+    pub fn link_down(net: Net) -> Rules {
+        let inside = net.inside();
+        Rules {
+            input: vec![format!("iifname \"{inside}\" drop")],
+            output: vec![format!("oifname \"{inside}\" drop")],
+        }
+    }
+
     /// Drops multicast both ways (DDS discovery and anything sent to a group).
     pub fn no_multicast() -> Rules {
         let rule = format!("ip daddr {MULTICAST} drop");
@@ -68,9 +80,9 @@ pub fn delete_script(table: &str) -> String {
     format!("delete table inet {table}\n")
 }
 
-/// `{ 10.201.1.2, 10.201.1.3 }`.
+/// `{ 10.201.1.2, 10.202.1.2, 10.201.1.3, 10.202.1.3 }`: the nodes on both nets.
 fn addr_set(nodes: &[Node]) -> String {
-    let addrs: Vec<String> = nodes.iter().map(|n| n.addr()).collect();
+    let addrs: Vec<String> = nodes.iter().flat_map(|n| n.addrs()).collect();
     format!("{{ {} }}", addrs.join(", "))
 }
 
@@ -83,9 +95,17 @@ mod tests {
         let script =
             Rules::isolate_from(&[Node::Controller(2), Node::Controller(3)]).script("labf1");
         assert!(script.starts_with("table inet labf1 {"));
-        assert!(script.contains("ip saddr { 10.201.1.2, 10.201.1.3 } drop"));
-        assert!(script.contains("ip daddr { 10.201.1.2, 10.201.1.3 } drop"));
+        let both_nets = "{ 10.201.1.2, 10.202.1.2, 10.201.1.3, 10.202.1.3 }";
+        assert!(script.contains(&format!("ip saddr {both_nets} drop")));
+        assert!(script.contains(&format!("ip daddr {both_nets} drop")));
         assert!(script.contains("type filter hook input priority 0; policy accept;"));
+    }
+
+    #[test]
+    fn a_link_down_drops_everything_on_one_interface_both_ways() {
+        let rules = Rules::link_down(Net::B);
+        assert_eq!(rules.input, ["iifname \"b0\" drop"]);
+        assert_eq!(rules.output, ["oifname \"b0\" drop"]);
     }
 
     #[test]

@@ -1,4 +1,5 @@
-//! What a run observed, on the lab clock: every controller life's JSON events, the servo's
+//! What a run observed, on the lab clock: every controller life's JSON events (its network
+//! alarm and conclusion lines apart, `super::network_alarms`), the servo's
 //! accepted commands and owner changes, the Connext reader's samples, and every stderr line.
 //! Owners are named by controller life (`C1`, `C1#2`): a writer's participant (the first 12
 //! bytes of its GUID) is one process, across the writers it re-creates at new strengths; which
@@ -6,6 +7,7 @@
 //! the processes started with that id.
 
 use super::clock::LabClock;
+use super::network_alarms::{self, NapRecord};
 use super::procs::{Life, Line};
 use rl::event::EventLine;
 use rl::procs::ServoEvent;
@@ -33,6 +35,8 @@ pub struct ActuatorSample {
 #[derive(Default)]
 pub struct Observations {
     pub controller: Vec<ControllerEvent>,
+    /// The controllers' network alarm and conclusion lines.
+    pub network: Vec<NapRecord>,
     /// Each life's JSON lines as printed (the recording trace validation reads).
     pub controller_lines: BTreeMap<String, Vec<String>>,
     /// Accepted commands at `rl servo`.
@@ -63,13 +67,22 @@ impl Observations {
             "servo" => self.ingest_servo(&line),
             "connext" => self.ingest_connext(&line, clock),
             source if source.starts_with('C') => {
-                let Some(event) = EventLine::parse(&line.text) else {
-                    return;
-                };
                 let offset_ms = lives
                     .iter()
                     .find(|l| l.label() == source)
                     .map_or(0.0, |l| l.round_clock_offset_ms() as f64);
+                if let Some((t_ms, id, event)) = network_alarms::parse(&line.text) {
+                    self.network.push(NapRecord {
+                        life: source.to_string(),
+                        id,
+                        at_ms: clock.of_wall_ms(t_ms as f64 - offset_ms),
+                        event,
+                    });
+                    return;
+                }
+                let Some(event) = EventLine::parse(&line.text) else {
+                    return;
+                };
                 self.controller.push(ControllerEvent {
                     life: source.to_string(),
                     at_ms: clock.of_wall_ms(event.t_ms as f64 - offset_ms),

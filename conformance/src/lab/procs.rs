@@ -1,6 +1,8 @@
 //! The processes of a run, each inside its node's namespace: three `rl controller
-//! --json-events`, `rl servo --json` and the Connext reader on the actuator side, `rl shapes`
-//! on the camera. Every line they print comes back on one channel stamped with the lab clock.
+//! --json-events` (with `--network-a`/`--network-b`, their addresses on the two nets, when the
+//! `rl` monitors networks), `rl servo --json` and the Connext reader on the actuator side,
+//! `rl shapes` on the camera. Every line they print comes back on one channel stamped with the
+//! lab clock.
 //!
 //! A controller's life is one process: `C2` for the first, `C2#2` after a restart. A
 //! controller that exits 75 (it voted itself FAILED) is restarted a second later, as the
@@ -10,7 +12,7 @@
 use super::clock::LabClock;
 use super::error::LabError;
 use super::host::LIBFAKETIME;
-use super::lan::{Lan, Node};
+use super::lan::{Lan, Net, Node};
 use std::collections::BTreeMap;
 use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
@@ -96,11 +98,22 @@ pub struct Procs {
     restarts_due: BTreeMap<u8, f64>,
     /// The deliberately broken rule every controller life runs (`RL_MUTATION`), if any.
     pub mutation: Option<String>,
+    /// Whether the `rl` takes `--network-a`/`--network-b` (it runs network alarm participants).
+    pub two_networks: bool,
+}
+
+/// Whether `rl controller` at `rl` takes `--network-a` (its `--help` says so).
+pub fn monitors_networks(rl: &std::path::Path) -> bool {
+    Command::new(rl)
+        .args(["controller", "--help"])
+        .output()
+        .is_ok_and(|out| String::from_utf8_lossy(&out.stdout).contains("--network-a"))
 }
 
 impl Procs {
     pub fn new(rl: PathBuf, domain: u16, lan: &Lan, clock: LabClock, lines: Sender<Line>) -> Procs {
         Procs {
+            two_networks: monitors_networks(&rl),
             rl,
             domain,
             clock,
@@ -182,14 +195,21 @@ impl Procs {
         }
         let rl = self.rl.display().to_string();
         let (id_text, domain) = (id.to_string(), self.domain.to_string());
-        let args = [
-            "controller",
-            "--id",
-            &id_text,
-            "--json-events",
-            "--domain",
-            &domain,
+        let mut args = vec![
+            "controller".to_string(),
+            "--id".into(),
+            id_text,
+            "--json-events".into(),
+            "--domain".into(),
+            domain,
         ];
+        if self.two_networks {
+            let me = Node::Controller(id);
+            for (option, net) in [("--network-a", Net::A), ("--network-b", Net::B)] {
+                args.extend([option.to_string(), me.addr(net)]);
+            }
+        }
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
         let number = self.lives.iter().filter(|l| l.id == id).count() as u32 + 1;
         let mut child = self
             .command(Node::Controller(id), &env, &rl, &args)

@@ -9,6 +9,7 @@
 use super::error::LabError;
 use super::expect::SETTLE_ROUNDS;
 use super::judge::{self, FaultRecord, Metrics};
+use super::network_alarms::{self, NapReport, Recorded};
 use super::plot;
 use super::scenario::Scenario;
 use super::session::{Session, Setup};
@@ -35,6 +36,8 @@ pub struct Outcome {
     pub faults: Vec<FaultRecord>,
     pub metrics: Metrics,
     pub validation: Verdict,
+    /// The network alarm judge's measurements and verdict (net scenarios only).
+    pub network: Option<NapReport>,
     /// Every expectation missed; empty: the run passed.
     pub failures: Vec<String>,
     pub dir: PathBuf,
@@ -107,11 +110,31 @@ pub fn run(scenario: &Scenario, seed: u64, setup: &Setup, out: &Path) -> Result<
     let events = dir.join("events");
     validation::write_recording(&events, &session.observed, &lives)?;
     let validation = validate_with_timeout(events);
-    let failures = judge::failures(
+    let mut failures = judge::failures(
         &metrics,
         &scenario.expected,
         validation.as_ref().map(|_| ()).map_err(String::as_str),
     );
+    let network = scenario.network.as_ref().map(|expected| {
+        let monitored = session.procs.two_networks;
+        if !monitored {
+            eprintln!(
+                "lab: {} has no --network-a (no network alarm participants): the network alarm checks are skipped, controller alarms and roles still judged",
+                setup.rl.display()
+            );
+        }
+        let recorded = Recorded {
+            network: &session.observed.network,
+            controller: &session.observed.controller,
+            lives: &lives,
+            faults: &session.faults,
+            judged_from_ms: session.judged_from_ms,
+        };
+        network_alarms::judge(&recorded, expected, monitored)
+    });
+    if let Some(report) = &network {
+        failures.extend(report.failures.iter().cloned());
+    }
     let picture = out.join(format!("{name}.svg"));
     let outcome = Outcome {
         scenario: scenario.name.clone(),
@@ -121,6 +144,7 @@ pub fn run(scenario: &Scenario, seed: u64, setup: &Setup, out: &Path) -> Result<
         faults: session.faults.clone(),
         metrics,
         validation,
+        network,
         failures,
         dir: dir.clone(),
         picture: picture.clone(),
@@ -220,11 +244,53 @@ pub fn summary(outcome: &Outcome) -> String {
         m.final_roles.join(" "),
         outcome.picture.display(),
     );
+    if let Some(report) = &outcome.network {
+        text.push_str(&network_summary(report));
+    }
     for failure in &outcome.failures {
         text.push_str(&format!("  FAILED: {failure}\n"));
     }
     if !outcome.passed() {
         text.push_str(&format!("  replay: {}\n", outcome.replay));
     }
+    text
+}
+
+/// The network alarm judge's figures: each expected alarm's raise and clear per controller,
+/// the conclusions, the controller alarms and role changes.
+fn network_summary(report: &NapReport) -> String {
+    let ms = |v: Option<f64>| v.map_or("never".into(), |v| format!("{v:.0} ms"));
+    let mut text = String::new();
+    if !report.network_judged {
+        text.push_str("  network alarms: not judged (this rl has no network monitoring)\n");
+    }
+    for t in &report.timings {
+        text.push_str(&format!(
+            "  network alarm {} at {}: raised {} after the fault ({}), cleared {} after the heal\n",
+            t.subject,
+            t.observer,
+            ms(t.raised_after_ms),
+            t.certainty.as_deref().unwrap_or("-"),
+            ms(t.cleared_after_ms),
+        ));
+    }
+    if report.network_judged && report.timings.is_empty() && report.other_alarms.is_empty() {
+        text.push_str("  network alarms: none raised\n");
+    }
+    for line in &report.conclusions {
+        text.push_str(&format!("  conclusion {line}\n"));
+    }
+    let or_none = |items: &[String]| {
+        if items.is_empty() {
+            "none".to_string()
+        } else {
+            items.join("; ")
+        }
+    };
+    text.push_str(&format!(
+        "  controller alarms: {}\n  role changes: {}\n",
+        or_none(&report.controller_alarms),
+        or_none(&report.role_changes)
+    ));
     text
 }

@@ -5,6 +5,8 @@
 
 use super::expect::{self, Expected};
 use super::faults::{Direction, Fault, Target};
+use super::lan::Net;
+use super::network_alarms::{self, NapExpected};
 use rand::{Rng, SeedableRng};
 
 /// One fault of a schedule.
@@ -24,6 +26,8 @@ pub struct Scenario {
     /// Part of `matrix --ci` (the short subset CI runs).
     pub in_ci: bool,
     pub expected: Expected,
+    /// What the network alarm judge expects (`None`: not judged).
+    pub network: Option<NapExpected>,
 }
 
 impl Scenario {
@@ -52,6 +56,7 @@ fn one(name: &str, about: &str, in_ci: bool, fault: Fault, lasts_s: f64) -> Scen
         steps: vec![step(2.0, fault, lasts_s)],
         in_ci,
         expected: expect::for_scenario(name),
+        network: network_alarms::for_scenario(name),
     }
 }
 
@@ -88,6 +93,7 @@ fn clock_fault(name: &str, about: String, fault: Fault, in_ci: bool) -> Scenario
         ],
         in_ci,
         expected: expect::for_scenario(name),
+        network: network_alarms::for_scenario(name),
     }
 }
 
@@ -214,10 +220,58 @@ fn link_and_clock_scenarios() -> Vec<Scenario> {
     ]
 }
 
+/// Faults of a net or of one controller's links, judged on the network alarms too
+/// (`super::network_alarms`): not in `matrix --ci` (about 30 s each).
+fn net_scenarios() -> Vec<Scenario> {
+    let c2 = Target::Id(2);
+    let at_once = |name: &str, about: &str, faults: [Fault; 2]| Scenario {
+        name: name.into(),
+        about: about.into(),
+        steps: faults
+            .into_iter()
+            .map(|f| step(2.0, f, NET_FAULT_S))
+            .collect(),
+        in_ci: false,
+        expected: expect::for_scenario(name),
+        network: network_alarms::for_scenario(name),
+    };
+    vec![
+        one(
+            "net-b-down",
+            "net B dead for every node, 8 s: a net-B alarm everywhere, voting unaffected",
+            false,
+            Fault::NetworkDown(Net::B),
+            NET_FAULT_S,
+        ),
+        one(
+            "c2-transceiver-a-down",
+            "C2's link into net A dead, 8 s: an alarm about C2's transceiver on A",
+            false,
+            Fault::LinkDown(c2, Net::A),
+            NET_FAULT_S,
+        ),
+        at_once(
+            "c2-both-links-down",
+            "C2's links into both nets dead, 8 s: controller alarms about C2, no network alarm",
+            [Fault::LinkDown(c2, Net::A), Fault::LinkDown(c2, Net::B)],
+        ),
+        at_once(
+            "both-networks-down",
+            "both nets dead, 8 s: nobody hears anybody, no network alarm, a double fault possible",
+            [Fault::NetworkDown(Net::A), Fault::NetworkDown(Net::B)],
+        ),
+    ]
+}
+
+/// How long a net scenario's faults last: long enough to see an alarm held (raised within
+/// a second, cleared within a second and a half of the heal).
+const NET_FAULT_S: f64 = 8.0;
+
 /// Every named scenario, in `lab list` order.
 pub fn named() -> Vec<Scenario> {
     let mut all = process_and_split_scenarios();
     all.extend(link_and_clock_scenarios());
+    all.extend(net_scenarios());
     all
 }
 
@@ -280,9 +334,9 @@ pub fn random(seed: u64) -> Scenario {
         let overlaps_allowed = steps.last().is_some_and(|prev| {
             !involves_everyone(&prev.fault)
                 && !involves_everyone(&fault)
-                && prev.fault.target() != target
+                && prev.fault.target() != Some(target)
                 && target != Target::Primary
-                && prev.fault.target() != Target::Primary
+                && prev.fault.target() != Some(Target::Primary)
         });
         if let Some(prev) = steps.last() {
             let prev_end = prev.at_ms + prev.lasts_ms;
@@ -304,6 +358,7 @@ pub fn random(seed: u64) -> Scenario {
         expected: expect::for_faults(steps.iter().map(|s| &s.fault)),
         steps,
         in_ci: false,
+        network: None,
     }
 }
 
@@ -350,6 +405,33 @@ mod tests {
         assert!(names.iter().all(|n| find(n, 1).is_some()));
         assert!(find("random", 5).is_some());
         assert!(find("no-such", 5).is_none());
+    }
+
+    #[test]
+    fn random_schedules_never_draw_a_net_fault() {
+        // Their expectations (no network alarm, a controller-level fault's figures) would not
+        // hold for a net or link fault.
+        for seed in 0..500 {
+            for step in random(seed).steps {
+                assert!(
+                    !matches!(step.fault, Fault::LinkDown(..) | Fault::NetworkDown(_)),
+                    "seed {seed}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn net_scenarios_are_judged_on_network_alarms_and_not_in_ci() {
+        for s in named() {
+            let net = s.name.starts_with("net-")
+                || s.name.starts_with("c2-")
+                || s.name == "both-networks-down";
+            assert_eq!(s.network.is_some(), net, "{}", s.name);
+            if net {
+                assert!(!s.in_ci, "{}", s.name);
+            }
+        }
     }
 
     #[test]

@@ -243,7 +243,7 @@ impl Session {
     }
 
     fn apply(&mut self, step: &Step, index: usize) -> Result<(), LabError> {
-        let id = self.resolve(step.fault.target());
+        let id = step.fault.target().map(|target| self.resolve(target));
         let table = format!("labf{index}");
         // Before applying: a restart takes time, and what it causes counts from its start.
         let applied_ms = self.clock.now_ms();
