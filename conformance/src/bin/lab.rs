@@ -8,15 +8,21 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 /// RL's fault lab: three `rl controller`s, `rl servo --json`, a Connext reader and `rl shapes`,
-/// each in its own network namespace on a virtual LAN (two bridges), under kills, pauses,
-/// partitions, cuts, one-way and random loss, multicast drop, flapping links, clock offsets
-/// and rate limits.
+/// each in its own network namespace on a virtual LAN of two nets (A 10.201.1.0/24, B
+/// 10.202.1.0/24), under kills, pauses, partitions, cuts, one-way and random loss, multicast
+/// drop, flapping links, clock offsets and rate limits (each on both nets), and a net or one
+/// controller's link into a net going down.
 ///
 /// Every run forms P/S/T, applies its faults, heals them, and must settle within the model's
 /// bound (10 rounds). It is judged on the owner changes each fault caused at both actuators,
 /// the largest command gap, the time two controllers claimed top strength, the controllers'
-/// recorded events against the model, and every process alive without a panic. A run leaves
-/// its recording, result.json and timeline in OUT/NAME-seedN/ and its picture in
+/// recorded events against the model, and every process alive without a panic. The net
+/// scenarios (net-b-down, c2-transceiver-a-down, c2-both-links-down, both-networks-down; not
+/// in matrix --ci) are also judged on the controllers' network alarms: raised within 1000 ms
+/// of the fault, cleared within 1500 ms of the heal, no other. Controllers get --network-a
+/// and --network-b (their addresses on A and B) when the rl takes them; without, the network
+/// alarm checks are skipped with a note. A run leaves its recording, result.json and
+/// timeline in OUT/NAME-seedN/ and its picture in
 /// OUT/NAME-seedN.svg; a failing run prints the command that replays it.
 ///
 /// Needs root, iproute2 (ip, tc), nftables and faketime (apt-get install nftables faketime);
@@ -26,6 +32,7 @@ use std::process::ExitCode;
 /// Examples:
 ///   lab list
 ///   lab run cut-primary
+///   lab run net-b-down
 ///   lab run random --seed 17
 ///   lab run kill-primary --mutation failback --rl target/fault-injection/release/rl
 ///   lab matrix --ci

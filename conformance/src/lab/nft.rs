@@ -41,12 +41,13 @@ impl Rules {
     }
 
     /// Drops everything in and out of the namespace's interface into `net`: that node's link
-    /// into the net is dead, its link into the other one whole.
+    /// into the net is dead, its link into the other one whole. Counted, so `nft list ruleset`
+    /// in the namespace shows what the dead link swallowed.
     pub fn link_down(net: Net) -> Rules {
         let inside = net.inside();
         Rules {
-            input: vec![format!("iifname \"{inside}\" drop")],
-            output: vec![format!("oifname \"{inside}\" drop")],
+            input: vec![format!("iifname \"{inside}\" counter drop")],
+            output: vec![format!("oifname \"{inside}\" counter drop")],
         }
     }
 
@@ -104,8 +105,8 @@ mod tests {
     #[test]
     fn a_link_down_drops_everything_on_one_interface_both_ways() {
         let rules = Rules::link_down(Net::B);
-        assert_eq!(rules.input, ["iifname \"b0\" drop"]);
-        assert_eq!(rules.output, ["oifname \"b0\" drop"]);
+        assert_eq!(rules.input, ["iifname \"b0\" counter drop"]);
+        assert_eq!(rules.output, ["oifname \"b0\" counter drop"]);
     }
 
     #[test]
