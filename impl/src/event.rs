@@ -12,8 +12,8 @@
 //! Fields may be added later, never removed or renamed; readers ignore fields they do not
 //! know.
 
-use crate::core::{AlarmReason, Assignment, ControllerId, Incarnation, Role, Status};
 use crate::core::network::Network;
+use crate::core::{AlarmReason, Assignment, ControllerId, Incarnation, Role, Status};
 use crate::failed_exit::{Failure, FailureCause, EXIT_STATUS};
 use crate::wire::Certainty;
 use serde::{Deserialize, Serialize};

@@ -102,7 +102,10 @@ impl Networks {
                 text.is_empty() || NetworkName::parse(text).is_some(),
                 field,
                 quoted(text),
-                || "must be an IPv4 address (\"10.202.1.2\") or an interface name (\"eth1\")".into(),
+                || {
+                    "must be an IPv4 address (\"10.202.1.2\") or an interface name (\"eth1\")"
+                        .into()
+                },
             )?;
         }
         if self.a.is_empty() != self.b.is_empty() {

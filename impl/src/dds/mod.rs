@@ -44,8 +44,8 @@ use crate::wire::{
 use ros2_client::{Context, ContextOptions};
 use rustdds::{
     serialization::CDRSerializerAdapter, CDRDeserializerAdapter, DomainParticipant,
-    DomainParticipantBuilder, Publisher,
-    QosPolicies, QosPolicyBuilder, RTPSEntity, Subscriber, Topic, TopicDescription, TopicKind,
+    DomainParticipantBuilder, Publisher, QosPolicies, QosPolicyBuilder, RTPSEntity, Subscriber,
+    Topic, TopicDescription, TopicKind,
 };
 use std::collections::{BTreeMap, HashMap};
 

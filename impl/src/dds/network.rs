@@ -71,10 +71,7 @@ impl NetworkParticipant {
             )
             .map_err(|e| create_error("reader", e))?;
         let writer = publisher
-            .create_datawriter::<NetworkHeartbeatSample, CDRSerializerAdapter<_>>(
-                &topic,
-                Some(qos),
-            )
+            .create_datawriter::<NetworkHeartbeatSample, CDRSerializerAdapter<_>>(&topic, Some(qos))
             .map_err(|e| create_error("writer", e))?;
         Ok(NetworkParticipant {
             participant,

@@ -62,7 +62,9 @@ pub fn resolve(name: &NetworkName, addresses: &[InterfaceAddress]) -> Result<Ipv
             .iter()
             .find(|a| a.interface == *interface)
             .map(|a| a.address)
-            .ok_or_else(|| format!("interface {interface} has no IPv4 address (or does not exist)")),
+            .ok_or_else(|| {
+                format!("interface {interface} has no IPv4 address (or does not exist)")
+            }),
     }
 }
 
@@ -85,7 +87,10 @@ mod tests {
         let eth1 = NetworkName::Interface("eth1".into());
         assert_eq!(resolve(&eth1, &host), Ok(Ipv4Addr::new(10, 202, 1, 2)));
         let by_address = NetworkName::Address(Ipv4Addr::new(10, 202, 1, 2));
-        assert_eq!(resolve(&by_address, &host), Ok(Ipv4Addr::new(10, 202, 1, 2)));
+        assert_eq!(
+            resolve(&by_address, &host),
+            Ok(Ipv4Addr::new(10, 202, 1, 2))
+        );
         let missing = NetworkName::Address(Ipv4Addr::new(10, 202, 1, 9));
         assert!(resolve(&missing, &host).unwrap_err().contains("10.202.1.9"));
         let absent = NetworkName::Interface("eth7".into());

@@ -126,7 +126,10 @@ fn supervise(config: &Config, reporter: &Reporter, stop: &AtomicBool) {
         };
         // A problem that persists (an interface still down) is logged once, not every 2 s.
         if problem != last_problem {
-            warn!("network monitor: {problem}; retrying every {} s", RETRY.as_secs());
+            warn!(
+                "network monitor: {problem}; retrying every {} s",
+                RETRY.as_secs()
+            );
             last_problem = problem;
         }
         if !sleep_unless_stopped(RETRY, stop) {
@@ -144,8 +147,8 @@ fn bind(config: &Config) -> Result<[(Ipv4Addr, NetworkParticipant); 2], String> 
     let addresses =
         ipv4_addresses().map_err(|e| format!("cannot list this host's addresses: {e}"))?;
     let domains = Networks::monitor_domains(config.dds.domain);
-    let deadline_ms = config.networks.heartbeat_period_ms
-        * u64::from(config.networks.deadline_periods);
+    let deadline_ms =
+        config.networks.heartbeat_period_ms * u64::from(config.networks.deadline_periods);
     let mut bound = Vec::with_capacity(2);
     for (network, name, domain) in [
         (Network::A, &name_a, domains[0]),
@@ -202,8 +205,7 @@ fn monitor(
     while !stop.load(Ordering::SeqCst) {
         let now_ms = clock.now_ms();
         let mut commands = nap.step(NapInput::Tick, now_ms);
-        for (network, (_, participant)) in Network::ALL.into_iter().zip(participants.iter_mut())
-        {
+        for (network, (_, participant)) in Network::ALL.into_iter().zip(participants.iter_mut()) {
             for received in participant.heartbeats_in.take() {
                 // RustDDS may hand a participant its own samples: they say nothing of a link.
                 if own.contains(&ParticipantKey::of(received.writer)) {

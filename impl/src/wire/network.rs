@@ -77,7 +77,12 @@ impl WireSample for NetworkHeartbeatSample {
     }
 
     fn encode(heartbeat: &NetworkHeartbeat) -> NetworkHeartbeatSample {
-        let row = |network: Network| heartbeat.hearing.heard.map(|s| link_code(s[network.index()]));
+        let row = |network: Network| {
+            heartbeat
+                .hearing
+                .heard
+                .map(|s| link_code(s[network.index()]))
+        };
         NetworkHeartbeatSample {
             from_id: heartbeat.from,
             heard_on_a: row(Network::A),
@@ -143,7 +148,9 @@ pub struct NetworkAlarm {
 
 /// One instance of the network alarm topic per reporter and subject, so a late reader
 /// (transient local) gets each alarm's latest state: raised with its cause, or cleared.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
+)]
 pub struct NetworkAlarmKey {
     pub reporter_id: u8,
     pub network: u8,
