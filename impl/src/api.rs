@@ -85,10 +85,13 @@ impl Redundancy {
         id: ControllerId,
         options: Options,
     ) -> Result<Redundancy, crate::Error> {
-        let session = Arc::new(
+        // On two networks every datagram goes out on both, so losing one loses nothing.
+        let session = if config.networks.configured() {
+            Session::on_every_interface(&config.dds, &config.timing)
+        } else {
             Session::new(&config.dds, &config.timing)
-                .map_err(|e| crate::Error::Dds(e.to_string()))?,
-        );
+        };
+        let session = Arc::new(session.map_err(|e| crate::Error::Dds(e.to_string()))?);
         let (shared, thread) = runtime::spawn(Arc::clone(&session), config.clone(), id, options)?;
         Ok(Redundancy {
             shared,

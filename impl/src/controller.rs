@@ -9,6 +9,7 @@
 use crate::api::{Options, Redundancy};
 use crate::config::Config;
 use crate::core::types::ControllerId;
+use crate::network_monitor::{MonitorOptions, NetworkMonitor};
 use crate::service::{LoopProgress, Notifier};
 use crate::tracker::PanTiltController;
 use crate::wire::ServoControl;
@@ -36,6 +37,14 @@ pub struct ControllerArgs {
     /// console lines: the record tools and the conformance suite read.
     #[arg(long)]
     pub json_events: bool,
+    /// Network A: this controller's IPv4 address on it or its interface (`eth0`); with
+    /// `--network-b`, RL's traffic goes out on both networks and the network monitor runs
+    /// (overrides `[networks] a`).
+    #[arg(long, value_name = "ADDR|IFACE", requires = "network_b")]
+    pub network_a: Option<String>,
+    /// Network B, the same (overrides `[networks] b`).
+    #[arg(long, value_name = "ADDR|IFACE", requires = "network_a")]
+    pub network_b: Option<String>,
     /// Exit after this many milliseconds (tests and benchmarks).
     #[arg(long, value_name = "MS")]
     pub duration_ms: Option<u64>,
@@ -71,7 +80,17 @@ const CAMERA: Token = Token(0);
 
 /// Runs `rl controller`.
 pub fn run(args: ControllerArgs) -> Result<(), crate::Error> {
-    let config = load_config(args.config.as_deref(), args.domain)?;
+    let mut config = load_config(args.config.as_deref(), args.domain)?;
+    if let (Some(a), Some(b)) = (&args.network_a, &args.network_b) {
+        config.networks.a = a.clone();
+        config.networks.b = b.clone();
+        config.validate().map_err(|invalid| {
+            crate::Error::Usage(format!(
+                "--network-a {a} --network-b {b}: {} = {}: {}",
+                invalid.field, invalid.value, invalid.rule
+            ))
+        })?;
+    }
     let stop = stop_on_signals()?;
     let voting_progress = Arc::new(LoopProgress::new());
     let mut notifier = Notifier::new(
@@ -87,10 +106,34 @@ pub fn run(args: ControllerArgs) -> Result<(), crate::Error> {
             voting_progress: Some(voting_progress),
         },
     )?;
+    let network_monitor = start_network_monitor(&rl, &config, args.id, args.json_events)?;
     let result = track(&rl, &config, &stop, args.duration_ms, &mut notifier);
+    drop(network_monitor);
     notifier.stopping();
     let stopped = rl.stop();
     result.and(stopped)
+}
+
+/// The network monitor, when `[networks]` names both networks (none otherwise).
+fn start_network_monitor(
+    rl: &Redundancy,
+    config: &Config,
+    id: ControllerId,
+    json_events: bool,
+) -> Result<Option<NetworkMonitor>, crate::Error> {
+    if !config.networks.configured() {
+        return Ok(None);
+    }
+    let alarms_out = rl
+        .session()
+        .network_alarm_writer()
+        .map_err(|e| crate::Error::Dds(e.to_string()))?;
+    let options = MonitorOptions {
+        id,
+        incarnation: rl.status().report.incarnation,
+        json_events,
+    };
+    Ok(NetworkMonitor::start(config, options, alarms_out))
 }
 
 /// The `systemctl status` line: `C2 steady primary (strength 30)`; a result agreed without a

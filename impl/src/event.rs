@@ -12,8 +12,10 @@
 //! Fields may be added later, never removed or renamed; readers ignore fields they do not
 //! know.
 
+use crate::core::network::Network;
 use crate::core::{AlarmReason, Assignment, ControllerId, Incarnation, Role, Status};
 use crate::failed_exit::{Failure, FailureCause, EXIT_STATUS};
+use crate::wire::Certainty;
 use serde::{Deserialize, Serialize};
 
 /// One line of `rl controller --json-events`: who, when, and what happened.
@@ -50,6 +52,24 @@ pub enum Event {
     },
     /// The status LEDs now show this pattern (its console form).
     Leds { leds: String },
+    /// The network monitor raised or cleared a network alarm: about `network` as a whole
+    /// (`controller` null) or controller `controller`'s transceiver on it. A raised alarm
+    /// says how sure (`certainty`) and why (`cause`); a cleared one has neither.
+    NetworkAlarm {
+        network: Network,
+        controller: Option<ControllerId>,
+        raised: bool,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        certainty: Option<Certainty>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        cause: Option<String>,
+    },
+    /// The network monitor's conclusion changed: in words (`none` when every link is good),
+    /// and the findings every smallest explanation shares (empty when none or ambiguous).
+    NetworkConclusion {
+        conclusion: String,
+        findings: Vec<String>,
+    },
     /// A heartbeat of peer `from` arrived and was dropped by the fault-injection control (a
     /// `fault-injection` build only): the DDS-level replay checks every loss it injects
     /// against these, so an injected loss is told apart from a real one.
@@ -82,6 +102,8 @@ impl Event {
             Event::Vote { .. } => "vote",
             Event::Alarm { .. } => "alarm",
             Event::Leds { .. } => "leds",
+            Event::NetworkAlarm { .. } => "network_alarm",
+            Event::NetworkConclusion { .. } => "network_conclusion",
             Event::HeartbeatDropped { .. } => "heartbeat_dropped",
             Event::Resumed { .. } => "resumed",
             Event::Stopped { .. } => "stopped",
@@ -196,6 +218,22 @@ mod tests {
     }
 
     #[test]
+    fn a_network_alarm_line_reads_as_documented() {
+        let text = line(Event::NetworkAlarm {
+            network: Network::B,
+            controller: None,
+            raised: true,
+            certainty: Some(Certainty::Concluded),
+            cause: Some("network B failed".into()),
+        })
+        .to_json();
+        assert_eq!(
+            text,
+            r#"{"t_ms":1000,"id":2,"incarnation":77,"event":"network_alarm","network":"B","controller":null,"raised":true,"certainty":"concluded","cause":"network B failed"}"#
+        );
+    }
+
+    #[test]
     fn every_kind_reads_back_as_written() {
         let holder = Holder {
             id: 1,
@@ -233,6 +271,24 @@ mod tests {
                 leds: "[P:off S:green T:off | own:green]".into(),
             },
             Event::HeartbeatDropped { from: 3 },
+            Event::NetworkAlarm {
+                network: Network::B,
+                controller: None,
+                raised: true,
+                certainty: Some(Certainty::Concluded),
+                cause: Some("network B failed".into()),
+            },
+            Event::NetworkAlarm {
+                network: Network::A,
+                controller: Some(2),
+                raised: false,
+                certainty: None,
+                cause: None,
+            },
+            Event::NetworkConclusion {
+                conclusion: "network B failed".into(),
+                findings: vec!["network B failed".into()],
+            },
             Event::stopped(),
             Event::Stopped {
                 reason: Some(FailureCause::LocalFault),

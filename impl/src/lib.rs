@@ -35,6 +35,7 @@ pub mod event;
 pub mod failed_exit;
 pub mod leds;
 pub mod logging;
+pub mod network_monitor;
 pub mod procs;
 pub mod round_clock;
 pub mod runtime;

@@ -1,12 +1,15 @@
 //! `rl status`: what every controller says about itself, read from the DDS topics (their
-//! heartbeats and the controller alarm topic), as a live table or one JSON object.
+//! heartbeats, the controller alarm topic and the network alarm topic), as a live table or
+//! one JSON object. Network alarms are transient local: a status started after an alarm was
+//! raised still shows it, for as long as its reporter runs.
 //!
 //! The board is pure (samples and times in, a view out) so the demo and the benchmarks use it
 //! too; only [`run`] touches DDS.
 
+use crate::core::network::{AlarmSubject, Network};
 use crate::core::types::{AlarmReason, ControllerId};
 use crate::core::{Heartbeat, SelfReport};
-use crate::wire::ControllerAlarm;
+use crate::wire::{Certainty, ControllerAlarm, NetworkAlarm};
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -47,11 +50,24 @@ pub struct AlarmView {
     pub raised_by: Vec<ControllerId>,
 }
 
+/// A raised network alarm: about `network` as a whole (`controller` null) or controller
+/// `controller`'s transceiver on it; how sure and why, as its first reporter says, and who
+/// raised it.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct NetworkAlarmView {
+    pub network: Network,
+    pub controller: Option<ControllerId>,
+    pub certainty: Certainty,
+    pub cause: String,
+    pub raised_by: Vec<ControllerId>,
+}
+
 /// What `rl status --json` prints.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct StatusView {
     pub controllers: Vec<ControllerView>,
     pub alarms: Vec<AlarmView>,
+    pub network_alarms: Vec<NetworkAlarmView>,
 }
 
 /// The latest heartbeat per controller and the raised alarms.
@@ -60,6 +76,8 @@ pub struct Board {
     heartbeats: BTreeMap<ControllerId, (Heartbeat, u64)>,
     /// (about, reporter) -> reason, for raised alarms.
     alarms: BTreeMap<(ControllerId, ControllerId), AlarmReason>,
+    /// (subject, reporter) -> how sure and why, for raised network alarms.
+    network_alarms: BTreeMap<(AlarmSubject, ControllerId), (Certainty, String)>,
 }
 
 impl Board {
@@ -73,6 +91,19 @@ impl Board {
             self.alarms.insert(key, alarm.reason);
         } else {
             self.alarms.remove(&key);
+        }
+    }
+
+    pub fn network_alarm(&mut self, alarm: &NetworkAlarm) {
+        let key = (alarm.subject, alarm.reporter);
+        match alarm.raised {
+            Some(certainty) => {
+                self.network_alarms
+                    .insert(key, (certainty, alarm.cause.clone()));
+            }
+            None => {
+                self.network_alarms.remove(&key);
+            }
         }
     }
 
@@ -120,9 +151,33 @@ impl Board {
                 }),
             }
         }
+        let mut network_alarms: Vec<NetworkAlarmView> = Vec::new();
+        for (&(subject, reporter), (certainty, cause)) in &self.network_alarms {
+            let (network, controller) = match subject {
+                AlarmSubject::Network(network) => (network, None),
+                AlarmSubject::Transceiver {
+                    controller,
+                    network,
+                } => (network, Some(controller)),
+            };
+            match network_alarms
+                .iter_mut()
+                .find(|a| a.network == network && a.controller == controller)
+            {
+                Some(view) => view.raised_by.push(reporter),
+                None => network_alarms.push(NetworkAlarmView {
+                    network,
+                    controller,
+                    certainty: *certainty,
+                    cause: cause.clone(),
+                    raised_by: vec![reporter],
+                }),
+            }
+        }
         StatusView {
             controllers,
             alarms,
+            network_alarms,
         }
     }
 }
@@ -165,6 +220,22 @@ pub fn render_table(view: &StatusView) -> String {
             by.join(", ")
         ));
     }
+    if view.network_alarms.is_empty() {
+        out.push_str("network alarms: none\n");
+    }
+    for a in &view.network_alarms {
+        let by: Vec<String> = a.raised_by.iter().map(|id| format!("C{id}")).collect();
+        let subject = match a.controller {
+            None => format!("network {}", a.network),
+            Some(id) => format!("C{id}'s transceiver on network {}", a.network),
+        };
+        out.push_str(&format!(
+            "NETWORK ALARM {subject}: {} ({}; raised by {})\n",
+            a.cause,
+            a.certainty.name(),
+            by.join(", ")
+        ));
+    }
     out
 }
 
@@ -172,6 +243,7 @@ pub fn render_table(view: &StatusView) -> String {
 pub struct BoardFeed {
     heartbeats: crate::dds::Reader<crate::wire::HeartbeatSample>,
     alarms: crate::dds::Reader<crate::wire::AlarmSample>,
+    network_alarms: crate::dds::Reader<crate::wire::NetworkAlarmSample>,
     started: std::time::Instant,
 }
 
@@ -181,6 +253,7 @@ impl BoardFeed {
         Ok(BoardFeed {
             heartbeats: session.heartbeat_reader().map_err(dds)?,
             alarms: session.alarm_reader().map_err(dds)?,
+            network_alarms: session.network_alarm_reader().map_err(dds)?,
             started: std::time::Instant::now(),
         })
     }
@@ -205,6 +278,9 @@ impl BoardFeed {
         for alarm in self.alarms.take() {
             board.alarm(&alarm.value);
         }
+        for alarm in self.network_alarms.take() {
+            board.network_alarm(&alarm.value);
+        }
         heartbeats
     }
 }
@@ -213,8 +289,12 @@ impl BoardFeed {
 pub fn run(args: StatusArgs) -> Result<(), crate::Error> {
     let config = crate::controller::load_config(args.config.as_deref(), args.domain)?;
     let stop = crate::controller::stop_on_signals()?;
-    let session = crate::dds::Session::new(&config.dds, &config.timing)
-        .map_err(|e| crate::Error::Dds(e.to_string()))?;
+    let session = if config.networks.configured() {
+        crate::dds::Session::on_every_interface(&config.dds, &config.timing)
+    } else {
+        crate::dds::Session::new(&config.dds, &config.timing)
+    }
+    .map_err(|e| crate::Error::Dds(e.to_string()))?;
     let mut feed = BoardFeed::new(&session)?;
     let mut board = Board::default();
     let period_ms = config.timing.heartbeat_period_ms;
@@ -312,5 +392,50 @@ mod tests {
         board.alarm(&alarm(3, false));
         assert!(board.view(0, 500).alarms.is_empty());
         assert!(render_table(&board.view(0, 500)).contains("alarms: none"));
+    }
+
+    #[test]
+    fn network_alarms_are_grouped_by_subject_and_cleared_per_reporter() {
+        let mut board = Board::default();
+        let alarm = |reporter, subject, raised: Option<Certainty>| NetworkAlarm {
+            reporter,
+            reporter_incarnation: 0,
+            subject,
+            raised,
+            cause: raised.map_or(String::new(), |_| "network B failed".into()),
+        };
+        let net_b = AlarmSubject::Network(Network::B);
+        let c2_a = AlarmSubject::Transceiver {
+            controller: 2,
+            network: Network::A,
+        };
+        board.network_alarm(&alarm(1, net_b, Some(Certainty::Concluded)));
+        board.network_alarm(&alarm(3, net_b, Some(Certainty::Concluded)));
+        board.network_alarm(&alarm(1, c2_a, Some(Certainty::Suspected)));
+        let view = board.view(0, 500);
+        assert_eq!(view.network_alarms.len(), 2);
+        assert_eq!(view.network_alarms[0].raised_by, vec![1, 3]);
+        assert_eq!(view.network_alarms[1].controller, Some(2));
+        let table = render_table(&view);
+        assert!(
+            table.contains(
+                "NETWORK ALARM network B: network B failed (concluded; raised by C1, C3)"
+            ),
+            "{table}"
+        );
+        let json = serde_json::to_value(&view).unwrap();
+        assert_eq!(json["network_alarms"][0]["network"], "B");
+        assert_eq!(
+            json["network_alarms"][0]["controller"],
+            serde_json::Value::Null
+        );
+        assert_eq!(json["network_alarms"][1]["certainty"], "suspected");
+        for reporter in [1, 3] {
+            board.network_alarm(&alarm(reporter, net_b, None));
+        }
+        board.network_alarm(&alarm(1, c2_a, None));
+        let view = board.view(0, 500);
+        assert!(view.network_alarms.is_empty());
+        assert!(render_table(&view).contains("network alarms: none"));
     }
 }

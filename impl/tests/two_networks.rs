@@ -7,7 +7,7 @@
 //! networks and should keep working when one dies. These tests build a LAN of network
 //! namespaces, each host with one interface into net A (10.201.1.N/24) and one into net B
 //! (10.202.1.N/24), run heartbeat probes (`two_networks/probe.rs`), cut a net with nftables on
-//! every host and measure what each probe still hears. Findings: docs/two-networks-draft.md.
+//! every host and measure what each probe still hears. Findings: docs/protocol.md, "Network monitoring".
 //!
 //! They need root (namespaces, bridges, nftables), so they are ignored by default:
 //! `cargo test --release -p rl --test two_networks -- --include-ignored --nocapture`.

@@ -13,6 +13,8 @@ pub struct Dds {
     pub vote_topic: String,
     pub controller_alarm_topic: String,
     pub network_alarm_topic: String,
+    /// The network heartbeat (RLNHB), on the network monitor's own domains.
+    pub network_heartbeat_topic: String,
     pub command_topic: String,
     pub camera_topic: String,
     /// ROS 2 node namespace; each controller's node is `rl_controller_<id>` in it.
@@ -27,6 +29,7 @@ impl Default for Dds {
             vote_topic: "rl/vote".into(),
             controller_alarm_topic: "rl/controller_alarm".into(),
             network_alarm_topic: "rl/network_alarm".into(),
+            network_heartbeat_topic: "rl/network_heartbeat".into(),
             command_topic: "pixy/servo_control".into(),
             camera_topic: "Circle".into(),
             ros_namespace: "/rl".into(),
@@ -40,12 +43,13 @@ pub const DOMAIN_MAX: u16 = 232;
 
 impl Dds {
     /// The topic fields with their dotted paths, in file order.
-    fn topics(&self) -> [(&'static str, &str); 6] {
+    fn topics(&self) -> [(&'static str, &str); 7] {
         [
             ("dds.heartbeat_topic", &self.heartbeat_topic),
             ("dds.vote_topic", &self.vote_topic),
             ("dds.controller_alarm_topic", &self.controller_alarm_topic),
             ("dds.network_alarm_topic", &self.network_alarm_topic),
+            ("dds.network_heartbeat_topic", &self.network_heartbeat_topic),
             ("dds.command_topic", &self.command_topic),
             ("dds.camera_topic", &self.camera_topic),
         ]

@@ -169,7 +169,7 @@ fn parse_errors_name_the_field_and_place() {
     assert_eq!(field.as_deref(), Some("timin"));
     assert_eq!(
         message,
-        "rl.toml:1:1: unknown field `timin`, expected one of `timing`, `dds`, `tracker`, `leds`"
+        "rl.toml:1:1: unknown field `timin`, expected one of `timing`, `dds`, `tracker`, `leds`, `networks`"
     );
 
     let (field, message) = error_of("[timing]\nheartbeat = 250\n");
@@ -410,4 +410,56 @@ fn boundary_values_are_accepted() {
     let config = parse("[timing]\npeer_deadline_ms = 3500000\ninit_window_ms = 3600000").unwrap();
     assert_eq!(config.timing.dead_after_rounds(), 14_000);
     assert_eq!(config.timing.window_rounds(), 14_400);
+}
+
+#[test]
+fn networks_are_addresses_or_interfaces_both_or_neither() {
+    let config = parse("[networks]\na = \"10.201.1.2\"\nb = \"eth1\"").unwrap();
+    assert_eq!(
+        config.networks.pair(),
+        Some((
+            NetworkName::Address("10.201.1.2".parse().unwrap()),
+            NetworkName::Interface("eth1".into())
+        ))
+    );
+    assert_eq!(Config::default().networks.pair(), None);
+    assert!(!Config::default().networks.configured());
+    for (text, field, rule) in [
+        ("[networks]\na = \"eth0\"", "networks.b", "must be set too"),
+        ("[networks]\nb = \"eth1\"", "networks.a", "must be set too"),
+        (
+            "[networks]\na = \"eth0\"\nb = \"eth0\"",
+            "networks.b",
+            "must differ",
+        ),
+        (
+            "[networks]\na = \"10.0.0.300\"\nb = \"eth1\"",
+            "networks.a",
+            "IPv4 address",
+        ),
+        (
+            "[networks]\na = \"eth0\"\nb = \"a name far too long\"",
+            "networks.b",
+            "interface name",
+        ),
+        (
+            "[networks]\nheartbeat_period_ms = 5",
+            "networks.heartbeat_period_ms",
+            "10..=10000",
+        ),
+        (
+            "[networks]\ndeadline_periods = 0",
+            "networks.deadline_periods",
+            "1..=100",
+        ),
+        (
+            "[dds]\ndomain = 231\n[networks]\na = \"eth0\"\nb = \"eth1\"",
+            "dds.domain",
+            "next two domains",
+        ),
+    ] {
+        let (got_field, message) = error_of(text);
+        assert_eq!(got_field.as_deref(), Some(field), "{text}: {message}");
+        assert!(message.contains(rule), "{text}: {message}");
+    }
 }

@@ -10,7 +10,7 @@
 //! | heartbeat reader/writer | `heartbeat_topic` | controller id | best effort, keep last 1, deadline 2 x period |
 //! | vote reader/writer | `vote_topic` | controller id | reliable, transient local, keep last 1 |
 //! | alarm reader/writer | `controller_alarm_topic` | - | reliable, keep last 32 |
-//! | network alarm reader/writer | `network_alarm_topic` | - | reliable, keep last 32 |
+//! | network alarm reader/writer | `network_alarm_topic` | reporter, network, controller | reliable, transient local, keep last 1 |
 //! | [`CommandWriter`], command reader | `command_topic` | - | reliable, EXCLUSIVE, strength by role, deadline = command deadline |
 //! | camera reader/writer | `camera_topic` | colour | best effort reader, reliable writer, keep last 1 |
 //!
@@ -26,10 +26,12 @@
 //! ([`Session::command_writer_strengths`], RustDDS `discovered_writers()`).
 
 mod endpoint;
+mod network;
 pub mod qos;
 mod ros;
 
 pub use endpoint::{guid_hex, CommandWriter, Reader, Received, Writer};
+pub use network::NetworkParticipant;
 pub use ros::StatusPublisher;
 pub use rustdds::{mio, GUID};
 
@@ -41,8 +43,9 @@ use crate::wire::{
 };
 use ros2_client::{Context, ContextOptions};
 use rustdds::{
-    serialization::CDRSerializerAdapter, CDRDeserializerAdapter, DomainParticipant, Publisher,
-    QosPolicies, QosPolicyBuilder, RTPSEntity, Subscriber, Topic, TopicDescription, TopicKind,
+    serialization::CDRSerializerAdapter, CDRDeserializerAdapter, DomainParticipant,
+    DomainParticipantBuilder, Publisher, QosPolicies, QosPolicyBuilder, RTPSEntity, Subscriber,
+    Topic, TopicDescription, TopicKind,
 };
 use std::collections::{BTreeMap, HashMap};
 
@@ -131,12 +134,32 @@ fn create_topic(
 impl Session {
     /// Joins `dds.domain` and creates the RL topics. `timing` sets the deadlines.
     pub fn new(dds: &Dds, timing: &Timing) -> Result<Session, DdsError> {
+        Session::open(dds, timing, false)
+    }
+
+    /// The same on two redundant networks: every datagram goes out on every interface, so
+    /// losing one network loses nothing. By default RustDDS sends to each reader over the one
+    /// interface it first heard that reader on, and takes about 30 s to notice that it died
+    /// (docs/protocol.md, "Two networks").
+    pub fn on_every_interface(dds: &Dds, timing: &Timing) -> Result<Session, DdsError> {
+        Session::open(dds, timing, true)
+    }
+
+    fn open(dds: &Dds, timing: &Timing, every_interface: bool) -> Result<Session, DdsError> {
         let participant_error = |reason: String| DdsError::Participant {
             domain: dds.domain,
             reason,
         };
-        let context = Context::with_options(ContextOptions::new().domain_id(dds.domain))
-            .map_err(|e| participant_error(e.to_string()))?;
+        let context = if every_interface {
+            let participant = DomainParticipantBuilder::new(dds.domain)
+                .send_on_every_interface(true)
+                .build()
+                .map_err(|e| participant_error(e.to_string()))?;
+            Context::from_domain_participant(participant)
+        } else {
+            Context::with_options(ContextOptions::new().domain_id(dds.domain))
+        }
+        .map_err(|e| participant_error(e.to_string()))?;
         let participant = context.domain_participant();
         let default_qos = QosPolicyBuilder::new().build();
         let publisher = participant
@@ -168,7 +191,7 @@ impl Session {
                 &participant,
                 &dds.network_alarm_topic,
                 NetworkAlarmSample::TYPE_NAME,
-                TopicKind::NoKey,
+                TopicKind::WithKey,
             )?,
             command: create_topic(
                 &participant,
@@ -296,11 +319,11 @@ impl Session {
     }
 
     pub fn network_alarm_reader(&self) -> Result<Reader<NetworkAlarmSample>, DdsError> {
-        self.unkeyed_reader(&self.topics.network_alarm, qos::alarm())
+        self.keyed_reader(&self.topics.network_alarm, qos::network_alarm())
     }
 
     pub fn network_alarm_writer(&self) -> Result<Writer<NetworkAlarmSample>, DdsError> {
-        self.unkeyed_writer(&self.topics.network_alarm, qos::alarm())
+        self.keyed_writer(&self.topics.network_alarm, qos::network_alarm())
     }
 
     /// A reader of every command writer's samples. RustDDS does not enforce exclusive

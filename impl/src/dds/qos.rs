@@ -57,7 +57,29 @@ pub fn vote() -> QosPolicies {
         .build()
 }
 
-/// Controller and network alarms: reliable, volatile, keep last 32.
+/// Network alarms: reliable and TRANSIENT_LOCAL, keep last 1 per reporter and subject, so a
+/// late reader (`rl status` started afterwards) gets every alarm's latest state.
+pub fn network_alarm() -> QosPolicies {
+    QosPolicyBuilder::new()
+        .reliability(reliable())
+        .durability(Durability::TransientLocal)
+        .history(History::KeepLast { depth: 1 })
+        .build()
+}
+
+/// Network heartbeat (RLNHB): best effort, keep last 1 per controller, deadline
+/// `deadline_ms`; the network monitor keeps its own deadlines (rl_core::network), the QoS
+/// states the contract for other readers.
+pub fn network_heartbeat(deadline_ms: u64) -> QosPolicies {
+    QosPolicyBuilder::new()
+        .reliability(Reliability::BestEffort)
+        .durability(Durability::Volatile)
+        .history(History::KeepLast { depth: 1 })
+        .deadline(Deadline(duration_ms(deadline_ms)))
+        .build()
+}
+
+/// Controller alarms: reliable, volatile, keep last 32.
 pub fn alarm() -> QosPolicies {
     QosPolicyBuilder::new()
         .reliability(reliable())

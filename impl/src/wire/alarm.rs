@@ -1,5 +1,5 @@
-//! The alarm topics: controller alarms (a controller lost or failed, raised and cleared) and
-//! network alarms (a peer unheard on one of the redundant networks).
+//! The controller alarm topic: a controller lost or failed, raised and cleared (network
+//! alarms are in `network`).
 
 use super::codes::{controller_id, reason_code, reason_from_code};
 use super::{WireError, WireSample};
@@ -8,8 +8,6 @@ use serde::{Deserialize, Serialize};
 
 /// DDS type name of the controller alarm topic.
 pub const ALARM_TYPE_NAME: &str = "rl::AlarmSample";
-/// DDS type name of the network alarm topic.
-pub const NETWORK_ALARM_TYPE_NAME: &str = "rl::NetworkAlarmSample";
 
 /// A controller alarm raised or cleared by a controller about another (or itself).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -68,56 +66,6 @@ impl WireSample for AlarmSample {
             about_incarnation_valid: alarm.about_incarnation.is_some(),
             about_incarnation: alarm.about_incarnation.unwrap_or(0),
             reason: reason_code(alarm.reason),
-            raised: alarm.raised,
-        }
-    }
-}
-
-/// A network alarm: the reporter stopped (or resumed) hearing a peer on one network.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub struct NetworkAlarm {
-    pub reporter: ControllerId,
-    /// Network index (0 = bus A, 1 = bus B).
-    pub network: u8,
-    pub peer: ControllerId,
-    pub raised: bool,
-}
-
-/// The number of redundant networks a network alarm can name.
-pub const NETWORK_COUNT: u8 = 2;
-
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct NetworkAlarmSample {
-    pub reporter_id: u8,
-    pub network: u8,
-    pub peer_id: u8,
-    pub raised: bool,
-}
-
-impl WireSample for NetworkAlarmSample {
-    type Value = NetworkAlarm;
-    const TYPE_NAME: &'static str = NETWORK_ALARM_TYPE_NAME;
-
-    fn decode(self) -> Result<NetworkAlarm, WireError> {
-        if self.network >= NETWORK_COUNT {
-            return Err(WireError::new(
-                "network_alarm.network",
-                format!("network {} (there are {NETWORK_COUNT})", self.network),
-            ));
-        }
-        Ok(NetworkAlarm {
-            reporter: controller_id("network_alarm.reporter_id", self.reporter_id)?,
-            network: self.network,
-            peer: controller_id("network_alarm.peer_id", self.peer_id)?,
-            raised: self.raised,
-        })
-    }
-
-    fn encode(alarm: &NetworkAlarm) -> NetworkAlarmSample {
-        NetworkAlarmSample {
-            reporter_id: alarm.reporter,
-            network: alarm.network,
-            peer_id: alarm.peer,
             raised: alarm.raised,
         }
     }

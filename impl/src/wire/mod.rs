@@ -4,8 +4,8 @@
 //! `CDRSerializerAdapter`), so field order is wire order. Two topics are shared with the
 //! original camera application and match its IDL exactly ([`ShapeTypeExtended`] on `Circle`,
 //! [`ServoControl`] on `pixy/servo_control`). The RL's own topics ([`HeartbeatSample`],
-//! [`VoteSample`], [`AlarmSample`], [`NetworkAlarmSample`]) are flat structs of integers and
-//! booleans: no `Option` on the wire, absence is a `valid` flag or a 0 code, so any DDS tool with
+//! [`VoteSample`], [`AlarmSample`], [`NetworkHeartbeatSample`], [`NetworkAlarmSample`]) are
+//! flat structs of integers and booleans (and the alarm's cause, a bounded string): no `Option` on the wire, absence is a `valid` flag or a 0 code, so any DDS tool with
 //! the IDL below can read them.
 //!
 //! Decoding a sample of an RL topic validates it and returns a [`WireError`] naming the bad
@@ -13,7 +13,7 @@
 //! infallible, and [`crate::dds`] re-checks every encoded sample with the decoder before
 //! writing, so RL never publishes what it would reject.
 //!
-//! One file per sample family (`camera`, `heartbeat`, `vote`, `alarm`), with `codes` (the
+//! One file per sample family (`camera`, `heartbeat`, `vote`, `alarm`, `network`), with `codes` (the
 //! enumerations' wire codes) and `assignment` (role slots) shared between them.
 //!
 //! Equivalent IDL of the RL topics (codes in `codes.rs`):
@@ -28,7 +28,13 @@
 //! struct AlarmSample { octet reporter_id; unsigned long long reporter_incarnation;
 //!   octet about_id; boolean about_incarnation_valid; unsigned long long about_incarnation;
 //!   octet reason; boolean raised; };
-//! struct NetworkAlarmSample { octet reporter_id; octet network; octet peer_id; boolean raised; };
+//! struct NetworkHeartbeatSample { @key octet from_id; octet heard_on_a[3]; octet heard_on_b[3]; };
+//!   // what the sender hears of controllers 1..3 per network: 0 unknown, 1 good, 2 fail
+//! struct NetworkAlarmSample { @key octet reporter_id; @key octet network; // 0 = A, 1 = B
+//!   @key octet controller_id;   // 0 = the whole network, else that controller's transceiver
+//!   unsigned long long reporter_incarnation;
+//!   octet certainty;            // 0 = cleared, 1 concluded, 2 suspected, 3 unexplained
+//!   string<512> cause; };
 //! ```
 
 mod alarm;
@@ -36,14 +42,12 @@ mod assignment;
 mod camera;
 mod codes;
 mod heartbeat;
+mod network;
 #[cfg(test)]
 mod tests;
 mod vote;
 
-pub use self::alarm::{
-    AlarmSample, ControllerAlarm, NetworkAlarm, NetworkAlarmSample, ALARM_TYPE_NAME,
-    NETWORK_ALARM_TYPE_NAME, NETWORK_COUNT,
-};
+pub use self::alarm::{AlarmSample, ControllerAlarm, ALARM_TYPE_NAME};
 pub use self::assignment::{HolderSlot, WireAssignment};
 pub use self::camera::{
     ServoControl, ShapeFillKind, ShapeTypeExtended, SERVO_CONTROL_TYPE_NAME, SHAPE_TYPE_NAME,
@@ -54,6 +58,11 @@ pub use self::codes::{
     ROLE_TERTIARY, STRENGTH_NONE,
 };
 pub use self::heartbeat::{HeartbeatSample, HEARTBEAT_TYPE_NAME};
+pub use self::network::{
+    Certainty, NetworkAlarm, NetworkAlarmKey, NetworkAlarmSample, NetworkHeartbeatSample,
+    CAUSE_MAX_BYTES, LINK_FAIL, LINK_GOOD, LINK_UNKNOWN, NETWORK_ALARM_TYPE_NAME, NETWORK_COUNT,
+    NETWORK_HEARTBEAT_TYPE_NAME,
+};
 pub use self::vote::{VoteSample, VOTE_TYPE_NAME};
 
 use serde::{Deserialize, Serialize};

@@ -360,29 +360,94 @@ fn alarm_round_trips_and_rejects_bad_fields() {
 
 #[test]
 fn network_alarm_round_trips_and_rejects_bad_fields() {
+    use crate::core::network::{AlarmSubject, Network};
     let alarm = NetworkAlarm {
         reporter: 2,
-        network: 1,
-        peer: 3,
-        raised: true,
+        reporter_incarnation: 77,
+        subject: AlarmSubject::Transceiver {
+            controller: 3,
+            network: Network::B,
+        },
+        raised: Some(Certainty::Concluded),
+        cause: "controller 3's transmitter on B failed".into(),
     };
     assert_eq!(round_trip::<NetworkAlarmSample>(&alarm).unwrap(), alarm);
+    let cleared = NetworkAlarm {
+        subject: AlarmSubject::Network(Network::A),
+        raised: None,
+        cause: String::new(),
+        ..alarm.clone()
+    };
+    assert_eq!(round_trip::<NetworkAlarmSample>(&cleared).unwrap(), cleared);
     let good = NetworkAlarmSample::encode(&alarm);
     let cases = [
         (
             NetworkAlarmSample {
                 reporter_id: 0,
-                ..good
+                ..good.clone()
             },
             "network_alarm.reporter_id",
         ),
         (
-            NetworkAlarmSample { peer_id: 0, ..good },
-            "network_alarm.peer_id",
+            NetworkAlarmSample {
+                network: 2,
+                ..good.clone()
+            },
+            "network_alarm.network",
         ),
         (
-            NetworkAlarmSample { network: 2, ..good },
-            "network_alarm.network",
+            NetworkAlarmSample {
+                certainty: 9,
+                ..good.clone()
+            },
+            "network_alarm.certainty",
+        ),
+        (
+            NetworkAlarmSample {
+                cause: "x".repeat(CAUSE_MAX_BYTES + 1),
+                ..good.clone()
+            },
+            "network_alarm.cause",
+        ),
+    ];
+    for (sample, field) in cases {
+        assert_eq!(rejected_field(sample.clone()), field, "{sample:?}");
+    }
+}
+
+#[test]
+fn network_heartbeat_round_trips_and_rejects_bad_fields() {
+    use crate::core::network::{Hearing, LinkState, Network, NetworkHeartbeat};
+    let mut hearing = Hearing::default();
+    hearing.set(2, Network::A, LinkState::Good);
+    hearing.set(2, Network::B, LinkState::Fail);
+    hearing.set(3, Network::B, LinkState::Good);
+    let heartbeat = NetworkHeartbeat { from: 1, hearing };
+    assert_eq!(
+        round_trip::<NetworkHeartbeatSample>(&heartbeat).unwrap(),
+        heartbeat
+    );
+    let good = NetworkHeartbeatSample::encode(&heartbeat);
+    assert_eq!(good.heard_on_a, [LINK_UNKNOWN, LINK_GOOD, LINK_UNKNOWN]);
+    assert_eq!(good.heard_on_b, [LINK_UNKNOWN, LINK_FAIL, LINK_GOOD]);
+    let cases = [
+        (
+            NetworkHeartbeatSample { from_id: 0, ..good },
+            "network_heartbeat.from_id",
+        ),
+        (
+            NetworkHeartbeatSample {
+                heard_on_a: [0, 3, 0],
+                ..good
+            },
+            "network_heartbeat.heard_on_a",
+        ),
+        (
+            NetworkHeartbeatSample {
+                heard_on_b: [7, 0, 0],
+                ..good
+            },
+            "network_heartbeat.heard_on_b",
         ),
     ];
     for (sample, field) in cases {

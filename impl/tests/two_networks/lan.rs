@@ -157,9 +157,14 @@ impl TwoBridgeLan {
     /// Drops every packet in or out of `net`'s interface on every host (the net is dead;
     /// the interfaces stay up with their addresses and routes).
     pub fn cut(&self, net: Net) {
+        self.cut_at(net, &self.hosts.clone());
+    }
+
+    /// The same at `hosts` only: their links into `net` are dead.
+    pub fn cut_at(&self, net: Net, hosts: &[u8]) {
         let table = Self::cut_table(net);
         let dev = net.device();
-        for host in &self.hosts {
+        for host in hosts {
             let ns = self.ns(*host);
             let nft = |args: &[&str]| {
                 let mut full = vec!["netns", "exec", ns.as_str(), "nft"];
@@ -192,8 +197,13 @@ impl TwoBridgeLan {
 
     /// Undoes [`Self::cut`].
     pub fn heal(&self, net: Net) {
+        self.heal_at(net, &self.hosts.clone());
+    }
+
+    /// Undoes [`Self::cut_at`].
+    pub fn heal_at(&self, net: Net, hosts: &[u8]) {
         let table = Self::cut_table(net);
-        for host in &self.hosts {
+        for host in hosts {
             let ns = self.ns(*host);
             run(
                 "ip",

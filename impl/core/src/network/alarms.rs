@@ -10,8 +10,8 @@
 //! reports the ambiguity in its conclusion and alarms nothing it cannot tell apart.
 //!
 //! Hysteresis, so a flapping link makes one alarm and not a storm:
-//! - raise once the subject has been implicated without a break for `raise_after_ms` (one
-//!   deadline by default: the conclusion settles while the other links' deadlines run out);
+//! - raise once the subject has been implicated without a break for `raise_after_ms` (more
+//!   than a period: the conclusion settles while the other links' deadlines run out);
 //!   a changed cause is republished once it too has held that long;
 //! - clear once every link the subject carries (leaving out links of controllers concluded
 //!   down, whose silence says nothing of the network) has been Good without a break for

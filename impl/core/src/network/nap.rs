@@ -7,7 +7,7 @@
 
 use super::alarms::{AlarmBook, AlarmCause, AlarmChange, AlarmSubject, AlarmTiming};
 use super::conclude::{conclude, Conclusion};
-use super::links::{LinkMatrix, Members, Network, NetworkHeartbeat};
+use super::links::{Hearing, LinkMatrix, Members, Network, NetworkHeartbeat};
 use super::observe::Observer;
 use crate::types::ControllerId;
 
@@ -22,23 +22,27 @@ pub struct NapConfig {
     pub period_ms: u64,
     /// A link is Fail after this many periods without its heartbeat (paper: 2).
     pub deadline_periods: u32,
-    /// An alarm is raised once its conclusion has held this many periods (default: one
-    /// deadline).
-    pub raise_after_periods: u32,
+    /// An alarm is raised once its subject has been implicated this long (default one and a
+    /// half periods). The links of a failed network miss their deadlines over one period (each
+    /// was last heard at its own point of the period), so a conclusion seen meanwhile, while
+    /// it settles, must not raise: more than one period.
+    pub raise_after_ms: u64,
     /// An alarm clears once its links have been Good this many periods in a row.
     pub clear_after_periods: u32,
 }
 
 impl NapConfig {
     /// Controller `id` among all three, with the paper's timing: 250 ms period, deadline two
-    /// periods, raise after one deadline, clear after 4 periods (1 s) of good links.
+    /// periods, raise after 375 ms, clear after 4 periods (1 s) of good links. A network that
+    /// dies is alarmed within two deadlines (1 s): its links fail within one deadline, the
+    /// reports arrive at once (see [`Nap::step`]), and the conclusion holds 375 ms.
     pub fn new(id: ControllerId) -> NapConfig {
         NapConfig {
             id,
             members: Members::ALL,
             period_ms: 250,
             deadline_periods: 2,
-            raise_after_periods: 2,
+            raise_after_ms: 375,
             clear_after_periods: 4,
         }
     }
@@ -51,7 +55,7 @@ impl NapConfig {
     /// The alarms' hysteresis in ms.
     pub fn alarm_timing(&self) -> AlarmTiming {
         AlarmTiming {
-            raise_after_ms: self.period_ms * u64::from(self.raise_after_periods),
+            raise_after_ms: self.raise_after_ms,
             clear_after_ms: self.period_ms * u64::from(self.clear_after_periods),
         }
     }
@@ -104,6 +108,8 @@ pub struct Nap {
     alarms: AlarmBook,
     conclusion: Conclusion,
     publish_due_ms: u64,
+    /// The row the last heartbeat carried.
+    published: Option<Hearing>,
 }
 
 impl Nap {
@@ -122,6 +128,7 @@ impl Nap {
             alarms: AlarmBook::new(),
             conclusion,
             publish_due_ms: now_ms,
+            published: None,
         }
     }
 
@@ -131,20 +138,23 @@ impl Nap {
     }
 
     /// Feeds one input at `now_ms`; returns the commands to perform, in order.
+    ///
+    /// Heartbeats go out every period and also at once when this monitor's own row changes
+    /// (a link it hears failed or came back): the other monitors learn of it without waiting
+    /// up to a period, so every monitor's conclusion settles as soon as the links' own
+    /// deadlines have run out.
     pub fn step(&mut self, input: NapInput, now_ms: u64) -> Vec<NapCommand> {
         let mut commands = Vec::new();
-        match input {
-            NapInput::Heartbeat {
-                received_on,
-                heartbeat,
-            } => {
-                self.observer.hear(received_on, &heartbeat, now_ms);
-            }
-            NapInput::Tick => {
-                if now_ms >= self.publish_due_ms {
-                    self.publish(now_ms, &mut commands);
-                }
-            }
+        if let NapInput::Heartbeat {
+            received_on,
+            heartbeat,
+        } = input
+        {
+            self.observer.hear(received_on, &heartbeat, now_ms);
+        }
+        let periodic = now_ms >= self.publish_due_ms;
+        if periodic || self.published != Some(self.observer.hearing(now_ms)) {
+            self.publish(now_ms, periodic, &mut commands);
         }
         self.conclusion = conclude(
             &self.observer.matrix(now_ms),
@@ -161,15 +171,19 @@ impl Nap {
         commands
     }
 
-    /// The same heartbeat on both networks, then the next one a period on (a caller that fell
-    /// behind publishes once, not once per missed period).
-    fn publish(&mut self, now_ms: u64, commands: &mut Vec<NapCommand>) {
+    /// The same heartbeat on both networks; a periodic one schedules the next a period on (a
+    /// caller that fell behind publishes once, not once per missed period).
+    fn publish(&mut self, now_ms: u64, periodic: bool, commands: &mut Vec<NapCommand>) {
         let heartbeat = NetworkHeartbeat {
             from: self.config.id,
             hearing: self.observer.hearing(now_ms),
         };
+        self.published = Some(heartbeat.hearing);
         for network in Network::ALL {
             commands.push(NapCommand::PublishHeartbeat { network, heartbeat });
+        }
+        if !periodic {
+            return;
         }
         self.publish_due_ms += self.config.period_ms;
         if self.publish_due_ms <= now_ms {
