@@ -143,9 +143,9 @@ pub fn for_scenario(name: &str) -> Expected {
             ..SPLIT
         },
         // One net down, or one controller's link into one: RL's own participant sends every
-        // datagram on both nets (docs/two-networks-draft.md), so voting and the actuators ride
-        // it out: no owner change, no gap beyond a crash's, nothing to settle. The network
-        // alarms are judged by `super::network_alarms`.
+        // datagram on both nets (docs/protocol.md, "RL's own traffic on two networks"), so
+        // voting and the actuators ride it out: no owner change, no gap beyond a crash's,
+        // nothing to settle. The network alarms are judged by `super::network_alarms`.
         "net-b-down" | "c2-transceiver-a-down" => Expected {
             owner_changes_per_fault: Some(0),
             ..CLEAN

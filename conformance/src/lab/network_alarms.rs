@@ -23,9 +23,11 @@ use super::judge::FaultRecord;
 use super::lan::Net;
 use super::observe::ControllerEvent;
 use super::procs::Life;
+use rl::core::network::Network;
 use rl::core::AlarmReason;
-use rl::event::Event;
-use serde::{Deserialize, Serialize};
+use rl::event::{Event, EventLine};
+use rl::wire::Certainty;
+use serde::Serialize;
 use std::fmt;
 
 /// From a net fault to the alarm: the link's deadline (2 periods of 250 ms), then the subject
@@ -79,46 +81,12 @@ pub struct NapRecord {
     pub event: NapEvent,
 }
 
-/// The lines as `rl controller --json-events` writes them.
-#[derive(Deserialize)]
-struct WireLine {
-    t_ms: u64,
-    id: u8,
-    #[serde(flatten)]
-    event: WireEvent,
-}
-
-#[derive(Deserialize)]
-#[serde(tag = "event", rename_all = "snake_case")]
-enum WireEvent {
-    NetworkAlarm {
-        network: WireNet,
-        #[serde(default)]
-        controller: Option<u8>,
-        raised: bool,
-        #[serde(default)]
-        certainty: Option<String>,
-        #[serde(default)]
-        cause: Option<String>,
-    },
-    NetworkConclusion {
-        conclusion: String,
-        #[serde(default)]
-        findings: Vec<String>,
-    },
-}
-
-#[derive(Deserialize)]
-enum WireNet {
-    A,
-    B,
-}
-
-/// A network line: its `t_ms`, controller id and event; `None` for any other line.
+/// A network line (rl's own `EventLine`, so writer and reader cannot drift): its `t_ms`,
+/// controller id and event; `None` for any other line.
 pub fn parse(text: &str) -> Option<(u64, u8, NapEvent)> {
-    let line: WireLine = serde_json::from_str(text).ok()?;
+    let line = EventLine::parse(text)?;
     let event = match line.event {
-        WireEvent::NetworkAlarm {
+        Event::NetworkAlarm {
             network,
             controller,
             raised,
@@ -126,27 +94,37 @@ pub fn parse(text: &str) -> Option<(u64, u8, NapEvent)> {
             cause,
         } => {
             let net = match network {
-                WireNet::A => Net::A,
-                WireNet::B => Net::B,
+                Network::A => Net::A,
+                Network::B => Net::B,
             };
             NapEvent::Alarm {
                 subject: controller.map_or(Subject::Network(net), |controller| {
                     Subject::Transceiver { controller, net }
                 }),
                 raised,
-                certainty,
+                certainty: certainty.map(|c| certainty_name(c).to_string()),
                 cause,
             }
         }
-        WireEvent::NetworkConclusion {
+        Event::NetworkConclusion {
             conclusion,
             findings,
         } => NapEvent::Conclusion {
             text: conclusion,
             findings,
         },
+        _ => return None,
     };
     Some((line.t_ms, line.id, event))
+}
+
+/// A certainty as the event line writes it.
+fn certainty_name(certainty: Certainty) -> &'static str {
+    match certainty {
+        Certainty::Concluded => "concluded",
+        Certainty::Suspected => "suspected",
+        Certainty::Unexplained => "unexplained",
+    }
 }
 
 /// What a net scenario expects.
