@@ -36,6 +36,9 @@ pub const RAISE_WITHIN_MS: f64 = 1000.0;
 /// From the heal to the clear: a period to hear the links again, 4 periods of good links.
 pub const CLEAR_WITHIN_MS: f64 = 1500.0;
 
+/// How a conclusion names the double fault (both nets failed) among its alternatives.
+pub const DOUBLE_FAULT: &str = "both networks failed";
+
 /// What a network alarm is about.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize)]
 pub enum Subject {
@@ -180,7 +183,8 @@ pub fn for_scenario(name: &str) -> Option<NapExpected> {
         // (the paper's double-fault row needs a second pair), so no network alarm, the double
         // fault named as a possibility.
         "both-networks-down" => Some(NapExpected {
-            conclusion_mentions: Some("double fault"),
+            // The double fault, as rl words it (`Finding::DoubleFault`).
+            conclusion_mentions: Some(DOUBLE_FAULT),
             controller_alarms: everyone_loses(&[1, 2, 3]),
             roles_unchanged: false,
             ..nothing

@@ -307,15 +307,15 @@ fn both_nets_down_needs_the_double_fault_and_every_controller_alarm() {
         .into_iter()
         .map(|(a, b)| lost(a, b, FAULT_MS + 500.0))
         .collect();
-    let ambiguous = "both peers down, or a double fault (both networks)";
+    let ambiguous = "one of: both networks failed | controller 2 down or cut off on both networks, controller 3 down or cut off on both networks";
     let good: Vec<NapRecord> = (1..=3).map(|id| conclusion(id, ambiguous)).collect();
     let report = judged("both-networks-down", &good, &every_lost);
     assert!(report.failures.is_empty(), "{:?}", report.failures);
     let mut vague = good.clone();
-    vague[1] = conclusion(2, "both peers down");
+    vague[1] = conclusion(2, "network B failed");
     assert_fails_with(
         &judged("both-networks-down", &vague, &every_lost),
-        "C2: no conclusion during the fault mentions \"double fault\"",
+        "C2: no conclusion during the fault mentions \"both networks failed\"",
     );
     assert_fails_with(
         &judged("both-networks-down", &good, &every_lost[1..]),
