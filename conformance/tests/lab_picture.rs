@@ -91,6 +91,7 @@ fn sample_run(picture: &Path) -> (Outcome, Observations, Vec<Life>) {
         },
         validation: Ok("accepted".into()),
         network: None,
+        network_alarm_changes: Vec::new(),
         failures: Vec::new(),
         dir: PathBuf::new(),
         picture: picture.to_path_buf(),

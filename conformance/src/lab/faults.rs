@@ -1,9 +1,9 @@
 //! The faults, each with `apply` and `heal`: process faults (kill -9 and restart, SIGSTOP and
 //! SIGCONT, a restart with an offset wall clock), network faults as nftables tables in the
 //! namespaces they touch (partition, cut, one-way loss, random loss, multicast drop, one
-//! controller's link into one net, a whole net), a flapping link (a thread that takes the host
-//! ends of a node's veths down and up at seeded random intervals) and a rate-limited link (tbf
-//! both ways). A [`Target`] names a controller by id or by the role it holds when the fault is
+//! controller's link into one net), a whole net down (its bridge down), a flapping link (a
+//! thread that takes the host ends of a node's veths down and up at seeded random intervals)
+//! and a rate-limited link (tbf both ways). A [`Target`] names a controller by id or by the role it holds when the fault is
 //! applied.
 //!
 //! The controller-level faults (everything but `LinkDown` and `NetworkDown`) hit both nets:
@@ -184,6 +184,8 @@ pub struct Applied {
     pub id: Option<u8>,
     /// The nftables table it created, in these namespaces.
     tables: Vec<(String, String)>,
+    /// The net whose bridge it took down.
+    bridge_down: Option<Net>,
     flapper: Option<(Arc<AtomicBool>, JoinHandle<()>)>,
 }
 
@@ -211,6 +213,7 @@ pub fn apply(
         fault: target.map_or_else(|| fault.clone(), |id| fault.at(id)),
         id: target,
         tables: Vec::new(),
+        bridge_down: None,
         flapper: None,
     };
     let me = Node::Controller(id);
@@ -262,13 +265,21 @@ pub fn apply(
         }
         Fault::RateLimit(_, kbit) => rate_limit(lan, me, Some(*kbit))?,
         // nftables in the node's namespace rather than `ip link set <veth> down`: a table of
-        // its own per fault composes with the others (a link down during a flapping link or a
-        // whole net down is healed without bringing up what another fault took down), it drops
-        // exactly that interface's traffic both ways while the kernel keeps its addresses and
-        // routes (the DDS sockets stay bound as on a pulled cable's host), and its counters
-        // show what it dropped.
+        // its own per fault composes with the others (a link down during a flapping link is
+        // healed without bringing up what the flapping took down), it drops exactly that
+        // interface's traffic both ways while the kernel keeps its addresses and routes (the
+        // DDS sockets stay bound as on a pulled cable's host), and its counters show what it
+        // dropped.
         Fault::LinkDown(_, net) => rules.push((me, Rules::link_down(*net))),
-        Fault::NetworkDown(net) => rules.extend(Node::all().map(|n| (n, Rules::link_down(*net)))),
+        // The bridge down: a switch without power. One command kills the whole net at once
+        // (nftables on five links takes five `ip netns exec`s, hundreds of milliseconds apart
+        // on a loaded machine, each a partial fault the monitors may alarm meanwhile), every
+        // node's interface stays up as behind a dead switch, and no other fault touches a
+        // bridge.
+        Fault::NetworkDown(net) => {
+            host::run("ip", &["link", "set", &lan.bridge(*net), "down"])?;
+            applied.bridge_down = Some(*net);
+        }
     }
     for (node, node_rules) in rules {
         let ns = lan.ns(node);
@@ -283,6 +294,9 @@ pub fn heal(applied: Applied, lan: &Lan, procs: &mut Procs) -> Result<(), LabErr
     let id = applied.id.unwrap_or(0);
     for (ns, table) in &applied.tables {
         host::nft(ns, &nft::delete_script(table))?;
+    }
+    if let Some(net) = applied.bridge_down {
+        host::run("ip", &["link", "set", &lan.bridge(net), "up"])?;
     }
     if let Some((stop, thread)) = applied.flapper {
         stop.store(true, Ordering::Relaxed);

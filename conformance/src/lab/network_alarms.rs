@@ -130,6 +130,32 @@ fn certainty_name(certainty: Certainty) -> &'static str {
     }
 }
 
+/// Every network alarm raise and clear of a run, `C1: net B raised (concluded) at 3.250 s`:
+/// recorded for every scenario, judged only for the net scenarios.
+pub fn changes(network: &[NapRecord]) -> Vec<String> {
+    network
+        .iter()
+        .filter_map(|r| match &r.event {
+            NapEvent::Alarm {
+                subject,
+                raised,
+                certainty,
+                ..
+            } => Some(format!(
+                "{}: {subject} {} at {:.3} s",
+                r.life,
+                match (raised, certainty) {
+                    (true, Some(c)) => format!("raised ({c})"),
+                    (true, None) => "raised".into(),
+                    (false, _) => "cleared".into(),
+                },
+                r.at_ms / 1000.0
+            )),
+            NapEvent::Conclusion { .. } => None,
+        })
+        .collect()
+}
+
 /// What a net scenario expects.
 #[derive(Clone, Debug, PartialEq)]
 pub struct NapExpected {

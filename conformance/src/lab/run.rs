@@ -38,6 +38,8 @@ pub struct Outcome {
     pub validation: Verdict,
     /// The network alarm judge's measurements and verdict (net scenarios only).
     pub network: Option<NapReport>,
+    /// Every network alarm raised or cleared, in any scenario (`network_alarms::changes`).
+    pub network_alarm_changes: Vec<String>,
     /// Every expectation missed; empty: the run passed.
     pub failures: Vec<String>,
     pub dir: PathBuf,
@@ -145,6 +147,7 @@ pub fn run(scenario: &Scenario, seed: u64, setup: &Setup, out: &Path) -> Result<
         metrics,
         validation,
         network,
+        network_alarm_changes: network_alarms::changes(&session.observed.network),
         failures,
         dir: dir.clone(),
         picture: picture.clone(),
@@ -244,8 +247,13 @@ pub fn summary(outcome: &Outcome) -> String {
         m.final_roles.join(" "),
         outcome.picture.display(),
     );
-    if let Some(report) = &outcome.network {
-        text.push_str(&network_summary(report));
+    match &outcome.network {
+        Some(report) => text.push_str(&network_summary(report)),
+        None if !outcome.network_alarm_changes.is_empty() => text.push_str(&format!(
+            "  network alarms (not judged here): {}\n",
+            outcome.network_alarm_changes.join("; ")
+        )),
+        None => {}
     }
     for failure in &outcome.failures {
         text.push_str(&format!("  FAILED: {failure}\n"));
