@@ -240,6 +240,10 @@ pub struct AlarmTiming {
 pub struct NapReport {
     /// Whether network alarms were judged (`false`: the `rl` has no network monitoring).
     pub network_judged: bool,
+    /// From the first fault's application to the last's (ms): faults meant to start together
+    /// (both links of a controller, both nets) are applied one after the other, and on a
+    /// loaded machine the first may hold alone long enough to be alarmed on its own.
+    pub applied_over_ms: f64,
     pub timings: Vec<AlarmTiming>,
     /// Every network alarm raise outside the expected ones, described.
     pub other_alarms: Vec<String>,
@@ -277,6 +281,11 @@ pub fn judge(recorded: &Recorded, expected: &NapExpected, network_judged: bool) 
         .iter()
         .filter_map(|f| f.healed_ms)
         .fold(applied_ms, f64::max);
+    report.applied_over_ms = recorded
+        .faults
+        .iter()
+        .map(|f| f.applied_ms - applied_ms)
+        .fold(0.0, f64::max);
     if !applied_ms.is_finite() {
         report.failures.push("no fault was applied".into());
         return report;

@@ -272,6 +272,13 @@ fn network_summary(report: &NapReport) -> String {
     if !report.network_judged {
         text.push_str("  network alarms: not judged (this rl has no network monitoring)\n");
     }
+    // Faults meant to start together that did not: the first held alone meanwhile.
+    if report.applied_over_ms > 100.0 {
+        text.push_str(&format!(
+            "  the faults were applied over {:.0} ms (a loaded machine)\n",
+            report.applied_over_ms
+        ));
+    }
     for t in &report.timings {
         text.push_str(&format!(
             "  network alarm {} at {}: raised {} after the fault ({}), cleared {} after the heal\n",
