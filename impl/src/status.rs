@@ -74,8 +74,9 @@ pub struct StatusView {
 #[derive(Clone, Debug, Default)]
 pub struct Board {
     heartbeats: BTreeMap<ControllerId, (Heartbeat, u64)>,
-    /// (about, reporter) -> reason, for raised alarms.
-    alarms: BTreeMap<(ControllerId, ControllerId), AlarmReason>,
+    /// (about, reporter, impostor) -> reason, for raised alarms: one protocol alarm per
+    /// controller and reporter (Failed replaces Lost), an impostor alarm beside it.
+    alarms: BTreeMap<(ControllerId, ControllerId, bool), AlarmReason>,
     /// (subject, reporter) -> how sure and why, for raised network alarms.
     network_alarms: BTreeMap<(AlarmSubject, ControllerId), (Certainty, String)>,
 }
@@ -86,7 +87,11 @@ impl Board {
     }
 
     pub fn alarm(&mut self, alarm: &ControllerAlarm) {
-        let key = (alarm.about, alarm.reporter);
+        let key = (
+            alarm.about,
+            alarm.reporter,
+            alarm.reason == AlarmReason::Impostor,
+        );
         if alarm.raised {
             self.alarms.insert(key, alarm.reason);
         } else {
@@ -141,8 +146,11 @@ impl Board {
             })
             .collect();
         let mut alarms: Vec<AlarmView> = Vec::new();
-        for (&(about, reporter), &reason) in &self.alarms {
-            match alarms.iter_mut().find(|a| a.about == about) {
+        for (&(about, reporter, _), &reason) in &self.alarms {
+            match alarms
+                .iter_mut()
+                .find(|a| a.about == about && a.reason == reason)
+            {
                 Some(view) => view.raised_by.push(reporter),
                 None => alarms.push(AlarmView {
                     about,

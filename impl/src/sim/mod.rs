@@ -1,3 +1,4 @@
 //! Simulators.
+pub mod command_trust;
 pub mod servo;
 pub mod shapes;
