@@ -252,6 +252,9 @@ pub struct BoardFeed {
     heartbeats: crate::dds::Reader<crate::wire::HeartbeatSample>,
     alarms: crate::dds::Reader<crate::wire::AlarmSample>,
     network_alarms: crate::dds::Reader<crate::wire::NetworkAlarmSample>,
+    /// Heartbeats in a live controller's name from another participant are not shown
+    /// (crate::identity).
+    identities: crate::identity::Identities,
     started: std::time::Instant,
 }
 
@@ -262,6 +265,7 @@ impl BoardFeed {
             heartbeats: session.heartbeat_reader().map_err(dds)?,
             alarms: session.alarm_reader().map_err(dds)?,
             network_alarms: session.network_alarm_reader().map_err(dds)?,
+            identities: crate::identity::Identities::new(session.timing().peer_deadline_ms),
             started: std::time::Instant::now(),
         })
     }
@@ -274,12 +278,19 @@ impl BoardFeed {
     /// Takes in what has arrived; returns the heartbeats (for callers that watch changes).
     pub fn update(&mut self, board: &mut Board) -> Vec<Heartbeat> {
         let now = self.now_ms();
-        let heartbeats: Vec<Heartbeat> = self
-            .heartbeats
-            .take()
-            .into_iter()
-            .map(|h| h.value)
-            .collect();
+        let mut heartbeats = Vec::new();
+        for received in self.heartbeats.take() {
+            let from = crate::dds::ParticipantKey::of(received.writer);
+            let admission = self.identities.heartbeat(
+                received.value.id,
+                received.value.incarnation,
+                from,
+                now,
+            );
+            if admission == crate::identity::Admission::Accepted {
+                heartbeats.push(received.value);
+            }
+        }
         for heartbeat in &heartbeats {
             board.heartbeat(*heartbeat, now);
         }
