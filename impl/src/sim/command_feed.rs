@@ -49,8 +49,8 @@ impl CommandFeed {
         self.last_refresh_ms = Some(now_ms);
     }
 
-    /// The newest command the owner sent since the last call, if any.
-    pub fn take(&mut self, session: &Session, now_ms: u64) -> Option<ServoControl> {
+    /// The newest command the owner sent since the last call, if any, with its writer.
+    pub fn take(&mut self, session: &Session, now_ms: u64) -> Option<(ServoControl, GUID)> {
         for heartbeat in self.heartbeats.take() {
             self.trust.heartbeat(&heartbeat, now_ms);
         }
@@ -76,7 +76,7 @@ impl CommandFeed {
                 continue;
             }
             if self.arbiter.offer(writer, strength, now_ms).accepted {
-                newest = Some(command.value);
+                newest = Some((command.value, writer));
             }
         }
         newest

@@ -173,7 +173,7 @@ pub fn run(args: ShapesArgs) -> Result<(), Error> {
         let yellow = match &mut feed {
             None => Some(position("YELLOW", t_s)),
             Some(feed) => {
-                if let Some(command) = feed.take(&session, t_ms) {
+                if let Some((command, _)) = feed.take(&session, t_ms) {
                     gimbal.command(command.pan, command.tilt);
                 }
                 gimbal.advance(period.as_secs_f64());
