@@ -2,6 +2,8 @@
 //! Pixytracker): it reads the camera's `Circle` samples of the configured colour, computes
 //! pan/tilt with the original PD law, and writes `pixy/servo_control` through the RL API,
 //! which lets the commands out only while the controller holds a role, at its role's strength.
+//! It also reads the commanding controller's commands and, while another controller commands,
+//! takes the gimbal's position from them, so that a takeover is bumpless.
 //!
 //! Under systemd it reports readiness once DDS is joined and the voting thread runs, and its
 //! loop pings the watchdog while the voting loop also goes round (crate::service).
@@ -9,8 +11,10 @@
 use crate::api::{Options, Redundancy};
 use crate::config::Config;
 use crate::core::types::ControllerId;
+use crate::dds::ParticipantKey;
 use crate::network_monitor::{MonitorOptions, NetworkMonitor};
 use crate::service::{LoopProgress, Notifier};
+use crate::sim::command_feed::CommandFeed;
 use crate::tracker::PanTiltController;
 use crate::wire::ServoControl;
 use rustdds::mio::{Events, Poll, PollOpt, Ready, Token};
@@ -165,6 +169,14 @@ fn track(
 ) -> Result<(), crate::Error> {
     let dds = |e: crate::dds::DdsError| crate::Error::Dds(e.to_string());
     let mut camera = rl.session().camera_reader().map_err(dds)?;
+    // The commanding controller's commands, to follow while standing by.
+    let mut owner_commands = CommandFeed::open(
+        rl.session(),
+        config.timing.command_deadline_ms,
+        config.timing.peer_deadline_ms,
+    )
+    .map_err(dds)?;
+    let own_participant = rl.session().participant_key();
     let mut commands = rl.command_writer()?;
     let poll = Poll::new().map_err(|e| crate::Error::io("creating the event poll", e))?;
     poll.register(&camera, CAMERA, Ready::readable(), PollOpt::edge())
@@ -186,6 +198,14 @@ fn track(
         notifier.status(&service_status(rl));
         if duration_ms.is_some_and(|limit| started.elapsed() >= Duration::from_millis(limit)) {
             return Ok(());
+        }
+        // Bumpless transfer: while another controller commands, take the gimbal's position
+        // from its commands, so a takeover continues from there (crate::tracker, `align`).
+        let now_ms = u64::try_from(started.elapsed().as_millis()).unwrap_or(u64::MAX);
+        if let Some((command, writer)) = owner_commands.take(rl.session(), now_ms) {
+            if ParticipantKey::of(writer) != own_participant {
+                pan_tilt.align(command.pan, command.tilt);
+            }
         }
         let mut fresh = None;
         for shape in camera.take() {

@@ -2,11 +2,14 @@
 //! servo simulators run as child processes; every few seconds the Primary is killed
 //! (`kill -9`) and restarted, and a timeline shows what a user would see: the servo switching
 //! to the Secondary within the command deadline, the promotion, the alarms, the rejoin in the
-//! lowest role. `--record DIR` keeps every child's output (JSON events) for later checking.
+//! lowest role, and the camera on the gimbal keeping the ball near the centre throughout (the
+//! live line says how far off, in pixels). `--record DIR` keeps every child's output (JSON
+//! events) for later checking.
 
 use crate::core::{ControllerId, Phase, Role};
 use crate::event::{Event, EventLine};
 use crate::procs::{parse_servo_event, Fleet, Line, ServoEvent};
+use crate::sim::shapes::CameraFrame;
 use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::PathBuf;
@@ -120,6 +123,10 @@ struct Demo {
     seen: BTreeMap<ControllerId, Seen>,
     owner: Option<ControllerId>,
     last_pan_tilt: (u16, u16),
+    /// The camera's tracking errors (pixels off centre) since the last live line, and the
+    /// frames in which it did not see the ball.
+    tracking_errors_px: Vec<f64>,
+    frames_unseen: u32,
     settled_since: Option<Instant>,
     killed: Option<(ControllerId, Instant)>,
     cycles: u32,
@@ -138,6 +145,8 @@ impl Demo {
             seen: BTreeMap::new(),
             owner: None,
             last_pan_tilt: (0, 0),
+            tracking_errors_px: Vec::new(),
+            frames_unseen: 0,
             settled_since: None,
             killed: None,
             cycles: 0,
@@ -152,7 +161,7 @@ impl Demo {
 
     fn start_children(&mut self) -> Result<(), crate::Error> {
         self.fleet
-            .start_other("camera", &["shapes"])
+            .start_other("camera", &["shapes", "--json"])
             .map_err(spawn_error)?;
         self.fleet
             .start_other("servo", &["servo", "--json"])
@@ -177,6 +186,13 @@ impl Demo {
             self.last_stderr.insert(source.to_string(), line.text);
         } else if line.source == "servo" {
             self.on_servo_line(&line);
+        } else if line.source == "camera" {
+            if let Ok(frame) = serde_json::from_str::<CameraFrame>(&line.text) {
+                match frame.error_px {
+                    Some(error_px) => self.tracking_errors_px.push(error_px),
+                    None => self.frames_unseen += 1,
+                }
+            }
         } else if let Some(event) = EventLine::parse(&line.text) {
             self.on_controller_event(line.at, &event);
         }
@@ -333,7 +349,8 @@ impl Demo {
         Ok(true)
     }
 
-    /// `roles P=C1 S=C2 T=C3 | servo owner C1 | pan .. tilt ..`, every 2 s.
+    /// `roles P=C1 S=C2 T=C3 | servo owner C1 | pan .. tilt .. | ball off centre ..`, every
+    /// 2 s: the tracking error is the camera's over those 2 s (median and worst, pixels).
     fn print_roles_every_2_s(&mut self, now: Instant) {
         if now < self.next_summary {
             return;
@@ -351,8 +368,22 @@ impl Demo {
                 format!("{}={}", &role.name()[..1].to_uppercase(), name(holder))
             })
             .collect();
+        let mut errors = std::mem::take(&mut self.tracking_errors_px);
+        errors.sort_by(f64::total_cmp);
+        let tracking = match (errors.get(errors.len() / 2), errors.last()) {
+            (Some(median), Some(worst)) => {
+                format!("ball off centre {median:.0} px (worst {worst:.0})")
+            }
+            _ => "ball not seen".to_string(),
+        };
+        let unseen = std::mem::take(&mut self.frames_unseen);
+        let unseen = if unseen > 0 && !errors.is_empty() {
+            format!(", out of view in {unseen} frames")
+        } else {
+            String::new()
+        };
         println!(
-            "{} roles {} | servo owner {} | pan {} tilt {}",
+            "{} roles {} | servo owner {} | pan {} tilt {} | {tracking}{unseen}",
             self.stamp(now),
             roles.join(" "),
             name(self.owner),

@@ -33,6 +33,7 @@ pub mod demo;
 pub mod error;
 pub mod event;
 pub mod failed_exit;
+pub mod identity;
 pub mod leds;
 pub mod logging;
 pub mod network_monitor;

@@ -104,6 +104,8 @@ pub(crate) fn spawn(
         loop_clock: crate::stall::LoopClock::new(timing.peer_deadline_ms),
     });
     let thread_shared = Arc::clone(&shared);
+    let mut identities = crate::identity::Identities::new(timing.peer_deadline_ms);
+    identities.bind_own(id, session.participant_key());
     let failed_exit_delay_ms = config.timing.failed_exit_delay_ms;
     let period_ms = core.config().heartbeat_period_ms;
     let heartbeat_offset_ms = core.config().heartbeat_offset_ms();
@@ -125,6 +127,8 @@ pub(crate) fn spawn(
                 pending_exit: None,
                 stale_heartbeats_until_ms: None,
                 heartbeat_woke: false,
+                identities,
+                impostor_alarms: Vec::new(),
             };
             voting.run()
         })
@@ -209,6 +213,10 @@ struct Voting {
     stale_heartbeats_until_ms: Option<u64>,
     /// The last wait ended because a heartbeat arrived.
     heartbeat_woke: bool,
+    /// Which participant each controller id speaks from (crate::identity).
+    identities: crate::identity::Identities,
+    /// Ids with an impostor alarm raised.
+    impostor_alarms: Vec<ControllerId>,
 }
 
 impl Voting {
@@ -370,14 +378,20 @@ impl Voting {
                 });
                 continue;
             }
+            if !self.admit_heartbeat(&heartbeat) {
+                continue;
+            }
             if on_time == Some(number) {
                 self.follow_phase(&heartbeat.value);
             }
             self.step(Input::Heartbeat(heartbeat.value));
         }
         for vote in self.endpoints.votes_in.take() {
-            self.step(Input::Vote(vote.value));
+            if self.admit_vote(vote.value.from, vote.writer) {
+                self.step(Input::Vote(vote.value));
+            }
         }
+        self.clear_silent_impostors();
     }
 
     fn step(&mut self, input: Input) {
@@ -449,7 +463,12 @@ impl Voting {
         };
         {
             let mut alarms = self.shared.alarms.lock().unwrap_or_else(|e| e.into_inner());
-            alarms.retain(|(about, _)| *about != alarm.about);
+            // One protocol alarm per controller (Failed replaces Lost); an impostor alarm is
+            // about someone else's samples and stands beside it.
+            let impostor = |r: AlarmReason| r == AlarmReason::Impostor;
+            alarms.retain(|(about, r)| {
+                *about != alarm.about || impostor(*r) != impostor(alarm.reason)
+            });
             if alarm.raised {
                 alarms.push((alarm.about, alarm.reason));
             }
@@ -473,4 +492,5 @@ impl Voting {
 
 #[cfg(feature = "fault-injection")]
 mod fault_injection;
+mod impostors;
 mod output;

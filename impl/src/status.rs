@@ -48,6 +48,9 @@ pub struct AlarmView {
     pub about: ControllerId,
     pub reason: AlarmReason,
     pub raised_by: Vec<ControllerId>,
+    /// When the first of them raised it (Unix milliseconds, the raising sample's source
+    /// timestamp); `null` if no reporter stamped it.
+    pub since_ms: Option<u64>,
 }
 
 /// A raised network alarm: about `network` as a whole (`controller` null) or controller
@@ -74,8 +77,9 @@ pub struct StatusView {
 #[derive(Clone, Debug, Default)]
 pub struct Board {
     heartbeats: BTreeMap<ControllerId, (Heartbeat, u64)>,
-    /// (about, reporter) -> reason, for raised alarms.
-    alarms: BTreeMap<(ControllerId, ControllerId), AlarmReason>,
+    /// (about, reporter, impostor) -> reason, for raised alarms: one protocol alarm per
+    /// controller and reporter (Failed replaces Lost), an impostor alarm beside it.
+    alarms: BTreeMap<(ControllerId, ControllerId, bool), (AlarmReason, Option<u64>)>,
     /// (subject, reporter) -> how sure and why, for raised network alarms.
     network_alarms: BTreeMap<(AlarmSubject, ControllerId), (Certainty, String)>,
 }
@@ -85,10 +89,21 @@ impl Board {
         self.heartbeats.insert(heartbeat.id, (heartbeat, now_ms));
     }
 
-    pub fn alarm(&mut self, alarm: &ControllerAlarm) {
-        let key = (alarm.about, alarm.reporter);
+    /// A controller alarm raised or cleared; `stamped_ms` is when its reporter wrote it (Unix
+    /// milliseconds), if known.
+    pub fn alarm(&mut self, alarm: &ControllerAlarm, stamped_ms: Option<u64>) {
+        let key = (
+            alarm.about,
+            alarm.reporter,
+            alarm.reason == AlarmReason::Impostor,
+        );
         if alarm.raised {
-            self.alarms.insert(key, alarm.reason);
+            // A republished alarm keeps the time it was first raised.
+            let since_ms = self
+                .alarms
+                .get(&key)
+                .map_or(stamped_ms, |(_, since)| *since);
+            self.alarms.insert(key, (alarm.reason, since_ms));
         } else {
             self.alarms.remove(&key);
         }
@@ -141,13 +156,23 @@ impl Board {
             })
             .collect();
         let mut alarms: Vec<AlarmView> = Vec::new();
-        for (&(about, reporter), &reason) in &self.alarms {
-            match alarms.iter_mut().find(|a| a.about == about) {
-                Some(view) => view.raised_by.push(reporter),
+        for (&(about, reporter, _), &(reason, since_ms)) in &self.alarms {
+            match alarms
+                .iter_mut()
+                .find(|a| a.about == about && a.reason == reason)
+            {
+                Some(view) => {
+                    view.raised_by.push(reporter);
+                    view.since_ms = match (view.since_ms, since_ms) {
+                        (Some(a), Some(b)) => Some(a.min(b)),
+                        (a, b) => a.or(b),
+                    };
+                }
                 None => alarms.push(AlarmView {
                     about,
                     reason,
                     raised_by: vec![reporter],
+                    since_ms,
                 }),
             }
         }
@@ -213,8 +238,11 @@ pub fn render_table(view: &StatusView) -> String {
     }
     for a in &view.alarms {
         let by: Vec<String> = a.raised_by.iter().map(|id| format!("C{id}")).collect();
+        let since = a.since_ms.map_or(String::new(), |ms| {
+            format!("; since {} UTC", clock_time(ms))
+        });
         out.push_str(&format!(
-            "ALARM C{} {:?} (raised by {})\n",
+            "ALARM C{} {:?} (raised by {}{since})\n",
             a.about,
             a.reason,
             by.join(", ")
@@ -239,11 +267,31 @@ pub fn render_table(view: &StatusView) -> String {
     out
 }
 
+/// `HH:MM:SS` of a Unix time in milliseconds (UTC).
+fn clock_time(unix_ms: u64) -> String {
+    let seconds = (unix_ms / 1000) % 86_400;
+    format!(
+        "{:02}:{:02}:{:02}",
+        seconds / 3600,
+        (seconds / 60) % 60,
+        seconds % 60
+    )
+}
+
+/// Unix milliseconds of a DDS source timestamp.
+fn unix_ms(timestamp: rustdds::Timestamp) -> u64 {
+    let ticks = timestamp.to_ticks();
+    (ticks >> 32) * 1000 + (((ticks & 0xffff_ffff) * 1000) >> 32)
+}
+
 /// Live inputs of the board: the heartbeat and controller alarm readers of one session.
 pub struct BoardFeed {
     heartbeats: crate::dds::Reader<crate::wire::HeartbeatSample>,
     alarms: crate::dds::Reader<crate::wire::AlarmSample>,
     network_alarms: crate::dds::Reader<crate::wire::NetworkAlarmSample>,
+    /// Heartbeats in a live controller's name from another participant are not shown
+    /// (crate::identity).
+    identities: crate::identity::Identities,
     started: std::time::Instant,
 }
 
@@ -254,6 +302,7 @@ impl BoardFeed {
             heartbeats: session.heartbeat_reader().map_err(dds)?,
             alarms: session.alarm_reader().map_err(dds)?,
             network_alarms: session.network_alarm_reader().map_err(dds)?,
+            identities: crate::identity::Identities::new(session.timing().peer_deadline_ms),
             started: std::time::Instant::now(),
         })
     }
@@ -266,17 +315,21 @@ impl BoardFeed {
     /// Takes in what has arrived; returns the heartbeats (for callers that watch changes).
     pub fn update(&mut self, board: &mut Board) -> Vec<Heartbeat> {
         let now = self.now_ms();
-        let heartbeats: Vec<Heartbeat> = self
-            .heartbeats
-            .take()
-            .into_iter()
-            .map(|h| h.value)
-            .collect();
+        let mut heartbeats = Vec::new();
+        for received in self.heartbeats.take() {
+            let from = crate::dds::ParticipantKey::of(received.writer);
+            let admission =
+                self.identities
+                    .heartbeat(received.value.id, received.value.incarnation, from, now);
+            if admission == crate::identity::Admission::Accepted {
+                heartbeats.push(received.value);
+            }
+        }
         for heartbeat in &heartbeats {
             board.heartbeat(*heartbeat, now);
         }
         for alarm in self.alarms.take() {
-            board.alarm(&alarm.value);
+            board.alarm(&alarm.value, alarm.source_timestamp.map(unix_ms));
         }
         for alarm in self.network_alarms.take() {
             board.network_alarm(&alarm.value);
@@ -384,12 +437,18 @@ mod tests {
             reason: AlarmReason::Lost,
             raised,
         };
-        board.alarm(&alarm(2, true));
-        board.alarm(&alarm(3, true));
+        board.alarm(&alarm(2, true), Some(5_000));
+        board.alarm(&alarm(3, true), Some(3_000));
         assert_eq!(board.view(0, 500).alarms[0].raised_by, vec![2, 3]);
-        board.alarm(&alarm(2, false));
+        assert_eq!(
+            board.view(0, 500).alarms[0].since_ms,
+            Some(3_000),
+            "the first raise"
+        );
+        assert!(render_table(&board.view(0, 500)).contains("since 00:00:03 UTC"));
+        board.alarm(&alarm(2, false), None);
         assert_eq!(board.view(0, 500).alarms[0].raised_by, vec![3]);
-        board.alarm(&alarm(3, false));
+        board.alarm(&alarm(3, false), None);
         assert!(board.view(0, 500).alarms.is_empty());
         assert!(render_table(&board.view(0, 500)).contains("alarms: none"));
     }

@@ -122,6 +122,17 @@ impl PanTiltController {
         self.command()
     }
 
+    /// Takes the actuator's position as its own, keeping the derivative's memory: a standby
+    /// controller follows the commanding controller's commands, so that when it takes over the
+    /// gimbal continues from where it is (bumpless transfer). The law itself is incremental
+    /// (position += velocity), so without this a controller restarted later carries an offset
+    /// from the owner's position forever, and the gimbal jumps by it at the failover.
+    pub fn align(&mut self, pan: u16, tilt: u16) {
+        let within = |p: u16| i32::from(p).clamp(POSITION_MIN, POSITION_MAX);
+        self.pan.position = within(pan);
+        self.tilt.position = within(tilt);
+    }
+
     /// The current command without a new sample (for re-publishing while the camera is quiet).
     pub fn command(&self) -> ServoCommand {
         ServoCommand {

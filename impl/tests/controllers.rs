@@ -443,3 +443,47 @@ fn status_once_json_lists_the_controllers_and_exits() {
     );
     assert!(view["alarms"].as_array().is_some_and(|a| a.is_empty()));
 }
+
+#[test]
+fn a_status_started_after_an_alarm_shows_it_with_who_raised_it_and_since_when() {
+    let mut cluster = Cluster::new("late-status", 214, "");
+    formed_three(&mut cluster);
+    cluster.fleet.kill(3).unwrap();
+    let killed_ms = rl::procs::wall_ms();
+    cluster.wait_for("C1 and C2 raise Lost about C3", FORM, |c| {
+        [1, 2].iter().all(|&by| {
+            c.events.iter().any(|(_, e)| {
+                e.id == by
+                    && matches!(
+                        e.event,
+                        Event::Alarm {
+                            about: 3,
+                            reason: AlarmReason::Lost,
+                            raised: true
+                        }
+                    )
+            })
+        })
+    });
+    // Started only now: the alarm topic is transient local, so it hears the active alarms.
+    let out = run_rl(&["status", "--json", "--once", "--domain", "214"]);
+    assert_eq!(out.status.code(), Some(0));
+    let view: serde_json::Value =
+        serde_json::from_str(String::from_utf8_lossy(&out.stdout).trim()).expect("one object");
+    let alarms = view["alarms"].as_array().expect("alarms");
+    assert_eq!(alarms.len(), 1, "{view}");
+    assert_eq!(alarms[0]["about"], 3);
+    assert_eq!(alarms[0]["reason"], "lost");
+    assert_eq!(alarms[0]["raised_by"], serde_json::json!([1, 2]));
+    let since_ms = alarms[0]["since_ms"].as_u64().expect("since_ms");
+    assert!(
+        since_ms >= killed_ms && since_ms < killed_ms + 5_000,
+        "raised at {since_ms}, C3 killed at {killed_ms}"
+    );
+    let table = run_rl(&["status", "--once", "--domain", "214"]);
+    let table = String::from_utf8_lossy(&table.stdout);
+    assert!(
+        table.contains("ALARM C3 Lost (raised by C1, C2; since "),
+        "{table}"
+    );
+}

@@ -232,4 +232,8 @@ pub enum AlarmReason {
     Lost,
     /// It cast a minority vote past the grace, or announced its own failure.
     Failed,
+    /// Samples in its name came from a participant other than the one it speaks from while
+    /// that one was alive: another process configured with its id, or a forgery. The
+    /// adapter raises it (the core never sees such samples).
+    Impostor,
 }

@@ -64,6 +64,12 @@ pub struct KillSample {
     /// kill finds three controllers again.
     pub restarted: Vec<ControllerId>,
     pub failure: Option<KillFailure>,
+    /// The camera's tracking error (pixels off centre) at its worst in the 2 s before the
+    /// kill and in the 2 s after: what the kill did to the ball's place in the frame.
+    pub tracking_error_before_max_px: Option<f64>,
+    pub tracking_error_after_max_px: Option<f64>,
+    /// Frames without the ball in the 2 s after the kill.
+    pub frames_unseen_after: usize,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -89,11 +95,28 @@ pub struct FailoverResult {
     pub controllers_restarted: u32,
     pub kills: u32,
     pub failed_kills: u32,
+    /// The camera's tracking error over every frame of the run (pixels off centre; the
+    /// camera closes the loop through the gimbal, crate::sim::gimbal).
+    pub tracking_error_px: Summary,
+    /// Per kill, the worst tracking error in the 2 s before it and in the 2 s after.
+    pub tracking_error_before_kill_max_px: Summary,
+    pub tracking_error_after_kill_max_px: Summary,
+    /// Frames in the run that did not see the ball.
+    pub frames_unseen: usize,
     pub samples: Vec<KillSample>,
 }
 
 impl FailoverResult {
-    fn of(deadline_ms: u64, republish_ms: u64, period_ms: u64, samples: Vec<KillSample>) -> Self {
+    fn of(
+        deadline_ms: u64,
+        republish_ms: u64,
+        period_ms: u64,
+        samples: Vec<KillSample>,
+        (tracking_errors, frames_unseen): (Vec<f64>, usize),
+    ) -> Self {
+        let worst = |pick: fn(&KillSample) -> Option<f64>| {
+            Summary::of(&samples.iter().filter_map(pick).collect::<Vec<f64>>())
+        };
         let gap = Summary::of_measured(samples.iter().map(|s| s.gap_ms));
         let promotion = Summary::of_measured(samples.iter().map(|s| s.promotion_ms));
         let period = period_ms.max(1) as f64;
@@ -118,6 +141,10 @@ impl FailoverResult {
             controllers_restarted: samples.iter().map(|s| s.restarted.len() as u32).sum(),
             kills: samples.len() as u32,
             failed_kills: samples.iter().filter(|s| s.failure.is_some()).count() as u32,
+            tracking_error_px: Summary::of(&tracking_errors),
+            tracking_error_before_kill_max_px: worst(|s| s.tracking_error_before_max_px),
+            tracking_error_after_kill_max_px: worst(|s| s.tracking_error_after_max_px),
+            frames_unseen,
             samples,
         }
     }
@@ -144,6 +171,9 @@ pub fn failover(
     fleet
         .start_other("servo", &["servo", "--json"])
         .map_err(BenchError::spawn)?;
+    fleet
+        .start_other("camera", &["shapes", "--json"])
+        .map_err(BenchError::spawn)?;
     for id in 1..=3 {
         setup.start_controller(&mut fleet, id)?;
     }
@@ -155,6 +185,9 @@ pub fn failover(
         });
     }
     let period_ms = setup.heartbeat_period_ms;
+    // The gimbal catches the ball first (it starts centred, the ball anywhere on its path).
+    watch.pump(GIMBAL_SETTLE);
+    let measuring_from = Instant::now();
     let mut samples = Vec::new();
     for kill in 1..=kills {
         let phase_ms = phases.below(period_ms);
@@ -179,14 +212,22 @@ pub fn failover(
         );
         samples.push(sample);
     }
+    let tracking = watch.tracking_errors(measuring_from, Instant::now());
     fleet.stop_all();
     Ok(FailoverResult::of(
         deadline_ms,
         republish_ms,
         period_ms,
         samples,
+        tracking,
     ))
 }
+
+/// How long the camera's loop runs before the first kill.
+const GIMBAL_SETTLE: Duration = Duration::from_secs(3);
+
+/// How long before and after a kill the camera's tracking error is compared.
+const TRACKING_WINDOW: Duration = Duration::from_secs(2);
 
 /// The next instant the wall clock is `phase_ms` into a heartbeat round (controllers' rounds
 /// start at multiples of the period on the wall clock).
@@ -221,6 +262,9 @@ fn kill_once(
         owner_changes: 0,
         restarted: Vec::new(),
         failure: None,
+        tracking_error_before_max_px: None,
+        tracking_error_after_max_px: None,
+        frames_unseen_after: 0,
     };
     watch.pump(Duration::from_millis(500));
     let (Some(primary), Some(secondary)) =
@@ -234,6 +278,7 @@ fn kill_once(
     let outputs_before = watch.outputs.len();
     let steady_before = watch.steady_primary.len();
     let killed_ms = wall_ms();
+    let killed_at = Instant::now();
     fleet
         .kill(primary)
         .map_err(|source| BenchError::io(format!("kill -9 of controller {primary}"), source))?;
@@ -275,6 +320,13 @@ fn kill_once(
     } else {
         None
     };
+    watch.pump_until(killed_at + TRACKING_WINDOW);
+    let worst = |errors: Vec<f64>| errors.into_iter().reduce(f64::max);
+    let (before, _) = watch.tracking_errors(killed_at - TRACKING_WINDOW, killed_at);
+    let (after, unseen_after) = watch.tracking_errors(killed_at, killed_at + TRACKING_WINDOW);
+    sample.tracking_error_before_max_px = worst(before);
+    sample.tracking_error_after_max_px = worst(after);
+    sample.frames_unseen_after = unseen_after;
     setup.start_controller(fleet, primary)?;
     if !watch.wait(REJOIN_TIMEOUT, |w| w.all_steady(&[1, 2, 3])) {
         sample.failure = sample.failure.or(Some(KillFailure::NotRejoined));
@@ -338,6 +390,9 @@ mod tests {
             owner_changes: if failure.is_some() { 3 } else { 1 },
             restarted: Vec::new(),
             failure,
+            tracking_error_before_max_px: Some(10.0),
+            tracking_error_after_max_px: Some(20.0),
+            frames_unseen_after: 0,
         }
     }
 
@@ -352,6 +407,7 @@ mod tests {
                 sample(None, Some(KillFailure::NotPromoted)),
                 sample(Some(110), Some(KillFailure::NotRejoined)),
             ],
+            (vec![4.0, 8.0, 30.0], 1),
         );
         assert_eq!((result.kills, result.failed_kills), (3, 2));
         assert_eq!(result.gap_ms.count, 2);
@@ -367,6 +423,9 @@ mod tests {
         );
         assert_eq!(result.promotion_over_period_p50, 3.2);
         assert_eq!(result.gap_reader, "rl servo (arbiter)");
+        assert_eq!(result.tracking_error_px.max, 30.0);
+        assert_eq!(result.frames_unseen, 1);
+        assert_eq!(result.tracking_error_after_kill_max_px.max, 20.0);
     }
 
     #[test]

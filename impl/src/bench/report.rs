@@ -53,6 +53,14 @@ pub fn write_report(out: &mut impl Write, result: &BenchResult) -> std::io::Resu
         )?;
         writeln!(
             out,
+            "    tracking error (ball off centre, camera on the gimbal), px: every frame {}; worst in the 2 s before each kill {}, in the 2 s after {}; frames without the ball: {}",
+            summary(&f.tracking_error_px),
+            summary(&f.tracking_error_before_kill_max_px),
+            summary(&f.tracking_error_after_kill_max_px),
+            f.frames_unseen
+        )?;
+        writeln!(
+            out,
             "    failed kills: {} of {}; controllers restarted after failing themselves: {}",
             f.failed_kills, f.kills, f.controllers_restarted
         )?;

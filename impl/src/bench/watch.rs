@@ -37,6 +37,9 @@ pub struct Watch {
     pub steady_primary: Vec<(ControllerId, u64)>,
     pub owner_changes: Vec<OwnerChange>,
     pub owner: Option<ControllerId>,
+    /// The camera's frames (`rl shapes --json`): when read, and how far off centre the ball
+    /// was (`None`: not seen).
+    pub frames: Vec<(Instant, Option<f64>)>,
 }
 
 impl Watch {
@@ -49,6 +52,7 @@ impl Watch {
             steady_primary: Vec::new(),
             owner_changes: Vec::new(),
             owner: None,
+            frames: Vec::new(),
         }
     }
 
@@ -71,7 +75,11 @@ impl Watch {
     }
 
     fn take(&mut self, line: &Line) {
-        if line.source == "servo" {
+        if line.source == "camera" {
+            if let Ok(frame) = serde_json::from_str::<crate::sim::shapes::CameraFrame>(&line.text) {
+                self.frames.push((line.at, frame.error_px));
+            }
+        } else if line.source == "servo" {
             if let Some(ServoEvent::OwnerChanged {
                 gap_ms,
                 from_controller_id,
@@ -107,6 +115,18 @@ impl Watch {
                 _ => {}
             }
         }
+    }
+
+    /// The tracking errors of the frames read in `from..to`, and how many frames lost the ball.
+    pub fn tracking_errors(&self, from: Instant, to: Instant) -> (Vec<f64>, usize) {
+        let window: Vec<Option<f64>> = self
+            .frames
+            .iter()
+            .filter(|(at, _)| (from..to).contains(at))
+            .map(|(_, error)| *error)
+            .collect();
+        let unseen = window.iter().filter(|e| e.is_none()).count();
+        (window.into_iter().flatten().collect(), unseen)
     }
 
     /// Pumps until `done` holds (true) or `timeout` passes (false).

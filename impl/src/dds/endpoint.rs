@@ -241,7 +241,10 @@ where
     S::K: Serialize,
 {
     fn write_raw(&self, sample: S) -> Result<(), WriteError<()>> {
-        self.write(sample, None).map_err(WriteError::forget_data)
+        // Stamped, so a reader knows when it was written (a late reader of an alarm: since
+        // when it has been raised).
+        self.write(sample, Some(Timestamp::now()))
+            .map_err(WriteError::forget_data)
     }
     fn guid(&self) -> GUID {
         RTPSEntity::guid(self)
@@ -253,7 +256,10 @@ where
     S: Serialize,
 {
     fn write_raw(&self, sample: S) -> Result<(), WriteError<()>> {
-        self.write(sample, None).map_err(WriteError::forget_data)
+        // Stamped, so a reader knows when it was written (a late reader of an alarm: since
+        // when it has been raised).
+        self.write(sample, Some(Timestamp::now()))
+            .map_err(WriteError::forget_data)
     }
     fn guid(&self) -> GUID {
         RTPSEntity::guid(self)
@@ -277,19 +283,6 @@ where
     where
         S: Keyed + Serialize + Send,
         S::K: Serialize,
-    {
-        Writer {
-            raw: Box::new(raw),
-            topic: topic.name(),
-        }
-    }
-
-    pub(super) fn unkeyed(
-        raw: no_key::DataWriter<S, CDRSerializerAdapter<S>>,
-        topic: &Topic,
-    ) -> Writer<S>
-    where
-        S: Serialize + Send,
     {
         Writer {
             raw: Box::new(raw),

@@ -9,7 +9,7 @@
 //! |---|---|---|---|
 //! | heartbeat reader/writer | `heartbeat_topic` | controller id | best effort, keep last 1, deadline 2 x period |
 //! | vote reader/writer | `vote_topic` | controller id | reliable, transient local, keep last 1 |
-//! | alarm reader/writer | `controller_alarm_topic` | - | reliable, keep last 32 |
+//! | alarm reader/writer | `controller_alarm_topic` | reporter, controller, impostor or not | reliable, transient local, keep last 1 |
 //! | network alarm reader/writer | `network_alarm_topic` | reporter, network, controller | reliable, transient local, keep last 1 |
 //! | [`CommandWriter`], command reader | `command_topic` | - | reliable, EXCLUSIVE, strength by role, deadline = command deadline |
 //! | camera reader/writer | `camera_topic` | colour | best effort reader, reliable writer, keep last 1 |
@@ -185,7 +185,7 @@ impl Session {
                 &participant,
                 &dds.controller_alarm_topic,
                 AlarmSample::TYPE_NAME,
-                TopicKind::NoKey,
+                TopicKind::WithKey,
             )?,
             network_alarm: create_topic(
                 &participant,
@@ -283,17 +283,6 @@ impl Session {
         Ok(Writer::keyed(raw, topic))
     }
 
-    fn unkeyed_writer<S>(&self, topic: &Topic, qos: QosPolicies) -> Result<Writer<S>, DdsError>
-    where
-        S: WireSample + serde::Serialize + Clone + Send + 'static,
-    {
-        let raw = self
-            .publisher
-            .create_datawriter_no_key::<S, CDRSerializerAdapter<S>>(topic, Some(qos))
-            .map_err(|e| create_error("writer", topic, e))?;
-        Ok(Writer::unkeyed(raw, topic))
-    }
-
     pub fn heartbeat_reader(&self) -> Result<Reader<HeartbeatSample>, DdsError> {
         self.keyed_reader(&self.topics.heartbeat, qos::heartbeat(&self.timing))
     }
@@ -311,11 +300,11 @@ impl Session {
     }
 
     pub fn alarm_reader(&self) -> Result<Reader<AlarmSample>, DdsError> {
-        self.unkeyed_reader(&self.topics.alarm, qos::alarm())
+        self.keyed_reader(&self.topics.alarm, qos::alarm())
     }
 
     pub fn alarm_writer(&self) -> Result<Writer<AlarmSample>, DdsError> {
-        self.unkeyed_writer(&self.topics.alarm, qos::alarm())
+        self.keyed_writer(&self.topics.alarm, qos::alarm())
     }
 
     pub fn network_alarm_reader(&self) -> Result<Reader<NetworkAlarmSample>, DdsError> {

@@ -14,9 +14,6 @@ use rustdds::{
 /// are).
 const RELIABLE_MAX_BLOCKING_MS: u64 = 100;
 
-/// Alarms kept for readers that fall behind.
-pub const ALARM_HISTORY_DEPTH: i32 = 32;
-
 /// Command samples a reader keeps between takes: deep enough that the owner's sample is never
 /// pushed out by other writers' samples before the arbiter sees it.
 pub const COMMAND_READER_HISTORY_DEPTH: i32 = 32;
@@ -79,14 +76,13 @@ pub fn network_heartbeat(deadline_ms: u64) -> QosPolicies {
         .build()
 }
 
-/// Controller alarms: reliable, volatile, keep last 32.
+/// Controller alarms: reliable and TRANSIENT_LOCAL, keep last 1 per reporter, controller and
+/// kind, so a late reader (`rl status` started afterwards) gets every alarm's latest state.
 pub fn alarm() -> QosPolicies {
     QosPolicyBuilder::new()
         .reliability(reliable())
-        .durability(Durability::Volatile)
-        .history(History::KeepLast {
-            depth: ALARM_HISTORY_DEPTH,
-        })
+        .durability(Durability::TransientLocal)
+        .history(History::KeepLast { depth: 1 })
         .build()
 }
 

@@ -29,6 +29,7 @@ use crate::arbiter::Arbiter;
 use crate::config::Config;
 use crate::core::types::ControllerId;
 use crate::dds::{guid_hex, mio, ControllerDirectory, Reader, Received, Session, GUID};
+use crate::sim::command_trust::CommandTrust;
 use crate::wire::{HeartbeatSample, ServoControl};
 use crate::Error;
 use serde::Serialize;
@@ -52,6 +53,12 @@ pub struct ServoArgs {
     /// DDS domain id (overrides the configuration).
     #[arg(long, value_name = "D")]
     pub domain: Option<u16>,
+    /// Take commands from any writer, as plain DDS exclusive ownership does. By default only
+    /// a controller's writers are obeyed (its participant sends that controller's heartbeats)
+    /// and none above the Primary's strength (30): a stray writer at strength 100 cannot take
+    /// the servo.
+    #[arg(long)]
+    pub any_writer: bool,
     /// Exit after this many milliseconds (default: run until SIGINT/SIGTERM).
     #[arg(long, value_name = "MS")]
     pub duration_ms: Option<u64>,
@@ -194,7 +201,8 @@ pub fn run(args: ServoArgs) -> Result<(), Error> {
             config.dds.command_topic, config.dds.domain
         ))?;
     }
-    let mut servo = Servo::open(&session, output, deadline_ms)?;
+    let trust = CommandTrust::new(config.timing.peer_deadline_ms, args.any_writer);
+    let mut servo = Servo::open(&session, output, deadline_ms, trust)?;
     while !stop.load(Ordering::Relaxed) {
         if args
             .duration_ms
@@ -222,6 +230,7 @@ struct Servo {
     output: Output,
     arbiter: Arbiter<GUID>,
     writers: Writers,
+    trust: CommandTrust,
     start: Instant,
     accepted_count: u64,
     rejected_count: u64,
@@ -231,7 +240,12 @@ struct Servo {
 
 impl Servo {
     /// Creates the readers and registers them with a poll.
-    fn open(session: &Session, output: Output, deadline_ms: u64) -> Result<Servo, Error> {
+    fn open(
+        session: &Session,
+        output: Output,
+        deadline_ms: u64,
+        trust: CommandTrust,
+    ) -> Result<Servo, Error> {
         let commands = session.command_reader().map_err(dds_error)?;
         let heartbeats = session.heartbeat_reader().map_err(dds_error)?;
         let poll = mio::Poll::new().map_err(|e| Error::io("creating a poll", e))?;
@@ -255,6 +269,7 @@ impl Servo {
                 directory: ControllerDirectory::new(),
                 last_refresh_ms: None,
             },
+            trust,
             start: Instant::now(),
             accepted_count: 0,
             rejected_count: 0,
@@ -288,10 +303,12 @@ impl Servo {
     /// Heartbeats, discovery, then commands; `Ok(false)` when stdout is gone.
     fn take_samples(&mut self, session: &Session) -> Result<bool, Error> {
         // Heartbeats first: they name the controllers of the commands that follow.
-        for heartbeat in self.heartbeats.take() {
-            self.writers.directory.note_heartbeat(&heartbeat);
-        }
         let now = self.now_ms();
+        for heartbeat in self.heartbeats.take() {
+            if self.trust.heartbeat(&heartbeat, now) {
+                self.writers.directory.note_heartbeat(&heartbeat);
+            }
+        }
         if self.writers.refresh_due(now, DISCOVERY_REFRESH_MS) {
             self.refresh_writers(session, now);
         }
@@ -329,6 +346,16 @@ impl Servo {
         let now = self.now_ms();
         let writer = command.writer;
         let strength = self.strength_of(session, writer, now);
+        if let Err(refusal) = self.trust.admit(writer, strength, now) {
+            if self.trust.first_warning(writer) {
+                tracing::warn!(
+                    writer = %guid_hex(writer),
+                    "command refused: {refusal} (rl servo --any-writer takes every writer)"
+                );
+            }
+            self.rejected_count += 1;
+            return Ok(true);
+        }
         let decision = self.arbiter.offer(writer, strength, now);
         if let Some(change) = decision.owner_changed {
             let event = ServoEvent::OwnerChanged {

@@ -1,13 +1,23 @@
 //! `rl shapes`: the camera simulator. It publishes `Circle` samples (`ShapeTypeExtended`, as
-//! the original PixyShapes camera application and the RTI Shapes Demo do): a YELLOW circle on
-//! a Lissajous path, the one the trackers follow, plus RED and BLUE circles on other paths so
-//! the colour filter has something to reject.
+//! the original PixyShapes camera application and the RTI Shapes Demo do): the YELLOW ball the
+//! trackers follow, plus RED and BLUE circles on fixed paths so the colour filter has something
+//! to reject.
+//!
+//! The camera sits on the pan-tilt gimbal (crate::sim::gimbal): it reads `pixy/servo_control`
+//! as the real pan-tilt does (the owner's commands, crate::sim::command_feed), moves its
+//! rate-limited servos, and sees the ball where it is relative to where the gimbal points. So
+//! the trackers close the loop and keep the ball near the centre, through failovers. With
+//! `--json` it prints one line per frame: where it saw the ball and how far off centre
+//! ([`CameraFrame`]), the tracking error `rl demo` and `rl bench` report. `--open-loop` moves
+//! the YELLOW circle on a fixed path in the frame instead, whatever the gimbal does.
 //!
 //! Positions stay inside the shapes application's range, x 0..222 and y 0..252, and every
 //! path is a pure function of time, so runs are reproducible.
 
 use super::servo::{load_config, stop_flag};
 use crate::dds::Session;
+use crate::sim::command_feed::CommandFeed;
+use crate::sim::gimbal::{ball, error_px, Gimbal};
 use crate::wire::{ShapeFillKind, ShapeTypeExtended};
 use crate::Error;
 use std::f64::consts::TAU;
@@ -30,6 +40,29 @@ pub struct ShapesArgs {
     /// Exit after this many milliseconds (default: run until SIGINT/SIGTERM).
     #[arg(long, value_name = "MS")]
     pub duration_ms: Option<u64>,
+    /// Move the YELLOW circle on a fixed path in the frame, ignoring the gimbal's commands.
+    #[arg(long)]
+    pub open_loop: bool,
+    /// Print one JSON line per frame (`{"event":"frame",...}`: where the ball was seen, how far
+    /// off centre, where the gimbal points) instead of the start and stop lines.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// One frame of `rl shapes --json`.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(tag = "event", rename = "frame")]
+pub struct CameraFrame {
+    /// Milliseconds since the camera started.
+    pub t_ms: u64,
+    /// Where the YELLOW ball is in the frame; `null` when the camera does not see it.
+    pub x: Option<i32>,
+    pub y: Option<i32>,
+    /// Distance of the ball from the frame centre (111, 126) in pixels; `null` if not seen.
+    pub error_px: Option<f64>,
+    /// Where the gimbal's servos are (0..=1000).
+    pub pan: f64,
+    pub tilt: f64,
 }
 
 /// The shapes application's drawing area.
@@ -95,13 +128,33 @@ pub fn run(args: ShapesArgs) -> Result<(), Error> {
     let writer = session
         .camera_writer()
         .map_err(|e| Error::Dds(e.to_string()))?;
-    println!(
-        "shapes: publishing {} circles on {} (domain {}) at {} Hz",
-        COLORS.join(", "),
-        config.dds.camera_topic,
-        config.dds.domain,
-        args.rate_hz
-    );
+    let mut feed = if args.open_loop {
+        None
+    } else {
+        Some(
+            CommandFeed::open(
+                &session,
+                config.timing.command_deadline_ms,
+                config.timing.peer_deadline_ms,
+            )
+            .map_err(|e| Error::Dds(e.to_string()))?,
+        )
+    };
+    let mut gimbal = Gimbal::default();
+    if !args.json {
+        println!(
+            "shapes: publishing {} circles on {} (domain {}) at {} Hz, {}",
+            COLORS.join(", "),
+            config.dds.camera_topic,
+            config.dds.domain,
+            args.rate_hz,
+            if args.open_loop {
+                "YELLOW on a fixed path"
+            } else {
+                "seen from the gimbal (closed loop)"
+            }
+        );
+    }
 
     let period = Duration::from_secs_f64(1.0 / args.rate_hz);
     let start = Instant::now();
@@ -116,10 +169,48 @@ pub fn run(args: ShapesArgs) -> Result<(), Error> {
             break;
         }
         let t_s = elapsed.as_secs_f64();
+        let t_ms = u64::try_from(elapsed.as_millis()).unwrap_or(u64::MAX);
+        let yellow = match &mut feed {
+            None => Some(position("YELLOW", t_s)),
+            Some(feed) => {
+                if let Some((command, _)) = feed.take(&session, t_ms) {
+                    gimbal.command(command.pan, command.tilt);
+                }
+                gimbal.advance(period.as_secs_f64());
+                gimbal.sees(ball(t_s))
+            }
+        };
         for color in COLORS {
+            let sample = match (color, yellow) {
+                ("YELLOW", None) => continue,
+                ("YELLOW", Some((x, y))) => ShapeTypeExtended {
+                    x,
+                    y,
+                    ..shape(color, t_s)
+                },
+                _ => shape(color, t_s),
+            };
             writer
-                .write(&shape(color, t_s))
+                .write(&sample)
                 .map_err(|e| Error::Dds(e.to_string()))?;
+        }
+        if args.json {
+            let frame = CameraFrame {
+                t_ms,
+                x: yellow.map(|(x, _)| x),
+                y: yellow.map(|(_, y)| y),
+                error_px: yellow.map(error_px),
+                pan: gimbal.pan,
+                tilt: gimbal.tilt,
+            };
+            if let Ok(line) = serde_json::to_string(&frame) {
+                use std::io::Write;
+                let mut out = std::io::stdout().lock();
+                // A closed stdout (the reader left) ends the camera.
+                if writeln!(out, "{line}").and_then(|()| out.flush()).is_err() {
+                    return Ok(());
+                }
+            }
         }
         published += 1;
         // Fixed-rate schedule; after a stall, resume from now rather than bursting.
@@ -131,7 +222,9 @@ pub fn run(args: ShapesArgs) -> Result<(), Error> {
             next = now;
         }
     }
-    println!("shapes: stopped after {published} rounds");
+    if !args.json {
+        println!("shapes: stopped after {published} rounds");
+    }
     Ok(())
 }
 

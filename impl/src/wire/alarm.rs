@@ -4,6 +4,8 @@
 use super::codes::{controller_id, reason_code, reason_from_code};
 use super::{WireError, WireSample};
 use crate::core::types::{AlarmReason, ControllerId, Incarnation};
+use rustdds::dds::key::{CdrEncodingMaxSize, CdrEncodingSize, Key};
+use rustdds::Keyed;
 use serde::{Deserialize, Serialize};
 
 /// DDS type name of the controller alarm topic.
@@ -31,6 +33,37 @@ pub struct AlarmSample {
     pub about_incarnation: u64,
     pub reason: u8,
     pub raised: bool,
+}
+
+/// One instance of the controller alarm topic per reporter, controller and kind (an impostor
+/// alarm stands beside the protocol's Lost/Failed one), so a late reader (transient local) gets
+/// each alarm's latest state: raised, or cleared.
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
+)]
+pub struct AlarmKey {
+    pub reporter_id: u8,
+    pub about_id: u8,
+    pub impostor: bool,
+}
+
+impl CdrEncodingSize for AlarmKey {
+    fn cdr_encoding_max_size() -> CdrEncodingMaxSize {
+        CdrEncodingMaxSize::Bytes(3)
+    }
+}
+
+impl Key for AlarmKey {}
+
+impl Keyed for AlarmSample {
+    type K = AlarmKey;
+    fn key(&self) -> AlarmKey {
+        AlarmKey {
+            reporter_id: self.reporter_id,
+            about_id: self.about_id,
+            impostor: self.reason == super::codes::REASON_IMPOSTOR,
+        }
+    }
 }
 
 impl WireSample for AlarmSample {

@@ -20,6 +20,7 @@ pub const ROLE_TERTIARY: u8 = 3;
 /// Alarm reason codes.
 pub const REASON_LOST: u8 = 1;
 pub const REASON_FAILED: u8 = 2;
+pub const REASON_IMPOSTOR: u8 = 3;
 
 /// Strength 0 on the wire: the controller does not command.
 pub const STRENGTH_NONE: u8 = 0;
@@ -66,6 +67,7 @@ pub fn reason_code(reason: AlarmReason) -> u8 {
     match reason {
         AlarmReason::Lost => REASON_LOST,
         AlarmReason::Failed => REASON_FAILED,
+        AlarmReason::Impostor => REASON_IMPOSTOR,
     }
 }
 
@@ -73,6 +75,7 @@ pub(super) fn reason_from_code(field: &'static str, code: u8) -> Result<AlarmRea
     match code {
         REASON_LOST => Ok(AlarmReason::Lost),
         REASON_FAILED => Ok(AlarmReason::Failed),
+        REASON_IMPOSTOR => Ok(AlarmReason::Impostor),
         other => Err(WireError::new(
             field,
             format!("unknown alarm reason code {other}"),

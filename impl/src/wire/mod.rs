@@ -54,8 +54,8 @@ pub use self::camera::{
 };
 pub use self::codes::{
     phase_code, reason_code, role_code, PHASE_FAILED, PHASE_INITIALIZING, PHASE_STEADY,
-    PHASE_VOTING, REASON_FAILED, REASON_LOST, ROLE_NONE, ROLE_PRIMARY, ROLE_SECONDARY,
-    ROLE_TERTIARY, STRENGTH_NONE,
+    PHASE_VOTING, REASON_FAILED, REASON_IMPOSTOR, REASON_LOST, ROLE_NONE, ROLE_PRIMARY,
+    ROLE_SECONDARY, ROLE_TERTIARY, STRENGTH_NONE,
 };
 pub use self::heartbeat::{HeartbeatSample, HEARTBEAT_TYPE_NAME};
 pub use self::network::{

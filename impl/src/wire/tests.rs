@@ -326,6 +326,11 @@ fn alarm_round_trips_and_rejects_bad_fields() {
         ..alarm
     };
     assert_eq!(round_trip::<AlarmSample>(&cleared).unwrap(), cleared);
+    let impostor = ControllerAlarm {
+        reason: AlarmReason::Impostor,
+        ..alarm
+    };
+    assert_eq!(round_trip::<AlarmSample>(&impostor).unwrap(), impostor);
 
     let good = AlarmSample::encode(&alarm);
     let cases = [
@@ -344,7 +349,7 @@ fn alarm_round_trips_and_rejects_bad_fields() {
             "alarm.about_id",
         ),
         (AlarmSample { reason: 0, ..good }, "alarm.reason"),
-        (AlarmSample { reason: 3, ..good }, "alarm.reason"),
+        (AlarmSample { reason: 4, ..good }, "alarm.reason"),
         (
             AlarmSample {
                 about_incarnation_valid: false,

@@ -1,0 +1,91 @@
+//! The voting loop's guard against samples in another controller's name (crate::identity):
+//! a heartbeat or vote for a controller id from a participant other than the one that id
+//! speaks from is not believed; its first one raises an impostor alarm about that id, which
+//! clears once no impostor has been heard for the peer deadline.
+//!
+//! Heartbeats with this controller's own id are let through: the core ignores them and counts
+//! those of another incarnation (another process configured with its id, a console warning),
+//! and its own participant never expires, so they are refused here only in name.
+
+use super::Voting;
+use crate::core::{AlarmReason, ControllerId};
+use crate::dds::{ParticipantKey, Received};
+use crate::identity::Admission;
+use tracing::warn;
+
+impl Voting {
+    /// Whether to believe a heartbeat, by the participant that wrote it.
+    pub(super) fn admit_heartbeat(&mut self, heartbeat: &Received<crate::core::Heartbeat>) -> bool {
+        let id = heartbeat.value.id;
+        if id == self.core.config().id {
+            return true;
+        }
+        let now_ms = self.clock.now_ms();
+        let from = ParticipantKey::of(heartbeat.writer);
+        let admission = self
+            .identities
+            .heartbeat(id, heartbeat.value.incarnation, from, now_ms);
+        self.on_admission(id, "heartbeat", from, admission)
+    }
+
+    /// Whether to believe a vote record, by the participant that wrote it.
+    pub(super) fn admit_vote(&mut self, id: ControllerId, writer: crate::dds::GUID) -> bool {
+        if id == self.core.config().id {
+            return true;
+        }
+        let now_ms = self.clock.now_ms();
+        let from = ParticipantKey::of(writer);
+        let admission = self.identities.vote(id, from, now_ms);
+        self.on_admission(id, "vote", from, admission)
+    }
+
+    fn on_admission(
+        &mut self,
+        id: ControllerId,
+        what: &str,
+        from: ParticipantKey,
+        admission: Admission,
+    ) -> bool {
+        match admission {
+            Admission::Accepted => true,
+            Admission::Impostor { first } => {
+                if first {
+                    warn!(
+                        "C{}: a {what} in the name of C{id} came from participant {} while C{id} \
+                         speaks from another: not believed (another process with id {id}, or a \
+                         forgery)",
+                        self.core.config().id,
+                        hex(from)
+                    );
+                    if !self.impostor_alarms.contains(&id) {
+                        self.impostor_alarms.push(id);
+                        self.alarm(id, AlarmReason::Impostor, true);
+                    }
+                }
+                false
+            }
+        }
+    }
+
+    /// Clears the impostor alarms of ids no impostor has spoken for within the deadline.
+    pub(super) fn clear_silent_impostors(&mut self) {
+        if self.impostor_alarms.is_empty() {
+            return;
+        }
+        let active = self.identities.impersonated(self.clock.now_ms());
+        let silent: Vec<ControllerId> = self
+            .impostor_alarms
+            .iter()
+            .copied()
+            .filter(|id| !active.contains(id))
+            .collect();
+        for id in silent {
+            self.impostor_alarms.retain(|other| *other != id);
+            self.alarm(id, AlarmReason::Impostor, false);
+        }
+    }
+}
+
+fn hex(participant: ParticipantKey) -> String {
+    participant.0.iter().map(|b| format!("{b:02x}")).collect()
+}

@@ -1,0 +1,13 @@
+//! Hostile input against real controllers: samples forged in a controller's name, a command
+//! writer that outbids the roles, garbage on the DDS ports. Each test states what must
+//! happen, and where only DDS Security can stop an attack the test says so and shows it
+//! (docs/protocol.md, "Hostile input").
+//!
+//! The forger is this test process: its own DDS participant (`rl::dds::Session`) writes
+//! well-formed samples that name a controller it is not.
+
+mod support;
+
+mod adversary {
+    pub mod forged;
+}
