@@ -6,8 +6,8 @@
 //! change of its conclusion. For the net scenarios (`net-b-down`, `c2-transceiver-a-down`,
 //! `c2-both-links-down`, `both-networks-down`) the judge demands, of every controller that ran
 //! through the fault: each expected alarm raised within [`RAISE_WITHIN_MS`] of the fault (two
-//! network heartbeat deadlines: the link's deadline, then the subject implicated for a
-//! deadline), with the expected certainty, and cleared within [`CLEAR_WITHIN_MS`] of the heal
+//! network heartbeat deadlines), with the expected certainty, and cleared within
+//! [`CLEAR_WITHIN_MS`] of the heal
 //! (a period to hear the link again, four of good links) and not before; no other network
 //! alarm at all; the conclusion mentioning what it must (the double fault a monitor that hears
 //! nobody cannot rule out); the controller alarms (RLCHB's `alarm` events) exactly as
@@ -16,8 +16,8 @@
 //!
 //! An `rl` without network monitoring (no `--network-a` option) prints no network lines: the
 //! network alarm checks are then skipped with a note, the controller alarm and role checks
-//! still run. Every check is a pure function of the recorded lines, so the tests below feed
-//! it literal lines and show that each check can fail.
+//! still run. Every check is a pure function of the recorded lines, so the tests
+//! (`network_alarms/tests.rs`) feed it literal lines and show that each check can fail.
 
 use super::judge::FaultRecord;
 use super::lan::Net;
@@ -30,8 +30,9 @@ use rl::wire::Certainty;
 use serde::Serialize;
 use std::fmt;
 
-/// From a net fault to the alarm: the link's deadline (2 periods of 250 ms), then the subject
-/// implicated for 2 periods.
+/// From a net fault to the alarm, two network heartbeat deadlines: the links' deadline (2
+/// periods of 250 ms), then the subject implicated until it is raised (375 ms,
+/// `networks.raise_after_ms`) while the last links' deadlines run out.
 pub const RAISE_WITHIN_MS: f64 = 1000.0;
 /// From the heal to the clear: a period to hear the links again, 4 periods of good links.
 pub const CLEAR_WITHIN_MS: f64 = 1500.0;
