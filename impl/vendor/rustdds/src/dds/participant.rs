@@ -80,6 +80,8 @@ pub struct DomainParticipantBuilder {
 
   send_on_every_interface: bool, // never narrow a reader to one learnt route
 
+  max_sample_size: usize, // largest sample a reader reassembles from fragments
+
   socket_receive_buffer_size: usize,
   socket_send_buffer_size: usize,
 
@@ -96,6 +98,7 @@ impl DomainParticipantBuilder {
       only_networks: None,
       same_host_loopback: true,
       send_on_every_interface: false,
+      max_sample_size: Self::DEFAULT_MAX_SAMPLE_SIZE,
       socket_receive_buffer_size: Self::DEFAULT_SOCKET_RECEIVE_BUFFER_SIZE,
       socket_send_buffer_size: Self::DEFAULT_SOCKET_SEND_BUFFER_SIZE,
       #[cfg(feature = "security")]
@@ -146,6 +149,23 @@ impl DomainParticipantBuilder {
     self.send_on_every_interface = enabled;
     self
   }
+
+  /// The largest sample (serialized payload, bytes) a reader reassembles from
+  /// DATA_FRAG submessages (default [`Self::DEFAULT_MAX_SAMPLE_SIZE`]).
+  ///
+  /// A reader sizes its reassembly buffer from the `dataSize` a DATA_FRAG
+  /// announces, before any fragment beyond the first has arrived. Without a
+  /// bound, one datagram announcing a 4 GB sample makes the participant
+  /// allocate 4 GB. Fragments of a larger sample are dropped (one warning per
+  /// remote writer) and nothing is allocated for them. Raise it if the
+  /// application exchanges larger samples (images, point clouds).
+  pub fn max_sample_size(mut self, bytes: usize) -> Self {
+    self.max_sample_size = bytes;
+    self
+  }
+
+  /// 1 MiB.
+  pub const DEFAULT_MAX_SAMPLE_SIZE: usize = 1024 * 1024;
 
   pub const DEFAULT_SOCKET_RECEIVE_BUFFER_SIZE: usize = 8 * 1024 * 1024;
   pub const DEFAULT_SOCKET_SEND_BUFFER_SIZE: usize = 8 * 1024 * 1024;
@@ -363,6 +383,7 @@ impl DomainParticipantBuilder {
       self.only_networks,
       self.same_host_loopback,
       self.send_on_every_interface,
+      self.max_sample_size,
       dp_waker,
       discovery_sample_sender,
     )?;
@@ -997,6 +1018,7 @@ impl DomainParticipantDisc {
     only_networks: Option<Vec<IpAddr>>,
     same_host_loopback: bool,
     send_on_every_interface: bool,
+    max_sample_size: usize,
     dp_waker: LoopWaker,
     discovery_sample_sender: ReadySender<mio1::Token>,
   ) -> CreateResult<Self> {
@@ -1015,6 +1037,7 @@ impl DomainParticipantDisc {
       only_networks,
       same_host_loopback,
       send_on_every_interface,
+      max_sample_size,
       dp_waker,
       discovery_sample_sender,
     )?;
@@ -1258,6 +1281,7 @@ impl DomainParticipantInner {
     only_networks: Option<Vec<IpAddr>>,
     same_host_loopback: bool,
     send_on_every_interface: bool,
+    max_sample_size: usize,
     dp_waker: LoopWaker,
     discovery_sample_sender: ReadySender<mio1::Token>,
   ) -> CreateResult<Self> {
@@ -1435,6 +1459,7 @@ impl DomainParticipantInner {
           socket_send_buffer_size,
           same_host_loopback,
           send_on_every_interface,
+          max_sample_size,
           reader_ready_rx,
           writer_ready_rx,
           dp_waker,

@@ -143,6 +143,9 @@ pub struct DPEventLoop {
 
   // Participant-builder `send_on_every_interface` knob, handed to every writer.
   send_on_every_interface: bool,
+
+  // Participant-builder `max_sample_size`, handed to every reader.
+  max_sample_size: usize,
 }
 
 impl DPEventLoop {
@@ -168,6 +171,7 @@ impl DPEventLoop {
     socket_send_buffer_size: usize,
     same_host_loopback: bool,
     send_on_every_interface: bool,
+    max_sample_size: usize,
     reader_ready: ReadyReceiver<EntityId>,
     writer_ready: ReadyReceiver<EntityId>,
     waker: LoopWaker,
@@ -262,6 +266,7 @@ impl DPEventLoop {
       discovery_command_sender,
       same_host_loopback,
       send_on_every_interface,
+      max_sample_size,
     })
   }
 
@@ -1075,6 +1080,7 @@ impl DPEventLoop {
 
     // Reader commands share the poll waker. The ready queue records the entity
     // id, so there is nothing to register under the reader token.
+    new_reader.set_max_sample_size(self.max_sample_size);
     new_reader.set_requested_deadline_check_timer();
     trace!("Add reader: {new_reader:?}");
     self.message_receiver.add_reader(new_reader);
@@ -1353,6 +1359,7 @@ mod tests {
         0,
         true,
         false,
+        crate::DomainParticipantBuilder::DEFAULT_MAX_SAMPLE_SIZE,
         reader_ready,
         writer_ready,
         waker,

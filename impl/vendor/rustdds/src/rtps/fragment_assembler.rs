@@ -193,6 +193,12 @@ pub(crate) struct FragmentAssembler {
   // Whether the owning reader is Reliable. This decides which buffer to drop
   // when `MAX_ASSEMBLY_BUFFERS` is exceeded (see `new_datafrag`).
   reliable: bool,
+  // Largest `dataSize` given a buffer: the buffer is allocated from the first
+  // fragment's announced size, so a hostile or broken writer could otherwise
+  // make us allocate up to 4 GB with one datagram.
+  max_sample_size: usize,
+  // Whether this writer's oversized samples have been reported (once).
+  warned_oversized: bool,
 }
 
 impl fmt::Debug for FragmentAssembler {
@@ -204,12 +210,14 @@ impl fmt::Debug for FragmentAssembler {
 }
 
 impl FragmentAssembler {
-  pub fn new(fragment_size: u16, reliable: bool) -> Self {
+  pub fn new(fragment_size: u16, reliable: bool, max_sample_size: usize) -> Self {
     debug!("new FragmentAssembler. frag_size = {fragment_size} reliable = {reliable}");
     Self {
       fragment_size,
       assembly_buffers: BTreeMap::new(),
       reliable,
+      max_sample_size,
+      warned_oversized: false,
     }
   }
 
@@ -225,6 +233,17 @@ impl FragmentAssembler {
     let sn = datafrag.writer_sn;
     match self.assembly_buffers.entry(sn) {
       Entry::Vacant(v) => {
+        if usize::try_from(datafrag.data_size).map_or(true, |size| size > self.max_sample_size) {
+          if !self.warned_oversized {
+            self.warned_oversized = true;
+            warn!(
+              "new_datafrag: dropping fragments of {sn:?}: dataSize {} exceeds the maximum \
+               sample size {} (further oversized samples from this writer are dropped silently)",
+              datafrag.data_size, self.max_sample_size
+            );
+          }
+          return None;
+        }
         let Some(buf) = AssemblyBuffer::new(datafrag) else {
           error!("new_datafrag: failed to create AssemblyBuffer for {sn:?}");
           return None;
@@ -421,9 +440,34 @@ mod tests {
     let frag_size = 256u16;
     let data_size = 512u32;
     let bad = datafrag(2, 2, frag_size, data_size, vec![0u8; 256]);
-    let mut fa = FragmentAssembler::new(frag_size, true);
+    let mut fa = FragmentAssembler::new(frag_size, true, 1024 * 1024);
     assert!(fa
       .new_datafrag(&bad, BitFlags::<DATAFRAG_Flags>::empty())
       .is_none());
+  }
+
+  // A fragment announcing a sample over the bound allocates nothing; samples
+  // within it still reassemble.
+  #[test]
+  fn fragment_assembler_drops_samples_over_the_maximum_size() {
+    use enumflags2::BitFlags;
+
+    use super::FragmentAssembler;
+    use crate::messages::submessages::submessages::DATAFRAG_Flags;
+
+    let frag_size = 1024u16;
+    let mut fa = FragmentAssembler::new(frag_size, true, 4096);
+    let hostile = datafrag(1, 1, frag_size, 0xFFFF_FFF0, vec![0u8; 1024]);
+    assert!(fa
+      .new_datafrag(&hostile, BitFlags::<DATAFRAG_Flags>::empty())
+      .is_none());
+    assert!(fa.assembly_buffers.is_empty(), "nothing allocated");
+    assert!(fa.warned_oversized);
+
+    let mut fitting = datafrag(1, 2, frag_size, 2048, vec![0u8; 2048]);
+    fitting.writer_sn = crate::structure::sequence_number::SequenceNumber::new(2);
+    assert!(fa
+      .new_datafrag(&fitting, BitFlags::<DATAFRAG_Flags>::empty())
+      .is_some());
   }
 }

@@ -134,6 +134,9 @@ pub(crate) struct Reader {
   received_heartbeat_count: i32,
 
   fragment_assemblers: BTreeMap<GUID, FragmentAssembler>,
+  // Largest sample reassembled from fragments (participant-builder
+  // `max_sample_size`); larger ones are dropped before any allocation.
+  max_sample_size: usize,
   last_fragment_garbage_collect: Timestamp,
   matched_writers: BTreeMap<GUID, RtpsWriterProxy>,
   writer_match_count_total: i32, // total count, never decreases
@@ -201,6 +204,7 @@ impl Reader {
       heartbeat_suppression_duration: StdDuration::new(0, 0),
       received_heartbeat_count: 0,
       fragment_assemblers: BTreeMap::new(),
+      max_sample_size: crate::DomainParticipantBuilder::DEFAULT_MAX_SAMPLE_SIZE,
       last_fragment_garbage_collect: Timestamp::now(),
       matched_writers: BTreeMap::new(),
       writer_match_count_total: 0,
@@ -224,6 +228,12 @@ impl Reader {
   #[allow(dead_code)]
   pub fn entity_token(&self) -> Token {
     self.guid().entity_id.as_token()
+  }
+
+  /// The largest sample this reader reassembles from DATA_FRAGs (the
+  /// participant-builder `max_sample_size`).
+  pub fn set_max_sample_size(&mut self, bytes: usize) {
+    self.max_sample_size = bytes;
   }
 
   pub fn set_requested_deadline_check_timer(&mut self) {
@@ -661,10 +671,11 @@ impl Reader {
     frag_size: u16,
   ) -> &mut FragmentAssembler {
     let reliable = self.reliability != policy::Reliability::BestEffort;
+    let max_sample_size = self.max_sample_size;
     self
       .fragment_assemblers
       .entry(writer_guid)
-      .or_insert_with(|| FragmentAssembler::new(frag_size, reliable))
+      .or_insert_with(|| FragmentAssembler::new(frag_size, reliable, max_sample_size))
   }
 
   fn garbage_collect_fragments(&mut self) {
