@@ -577,6 +577,15 @@ impl DomainParticipant {
     self.dpi.lock().unwrap().participant_id()
   }
 
+  /// How many times the participant's event loop (the thread that sends and
+  /// receives all its RTPS traffic) has gone round. It goes round at least
+  /// every 2 s, and whenever a socket, a timer or a local writer wakes it. A
+  /// value that stops growing means the loop has exited (e.g. on a poll error)
+  /// or hangs: writes still return `Ok`, but nothing is sent or received.
+  pub fn event_loop_iterations(&self) -> u64 {
+    self.dpi.lock().unwrap().event_loop_iterations()
+  }
+
   pub(crate) fn only_networks(&self) -> Option<Arc<[IpAddr]>> {
     self.dpi.lock().ok().and_then(|g| g.only_networks())
   }
@@ -1109,6 +1118,10 @@ impl DomainParticipantDisc {
     self.dpi.participant_id()
   }
 
+  pub fn event_loop_iterations(&self) -> u64 {
+    self.dpi.event_loop_iterations()
+  }
+
   pub fn discovered_topics(&self) -> Vec<DiscoveredTopicData> {
     self.dpi.discovered_topics()
   }
@@ -1218,6 +1231,8 @@ pub(crate) struct DomainParticipantInner {
   stop_poll_sender: WakeUnboundedSender<EventLoopCommand>,
   ev_loop_handle: Option<JoinHandle<()>>, // this is Option, because it needs to be extracted
   // out of the struct (take) in order to .join() on the handle.
+  // Bumped by the event loop at every iteration (`event_loop_iterations`).
+  event_loop_iterations: Arc<atomic::AtomicU64>,
 
   // Writers
   add_writer_sender: WakeSender<WriterIngredients>,
@@ -1419,6 +1434,8 @@ impl DomainParticipantInner {
     let (stop_poll_sender, stop_poll_receiver) = wake_channel_unbounded(&dp_waker);
 
     let (ev_ready_tx, ev_ready_rx) = std::sync::mpsc::sync_channel::<CreateResult<()>>(1);
+    let event_loop_iterations = Arc::new(atomic::AtomicU64::new(0));
+    let event_loop_iterations_for_ev_loop = Arc::clone(&event_loop_iterations);
 
     // Launch the background thread for DomainParticipant
     let disc_db_clone = discovery_db.clone();
@@ -1460,6 +1477,7 @@ impl DomainParticipantInner {
           same_host_loopback,
           send_on_every_interface,
           max_sample_size,
+          event_loop_iterations_for_ev_loop,
           reader_ready_rx,
           writer_ready_rx,
           dp_waker,
@@ -1502,6 +1520,7 @@ impl DomainParticipantInner {
       discovery_sample_sender,
       stop_poll_sender,
       ev_loop_handle: Some(ev_loop_handle),
+      event_loop_iterations,
       add_writer_sender,
       remove_writer_sender,
       writer_ready,
@@ -1724,6 +1743,10 @@ impl DomainParticipantInner {
 
   pub fn participant_id(&self) -> u16 {
     self.domain_info.participant_id
+  }
+
+  pub fn event_loop_iterations(&self) -> u64 {
+    self.event_loop_iterations.load(atomic::Ordering::Relaxed)
   }
 
   pub fn discovered_topics(&self) -> Vec<DiscoveredTopicData> {

@@ -3,7 +3,10 @@ use std::{
   collections::{BTreeMap, BTreeSet, HashMap, VecDeque},
   net::IpAddr,
   rc::Rc,
-  sync::{Arc, RwLock},
+  sync::{
+    atomic::{AtomicU64, Ordering},
+    Arc, RwLock,
+  },
   time::{Duration, Instant},
 };
 
@@ -146,6 +149,10 @@ pub struct DPEventLoop {
 
   // Participant-builder `max_sample_size`, handed to every reader.
   max_sample_size: usize,
+
+  // Bumped at every iteration, so the application can tell the loop runs
+  // (`DomainParticipant::event_loop_iterations`).
+  iterations: Arc<AtomicU64>,
 }
 
 impl DPEventLoop {
@@ -172,6 +179,7 @@ impl DPEventLoop {
     same_host_loopback: bool,
     send_on_every_interface: bool,
     max_sample_size: usize,
+    iterations: Arc<AtomicU64>,
     reader_ready: ReadyReceiver<EntityId>,
     writer_ready: ReadyReceiver<EntityId>,
     waker: LoopWaker,
@@ -267,6 +275,7 @@ impl DPEventLoop {
       same_host_loopback,
       send_on_every_interface,
       max_sample_size,
+      iterations,
     })
   }
 
@@ -322,6 +331,7 @@ impl DPEventLoop {
           break;
         }
       }
+      ev_wrapper.iterations.fetch_add(1, Ordering::Relaxed);
 
       // liveness watchdog
       let now = Instant::now();
@@ -1360,6 +1370,7 @@ mod tests {
         true,
         false,
         crate::DomainParticipantBuilder::DEFAULT_MAX_SAMPLE_SIZE,
+        Arc::new(AtomicU64::new(0)),
         reader_ready,
         writer_ready,
         waker,
