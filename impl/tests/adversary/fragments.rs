@@ -1,13 +1,15 @@
-//! A DATA_FRAG announcing a 4 GB sample: a reader sizes its reassembly buffer from the
-//! fragment's `dataSize` before anything else arrives, so one datagram could make a
-//! controller allocate 4 GB. RustDDS bounds the sample size (1 MiB by default,
-//! `DomainParticipantBuilder::max_sample_size`) and drops larger samples' fragments unread.
+//! Fragments announcing samples nobody sends: a reader sizes a reassembly buffer from the
+//! `dataSize` of a sample's first DATA_FRAG, before anything else arrives. One datagram
+//! announcing 4 GB could make a controller allocate 4 GB, and many announcing samples just
+//! under the size bound could add up. RustDDS bounds each sample (1 MiB by default,
+//! `DomainParticipantBuilder::max_sample_size`) and the incomplete samples a reader holds
+//! together (4 of them).
 //!
-//! Three controllers on loopback (domain 151); controller 1 runs in a memory cgroup limited
-//! to 256 MB. Crafted datagrams (DATA_FRAG, `dataSize` 0xFFFF_FFF0, one 1 KB fragment) go to
-//! the built-in discovery readers, which accept fragments from any writer, on every UDP
-//! port controller 1 alone has open. It must not be OOM-killed, its memory must not grow,
-//! and it must keep voting: its peers never lose it, and it still sees a peer die.
+//! Three controllers on loopback; controller 1 runs in a memory cgroup limited to 256 MB.
+//! Crafted datagrams (DATA_FRAG, one 1 KB fragment) go to the built-in discovery readers,
+//! which accept fragments from any writer, on every UDP port controller 1 alone has open. It
+//! must not be OOM-killed, its memory must not grow, and it must keep voting: its peers never
+//! lose it, and it still sees a peer die. DDS domains 151 and 153.
 
 use crate::support::Cluster;
 use rl::core::Role;
@@ -17,15 +19,11 @@ use std::net::UdpSocket;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-const DOMAIN: u16 = 151;
 const LIMIT_BYTES: u64 = 256 * 1024 * 1024;
 const FORM: Duration = Duration::from_secs(20);
-/// The announced sample size: just under 4 GiB.
-const HOSTILE_DATA_SIZE: u32 = 0xFFFF_FFF0;
 const FRAGMENT_SIZE: u16 = 1024;
-/// Samples (sequence numbers) per attacking writer.
-const SAMPLES_PER_WRITER: u32 = 8;
-/// What the attacked controller may grow by: far below one hostile sample.
+/// What the attacked controller may grow by: the incomplete samples the three attacked
+/// readers may hold (4 x 1 MiB each), and room to spare.
 const RSS_GROWTH_ALLOWED_KB: u64 = 32 * 1024;
 
 const P: Option<Role> = Some(Role::Primary);
@@ -42,12 +40,13 @@ const BUILT_IN_TARGETS: [([u8; 4], [u8; 4]); 3] = [
 
 /// One RTPS message: header from `guid_prefix`, one little-endian DATA_FRAG carrying
 /// fragment 1 (of `FRAGMENT_SIZE` bytes) of sample `sequence_number`, announcing
-/// `HOSTILE_DATA_SIZE` bytes in all.
+/// `data_size` bytes in all.
 fn hostile_data_frag(
     guid_prefix: [u8; 12],
     reader: [u8; 4],
     writer: [u8; 4],
     sequence_number: u32,
+    data_size: u32,
 ) -> Vec<u8> {
     let mut payload = vec![0u8; usize::from(FRAGMENT_SIZE)];
     payload[..4].copy_from_slice(&[0x00, 0x01, 0x00, 0x00]); // CDR_LE encapsulation
@@ -61,7 +60,7 @@ fn hostile_data_frag(
     body.extend_from_slice(&1u32.to_le_bytes()); // fragmentStartingNum
     body.extend_from_slice(&1u16.to_le_bytes()); // fragmentsInSubmessage
     body.extend_from_slice(&FRAGMENT_SIZE.to_le_bytes());
-    body.extend_from_slice(&HOSTILE_DATA_SIZE.to_le_bytes());
+    body.extend_from_slice(&data_size.to_le_bytes());
     body.extend_from_slice(&payload);
 
     let mut message = Vec::new();
@@ -241,11 +240,21 @@ fn alarms_about(cluster: &Cluster, about: u8, since: Instant) -> Vec<String> {
         .collect()
 }
 
-#[test]
-#[ignore = "needs root (a memory cgroup limiting the attacked controller to 256 MB)"]
-fn a_data_frag_announcing_4_gb_is_dropped_and_the_controller_keeps_voting() {
-    let cgroup = MemoryCgroup::new("fragments", LIMIT_BYTES);
-    let mut cluster = Cluster::new("adversary-fragments", DOMAIN, "");
+/// What the attack sends: to each built-in reader, `writers` attacking writers (a GUID
+/// prefix each), each `samples` samples of `data_size` bytes announced.
+struct Attack {
+    tag: &'static str,
+    domain: u16,
+    data_size: u32,
+    writers: u8,
+    samples: u32,
+}
+
+/// Forms three controllers, puts C1 in a 256 MB memory cgroup, attacks it and checks that
+/// it survives, does not grow and keeps voting. Returns C1's stderr lines.
+fn c1_survives(attack: Attack) -> Vec<String> {
+    let cgroup = MemoryCgroup::new(attack.tag, LIMIT_BYTES);
+    let mut cluster = Cluster::new(attack.tag, attack.domain, "");
     for id in 1..=3 {
         cluster.start(id);
     }
@@ -269,26 +278,38 @@ fn a_data_frag_announcing_4_gb_is_dropped_and_the_controller_keeps_voting() {
     let attack_started = Instant::now();
     let sender = UdpSocket::bind("127.0.0.1:0").expect("a UDP socket");
     let mut datagrams = 0u32;
-    for (writer_index, (reader, writer)) in BUILT_IN_TARGETS.iter().enumerate() {
-        // A different participant (GUID prefix) per target: one attacking writer each.
-        let mut guid_prefix = *b"\x01\x0fRLADVERSAR";
-        guid_prefix[11] = writer_index as u8;
-        for sequence_number in 1..=SAMPLES_PER_WRITER {
-            let datagram = hostile_data_frag(guid_prefix, *reader, *writer, sequence_number);
-            for port in &ports {
-                sender
-                    .send_to(&datagram, ("127.0.0.1", *port))
-                    .expect("sending a datagram");
-                datagrams += 1;
+    for (target, (reader, writer)) in BUILT_IN_TARGETS.iter().enumerate() {
+        for attacker in 0..attack.writers {
+            let mut guid_prefix = *b"\x01\x0fRLADVERSAR";
+            guid_prefix[10] = target as u8;
+            guid_prefix[11] = attacker;
+            for sequence_number in 1..=attack.samples {
+                let datagram = hostile_data_frag(
+                    guid_prefix,
+                    *reader,
+                    *writer,
+                    sequence_number,
+                    attack.data_size,
+                );
+                for port in &ports {
+                    sender
+                        .send_to(&datagram, ("127.0.0.1", *port))
+                        .expect("sending a datagram");
+                    datagrams += 1;
+                }
             }
+            // Let the receiver keep up: a full socket buffer would drop the attack unread.
+            std::thread::sleep(Duration::from_millis(20));
         }
     }
     cluster.pump(Duration::from_secs(3));
     let rss_after = rss_kb(victim);
     let peak = cgroup.peak_kb();
     eprintln!(
-        "C1 ports {ports:?}: {datagrams} hostile datagrams; RSS {rss_before} kB before, \
-         {rss_after:?} kB after; cgroup peak {peak:?} kB; OOM kills {}",
+        "{}: C1 ports {ports:?}: {datagrams} hostile datagrams announcing {} bytes each; RSS \
+         {rss_before} kB before, {rss_after:?} kB after; cgroup peak {peak:?} kB; OOM kills {}",
+        attack.tag,
+        attack.data_size,
         cgroup.oom_kills()
     );
 
@@ -298,14 +319,6 @@ fn a_data_frag_announcing_4_gb_is_dropped_and_the_controller_keeps_voting() {
     assert!(
         rss_after < rss_before + RSS_GROWTH_ALLOWED_KB,
         "C1 grew from {rss_before} kB to {rss_after} kB"
-    );
-    let warnings: Vec<&str> = cluster
-        .lines_from("C1!")
-        .filter(|line| line.contains("exceeds the maximum sample size"))
-        .collect();
-    assert!(
-        !warnings.is_empty() && warnings.len() <= BUILT_IN_TARGETS.len(),
-        "one warning per attacking writer expected: {warnings:?}"
     );
 
     // C1 keeps voting: nobody lost it, it keeps its role, and it still sees a peer die.
@@ -322,5 +335,40 @@ fn a_data_frag_announcing_4_gb_is_dropped_and_the_controller_keeps_voting() {
     });
     assert_eq!(cgroup.oom_kills(), 0, "C1 was OOM-killed");
     assert!(alive(victim), "C1 died after the attack");
+    let stderr = cluster.lines_from("C1!").map(str::to_string).collect();
     drop(cluster);
+    stderr
+}
+
+#[test]
+#[ignore = "needs root (a memory cgroup limiting the attacked controller to 256 MB)"]
+fn a_data_frag_announcing_4_gb_is_dropped_and_the_controller_keeps_voting() {
+    let stderr = c1_survives(Attack {
+        tag: "fragments-4gb",
+        domain: 151,
+        data_size: 0xFFFF_FFF0,
+        writers: 1,
+        samples: 8,
+    });
+    let warnings: Vec<&String> = stderr
+        .iter()
+        .filter(|line| line.contains("exceeds the maximum sample size"))
+        .collect();
+    assert!(
+        !warnings.is_empty() && warnings.len() <= BUILT_IN_TARGETS.len(),
+        "one warning per attacking writer expected: {warnings:?}"
+    );
+}
+
+/// 3 x 128 samples of 1 MiB, each within the bound, would be 384 MiB if all were kept.
+#[test]
+#[ignore = "needs root (a memory cgroup limiting the attacked controller to 256 MB)"]
+fn many_incomplete_samples_within_the_bound_do_not_add_up() {
+    c1_survives(Attack {
+        tag: "fragments-many",
+        domain: 153,
+        data_size: 1024 * 1024,
+        writers: 1,
+        samples: 128,
+    });
 }
