@@ -44,6 +44,8 @@ mod codes;
 mod heartbeat;
 mod network;
 #[cfg(test)]
+mod proptests;
+#[cfg(test)]
 mod tests;
 mod vote;
 
