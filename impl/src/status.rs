@@ -428,10 +428,7 @@ fn serve(
         }
         next_publish_ms = now + refresh_ms;
         let unix_ms = unix_now_ms();
-        // Before every live controller is heard, the strongest heard so far is no change.
-        if now >= listen_ms {
-            watch.follow(&board, now, alive_within_ms, unix_ms);
-        }
+        watch.follow(&board, now, alive_within_ms, unix_ms, now >= listen_ms);
         let snapshot = Snapshot::of(&board.view(now, alive_within_ms), &watch, unix_ms);
         *published.lock().unwrap_or_else(|e| e.into_inner()) = snapshot;
     }

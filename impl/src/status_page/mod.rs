@@ -102,6 +102,8 @@ pub struct Watch {
     /// The commander and when the board last heard it (board milliseconds).
     commander: Option<Commander>,
     commander_last_heard_ms: Option<u64>,
+    /// `follow` was called before: the commander it found then is no change.
+    followed: bool,
     commander_changes: u64,
     recent: VecDeque<CommanderChange>,
     last_gap_ms: Option<u64>,
@@ -116,20 +118,28 @@ impl Watch {
     }
 
     /// Follows the commander on `board` at `now_ms` (board time); `unix_ms` stamps changes.
-    pub fn follow(&mut self, board: &Board, now_ms: u64, alive_within_ms: u64, unix_ms: u64) {
+    /// Before `settled` (every live controller heard) a new commander is no change: the
+    /// strongest heard so far is only the first to arrive.
+    pub fn follow(
+        &mut self,
+        board: &Board,
+        now_ms: u64,
+        alive_within_ms: u64,
+        unix_ms: u64,
+        settled: bool,
+    ) {
         let now = board
             .commander(now_ms, alive_within_ms)
             .and_then(|h| h.strength.map(|strength| Commander { id: h.id, strength }));
-        if now.map(|c| c.id) != self.commander.map(|c| c.id) {
+        let first = !self.followed;
+        self.followed = true;
+        if settled && !first && now.map(|c| c.id) != self.commander.map(|c| c.id) {
             let gap_ms = match (self.commander, self.commander_last_heard_ms) {
                 (Some(_), Some(heard)) => Some(now_ms.saturating_sub(heard)),
                 _ => None,
             };
-            // The first commander ever seen is a start, not a change.
-            if self.commander.is_some() || self.commander_changes > 0 || !self.recent.is_empty() {
-                self.commander_changes += 1;
-                self.last_gap_ms = gap_ms;
-            }
+            self.commander_changes += 1;
+            self.last_gap_ms = gap_ms;
             self.recent.push_front(CommanderChange {
                 at_ms: unix_ms,
                 from: self.commander.map(|c| c.id),

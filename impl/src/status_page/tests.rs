@@ -83,7 +83,7 @@ fn the_watch_counts_commander_changes_and_the_gap() {
     let mut board = Board::default();
     let mut watch = Watch::default();
     three_steady(&mut board, 0);
-    watch.follow(&board, 0, 500, 1_000);
+    watch.follow(&board, 0, 500, 1_000, true);
     assert_eq!(
         watch.commander(),
         Some(Commander {
@@ -100,7 +100,7 @@ fn the_watch_counts_commander_changes_and_the_gap() {
     board.heartbeat(hb(1, Some(Role::Primary), &[1, 2, 3]), 100);
     for now in [300, 500, 601, 700] {
         board.heartbeat(hb(2, Some(Role::Secondary), &[1, 2, 3]), now);
-        watch.follow(&board, now, 500, 1_000 + now);
+        watch.follow(&board, now, 500, 1_000 + now, true);
     }
     assert_eq!(
         watch.commander(),
