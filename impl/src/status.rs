@@ -33,7 +33,8 @@ pub struct StatusArgs {
     /// 127.0.0.1:8053, this host only; bind 0.0.0.0:8053 or a LAN address to reach it from
     /// the LAN (no authentication: a trusted network only).
     #[arg(long, value_name = "ADDR", num_args = 0..=1,
-          default_missing_value = crate::status_page::DEFAULT_ADDR)]
+          default_missing_value = crate::status_page::DEFAULT_ADDR,
+          conflicts_with_all = ["json", "once"])]
     pub serve: Option<String>,
 }
 

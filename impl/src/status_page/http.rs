@@ -189,7 +189,11 @@ pub fn serve(
         .name("status-http".into())
         .spawn(move || {
             for stream in listener.incoming() {
-                let Ok(mut stream) = stream else { continue };
+                let Ok(mut stream) = stream else {
+                    // Out of descriptors, say: wait for some to close rather than spin.
+                    std::thread::sleep(Duration::from_millis(50));
+                    continue;
+                };
                 if active.fetch_add(1, Ordering::SeqCst) >= MAX_CONNECTIONS {
                     active.fetch_sub(1, Ordering::SeqCst);
                     let _ = stream.set_write_timeout(Some(Duration::from_secs(1)));
