@@ -483,6 +483,11 @@ fn chromium_shows_the_leds_and_follows_a_kill_of_the_primary() {
             .filter(|id| *id != primary)
             .any(|id| (1..=3).any(|n| led(&dom, id, n).as_deref() == Some("red")));
         if unknown && red {
+            // Includes starting a fresh Chromium for the dump.
+            eprintln!(
+                "a page loaded after the kill showed the LEDs {} ms after it",
+                killed.elapsed().as_millis()
+            );
             break;
         }
         assert!(
