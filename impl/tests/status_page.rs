@@ -409,6 +409,8 @@ impl Drop for OpenPage {
     fn drop(&mut self) {
         let _ = self.browser.kill();
         let _ = self.browser.wait();
+        // Chromium's helper processes outlive the browser briefly and write to the profile.
+        std::thread::sleep(Duration::from_millis(300));
     }
 }
 
