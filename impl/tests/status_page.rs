@@ -376,6 +376,7 @@ impl OpenPage {
         let child = Command::new(browser)
             .args(HEADLESS)
             .arg(format!("--remote-debugging-port={debug_port}"))
+            .arg("--remote-allow-origins=*")
             .arg(format!("--user-data-dir={}", dir.0.display()))
             .arg(url)
             .stdout(Stdio::null())
@@ -386,6 +387,53 @@ impl OpenPage {
             browser: child,
             debug_port,
             _profile: dir,
+        }
+    }
+
+    /// The LED colours the open page shows now, read from its live DOM through the DevTools
+    /// protocol (`Runtime.evaluate` over the tab's WebSocket): (controller, LED) -> colour.
+    fn leds(&self) -> Option<std::collections::BTreeMap<(u8, u8), String>> {
+        let (_, body) = get(self.debug_port, "/json/list")?;
+        let tabs: Value = serde_json::from_str(&body).ok()?;
+        let socket_url = tabs.as_array()?.iter().find(|t| t["type"] == "page")?
+            ["webSocketDebuggerUrl"]
+            .as_str()?
+            .to_string();
+        // Chromium names the host the request named; the port is the debugging port.
+        let path = &socket_url[socket_url.find("/devtools/")?..];
+        let socket_url = format!("ws://127.0.0.1:{}{path}", self.debug_port);
+        let (mut socket, _) = match tungstenite::connect(socket_url.as_str()) {
+            Ok(connected) => connected,
+            Err(error) => {
+                eprintln!("DevTools WebSocket {socket_url}: {error}");
+                return None;
+            }
+        };
+        let expression = "JSON.stringify([...document.querySelectorAll('[data-led]')].map(\
+            e => [e.dataset.controller, e.dataset.led, e.dataset.colour]))";
+        let request = serde_json::json!({
+            "id": 1,
+            "method": "Runtime.evaluate",
+            "params": {"expression": expression, "returnByValue": true}
+        });
+        socket
+            .send(tungstenite::Message::text(request.to_string()))
+            .ok()?;
+        loop {
+            let reply = socket.read().ok()?;
+            let Ok(text) = reply.to_text() else { continue };
+            let reply: Value = serde_json::from_str(text).ok()?;
+            if reply["id"] != 1 {
+                continue;
+            }
+            let list: Vec<(String, String, String)> =
+                serde_json::from_str(reply["result"]["result"]["value"].as_str()?).ok()?;
+            let _ = socket.close(None);
+            return Some(
+                list.into_iter()
+                    .filter_map(|(c, n, colour)| Some(((c.parse().ok()?, n.parse().ok()?), colour)))
+                    .collect(),
+            );
         }
     }
 
@@ -474,6 +522,28 @@ fn chromium_shows_the_leds_and_follows_a_kill_of_the_primary() {
     eprintln!(
         "the open page showed the kill after {} ms: {title:?}",
         latency.as_millis()
+    );
+    // Its LEDs, read from the live DOM: the killed controller's unknown, a survivor's red for
+    // the failed unit, within 2 s of the kill.
+    let leds_follow = |leds: &std::collections::BTreeMap<(u8, u8), String>| {
+        let unknown = (1..=4).all(|n| leds.get(&(primary, n)).is_some_and(|c| c == "unknown"));
+        let red = (1..=3u8)
+            .filter(|id| *id != primary)
+            .any(|id| (1..=3).any(|n| leds.get(&(id, n)).is_some_and(|c| c == "red")));
+        unknown && red
+    };
+    let mut leds = page.leds();
+    while !leds.as_ref().is_some_and(leds_follow) {
+        assert!(
+            killed.elapsed() < Duration::from_secs(2),
+            "the open page's LEDs did not follow the kill of C{primary} within 2 s: {leds:?}"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+        leds = page.leds();
+    }
+    eprintln!(
+        "the open page's LEDs showed the kill after {} ms",
+        killed.elapsed().as_millis()
     );
 
     // The LEDs: the killed controller's are unknown, a survivor shows the failed unit red.
