@@ -110,6 +110,8 @@ pub fn run(args: ControllerArgs) -> Result<(), crate::Error> {
             voting_progress: Some(voting_progress),
         },
     )?;
+    let participant = rl.session().participant().clone();
+    notifier.watch_dds_loop(move || participant.event_loop_iterations());
     let network_monitor = start_network_monitor(&rl, &config, args.id, args.json_events)?;
     let result = track(&rl, &config, &stop, args.duration_ms, &mut notifier);
     drop(network_monitor);

@@ -39,6 +39,9 @@ pub struct DemoArgs {
     /// Write every child's output to DIR/<name>.log (controllers' JSON events included).
     #[arg(long, value_name = "DIR")]
     pub record: Option<PathBuf>,
+    /// Serve the live status page (`rl status --serve`) here; `off` for none.
+    #[arg(long, default_value = "127.0.0.1:8053", value_name = "ADDR|off")]
+    pub status_page: String,
 }
 
 /// Why the demo stopped early.
@@ -160,6 +163,16 @@ impl Demo {
     }
 
     fn start_children(&mut self) -> Result<(), crate::Error> {
+        if self.args.status_page != "off" {
+            let addr = self.args.status_page.clone();
+            self.fleet
+                .start_other("page", &["status", "--serve", &addr])
+                .map_err(spawn_error)?;
+            println!(
+                "{} live status page (LEDs, roles, alarms, metrics): http://{addr}/",
+                self.stamp(Instant::now())
+            );
+        }
         self.fleet
             .start_other("camera", &["shapes", "--json"])
             .map_err(spawn_error)?;

@@ -44,6 +44,7 @@ pub mod service;
 pub mod sim;
 pub mod stall;
 pub mod status;
+pub mod status_page;
 pub mod tracker;
 pub mod wire;
 

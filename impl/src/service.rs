@@ -10,6 +10,14 @@
 //! either loop getting stuck stops the pings, and systemd restarts the service after
 //! `WatchdogSec`.
 //!
+//! Both loops can run while nothing reaches the network: RustDDS sends and receives on its
+//! own thread, the participant's event loop, which exits on a poll error, and writes still
+//! return `Ok` after it has gone. So the pings also require that loop to go round
+//! ([`Notifier::watch_dds_loop`], fed by `DomainParticipant::event_loop_iterations`). It goes
+//! round at least every 2 s when idle, and at every heartbeat RL writes. This is the loop's
+//! own progress, not hearing the peers: a dead network must raise alarms, not restart the
+//! controller.
+//!
 //! Pings go out every half of `WATCHDOG_USEC` (systemd's advice); `WATCHDOG_PID`, when set,
 //! must be this process, as for `sd_watchdog_enabled(3)`.
 
@@ -80,6 +88,33 @@ pub enum Tick {
     Withheld,
 }
 
+/// A loop seen through a counter it increments each time round: progress is the counter
+/// having changed.
+struct CountedLoop {
+    read: Box<dyn Fn() -> u64 + Send>,
+    last_count: u64,
+    progress: LoopProgress,
+}
+
+impl CountedLoop {
+    fn observe(&mut self, now: Instant) {
+        let count = (self.read)();
+        if count != self.last_count {
+            self.last_count = count;
+            self.progress.mark_at(now);
+        }
+    }
+}
+
+impl std::fmt::Debug for CountedLoop {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("CountedLoop")
+            .field("last_count", &self.last_count)
+            .field("progress", &self.progress)
+            .finish()
+    }
+}
+
 /// Sends the service manager the controller's notifications.
 #[derive(Debug)]
 pub struct Notifier {
@@ -87,6 +122,8 @@ pub struct Notifier {
     ping_interval: Option<Duration>,
     last_ping: Option<Instant>,
     voting: std::sync::Arc<LoopProgress>,
+    /// RustDDS's event loop, once [`Notifier::watch_dds_loop`] named it.
+    dds: Option<CountedLoop>,
     withheld: bool,
     status: String,
     send_failed: bool,
@@ -100,10 +137,22 @@ impl Notifier {
             ping_interval: watchdog.map(|timeout| timeout / 2),
             last_ping: None,
             voting,
+            dds: None,
             withheld: false,
             status: String::new(),
             send_failed: false,
         }
+    }
+
+    /// Pings also require `iterations` (RustDDS's event loop count,
+    /// `DomainParticipant::event_loop_iterations`) to have grown within the ping interval.
+    pub fn watch_dds_loop(&mut self, iterations: impl Fn() -> u64 + Send + 'static) {
+        let last_count = iterations();
+        self.dds = Some(CountedLoop {
+            read: Box::new(iterations),
+            last_count,
+            progress: LoopProgress::new(),
+        });
     }
 
     /// The interval between pings, if systemd watches this process.
@@ -124,30 +173,36 @@ impl Notifier {
         }
     }
 
-    /// Shutting down.
+    /// Shutting down. Lets go of RustDDS's event loop counter (and whatever it holds, such as
+    /// the participant), so the participant can be closed.
     pub fn stopping(&mut self) {
+        self.dds = None;
         self.send(&[NotifyState::Stopping]);
     }
 
     /// Called from the application loop: pings the watchdog when a ping is due and the voting
-    /// loop went round within the ping interval.
+    /// loop (and RustDDS's event loop, if watched) went round within the ping interval.
     pub fn tick(&mut self, now: Instant) -> Tick {
+        if let Some(dds) = &mut self.dds {
+            dds.observe(now);
+        }
         let decision = self.decide(now);
         match decision {
             Tick::Ping => {
                 self.last_ping = Some(now);
                 if self.withheld {
                     self.withheld = false;
-                    warn!("the voting loop runs again: watchdog pings resumed");
+                    warn!("the controller's loops run again: watchdog pings resumed");
                 }
                 self.send(&[NotifyState::Watchdog]);
             }
             Tick::Withheld if !self.withheld => {
                 self.withheld = true;
+                let (stuck, age) = self.slowest_loop(now);
                 warn!(
-                    "the voting loop has not run for {} ms: watchdog pings withheld, systemd \
-                     will restart the service",
-                    self.voting.age_at(now).as_millis()
+                    "{stuck} has not run for {} ms: watchdog pings withheld, systemd will \
+                     restart the service",
+                    age.as_millis()
                 );
             }
             Tick::Withheld | Tick::Idle => {}
@@ -164,10 +219,21 @@ impl Notifier {
             .is_none_or(|last| now.saturating_duration_since(last) >= interval);
         if !due {
             Tick::Idle
-        } else if self.voting.age_at(now) < interval {
+        } else if self.slowest_loop(now).1 < interval {
             Tick::Ping
         } else {
             Tick::Withheld
+        }
+    }
+
+    /// The watched loop that went round longest ago, and how long ago.
+    fn slowest_loop(&self, now: Instant) -> (&'static str, Duration) {
+        let voting = ("the voting loop", self.voting.age_at(now));
+        match &self.dds {
+            Some(dds) if dds.progress.age_at(now) > voting.1 => {
+                ("RustDDS's event loop", dds.progress.age_at(now))
+            }
+            _ => voting,
         }
     }
 
@@ -221,6 +287,37 @@ mod tests {
         assert_eq!(notifier.decide(start + ms(5000)), Tick::Withheld);
         voting.mark_at(start + ms(5100));
         assert_eq!(notifier.decide(start + ms(5100)), Tick::Ping);
+    }
+
+    #[test]
+    fn a_dds_event_loop_that_stops_counting_withholds_pings() {
+        use std::sync::atomic::{AtomicU64, Ordering};
+        let voting = Arc::new(LoopProgress::new());
+        let mut notifier = Notifier::new(Some(Duration::from_secs(2)), Arc::clone(&voting));
+        let iterations = Arc::new(AtomicU64::new(0));
+        let count = Arc::clone(&iterations);
+        notifier.watch_dds_loop(move || count.load(Ordering::Relaxed));
+        let start = notifier.dds.as_ref().unwrap().progress.origin;
+        notifier.last_ping = Some(start);
+        // Both loops go round: ping.
+        voting.mark_at(start + ms(900));
+        iterations.store(5, Ordering::Relaxed);
+        notifier.dds.as_mut().unwrap().observe(start + ms(900));
+        assert_eq!(notifier.decide(start + ms(1000)), Tick::Ping);
+        notifier.last_ping = Some(start + ms(1000));
+        // The voting loop goes on, the event loop's count stands still: no ping.
+        voting.mark_at(start + ms(1950));
+        notifier.dds.as_mut().unwrap().observe(start + ms(1950));
+        assert_eq!(notifier.decide(start + ms(2000)), Tick::Withheld);
+        assert_eq!(
+            notifier.slowest_loop(start + ms(2000)).0,
+            "RustDDS's event loop"
+        );
+        // It counts again: ping.
+        iterations.store(6, Ordering::Relaxed);
+        notifier.dds.as_mut().unwrap().observe(start + ms(2100));
+        voting.mark_at(start + ms(2100));
+        assert_eq!(notifier.decide(start + ms(2100)), Tick::Ping);
     }
 
     fn ms(value: u64) -> Duration {

@@ -28,6 +28,14 @@ pub struct StatusArgs {
     /// DDS domain id (overrides the configuration).
     #[arg(long, value_name = "D")]
     pub domain: Option<u16>,
+    /// Serve the live view over HTTP instead of printing: a page with every controller's
+    /// LEDs, /status.json (the --json object) and /metrics (Prometheus). ADDR defaults to
+    /// 127.0.0.1:8053, this host only; bind 0.0.0.0:8053 or a LAN address to reach it from
+    /// the LAN (no authentication: a trusted network only).
+    #[arg(long, value_name = "ADDR", num_args = 0..=1,
+          default_missing_value = crate::status_page::DEFAULT_ADDR,
+          conflicts_with_all = ["json", "once"])]
+    pub serve: Option<String>,
 }
 
 /// One controller as the board last heard it: its last self-report (the heartbeat's fields,
@@ -125,6 +133,11 @@ impl Board {
     /// The latest heartbeat of a controller.
     pub fn latest(&self, id: ControllerId) -> Option<&Heartbeat> {
         self.heartbeats.get(&id).map(|(h, _)| h)
+    }
+
+    /// When the board took in controller `id`'s last heartbeat (its `now_ms` then).
+    pub fn last_heard_ms(&self, id: ControllerId) -> Option<u64> {
+        self.heartbeats.get(&id).map(|(_, at)| *at)
     }
 
     /// The controllers heard within `alive_within_ms`.
@@ -354,6 +367,9 @@ pub fn run(args: StatusArgs) -> Result<(), crate::Error> {
     let alive_within_ms = config.timing.peer_deadline_ms;
     // Discovery plus a few heartbeats: enough to hear every live controller.
     let listen_ms = 1000 + 3 * period_ms;
+    if let Some(addr) = args.serve {
+        return serve(&addr, feed, board, alive_within_ms, listen_ms, &stop);
+    }
     let refresh_ms = 500;
     let mut next_print_ms = if args.once { listen_ms } else { refresh_ms };
     loop {
@@ -385,6 +401,39 @@ pub fn run(args: StatusArgs) -> Result<(), crate::Error> {
             return Ok(());
         }
     }
+}
+
+/// `rl status --serve`: the board kept fresh and published to the HTTP server
+/// ([`crate::status_page`]) until a signal.
+fn serve(
+    addr: &str,
+    mut feed: BoardFeed,
+    mut board: Board,
+    alive_within_ms: u64,
+    listen_ms: u64,
+    stop: &std::sync::atomic::AtomicBool,
+) -> Result<(), crate::Error> {
+    use crate::status_page::{unix_now_ms, Snapshot, Watch};
+    let published = crate::status_page::start(addr)?;
+    let mut watch = Watch::default();
+    // The page polls every 250 ms: a fresh snapshot every 50 ms keeps its lag small.
+    let refresh_ms = 50;
+    let mut next_publish_ms = 0;
+    while !stop.load(std::sync::atomic::Ordering::SeqCst) {
+        std::thread::sleep(std::time::Duration::from_millis(10));
+        let heard = feed.update(&mut board);
+        watch.heartbeats(heard.iter().map(|h| h.id));
+        let now = feed.now_ms();
+        if now < next_publish_ms {
+            continue;
+        }
+        next_publish_ms = now + refresh_ms;
+        let unix_ms = unix_now_ms();
+        watch.follow(&board, now, alive_within_ms, unix_ms, now >= listen_ms);
+        let snapshot = Snapshot::of(&board.view(now, alive_within_ms), &watch, unix_ms);
+        *published.lock().unwrap_or_else(|e| e.into_inner()) = snapshot;
+    }
+    Ok(())
 }
 
 #[cfg(test)]

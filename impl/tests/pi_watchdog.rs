@@ -3,7 +3,8 @@
 //! `WATCHDOG_USEC`. It must say `READY=1`, ping `WATCHDOG=1` every half watchdog interval,
 //! stop pinging when it stops (SIGSTOP: what systemd acts on after `WatchdogSec`), resume on
 //! SIGCONT, and say `STOPPING=1` on SIGTERM. With the `fault-injection` feature, a stalled
-//! voting loop alone must stop the pings while the process runs on. DDS domains 181-183.
+//! voting loop alone must stop the pings while the process runs on, and so must RustDDS's
+//! event loop exiting. DDS domains 181-183 and 152.
 
 mod support;
 
@@ -281,4 +282,51 @@ fn a_stalled_voting_loop_alone_stops_the_pings() {
     service.wait_for("WATCHDOG=1", Duration::from_secs(3));
     service.signal(libc::SIGTERM);
     assert!(service.child.wait().unwrap().success());
+}
+
+/// RustDDS's event loop gone (its poll failed; the controller's own loops still run and its
+/// writes still succeed): nothing reaches the network, so the pings stop.
+#[cfg(feature = "fault-injection")]
+#[test]
+fn a_dead_dds_event_loop_stops_the_pings() {
+    use std::io::Write;
+    let mut service = Service::start("ddsloop", 152, Some(WATCHDOG_USEC));
+    service.wait_for("READY=1", Duration::from_secs(20));
+    // Formed first: the command writer exists. (Creating a writer without the event loop
+    // hangs inside RustDDS, which stops the pings too, but not by the check under test.)
+    service.saw_or_wait_for(
+        "STATUS=C1 steady provisional primary (strength 15)",
+        Duration::from_secs(15),
+    );
+    service.wait_for("WATCHDOG=1", Duration::from_secs(2));
+    let stdin = service.child.stdin.as_mut().unwrap();
+    writeln!(stdin, "break-dds-event-loop").unwrap();
+    stdin.flush().unwrap();
+    let broken_at = Instant::now();
+    let window = service.collect_for(Duration::from_millis(3000));
+    let after_grace: Vec<Instant> = pings(&window)
+        .into_iter()
+        .filter(|at| at.duration_since(broken_at) > Duration::from_millis(1100))
+        .collect();
+    assert!(
+        after_grace.is_empty(),
+        "pings without RustDDS's event loop: {after_grace:?}\nstderr:\n{}",
+        service.stderr()
+    );
+    assert!(
+        service.child.try_wait().unwrap().is_none(),
+        "the process must still run"
+    );
+    let stderr = service.stderr();
+    assert!(
+        stderr.contains("broke 1 RustDDS event loop"),
+        "the fault was not injected:\n{stderr}"
+    );
+    assert!(
+        stderr.contains("RustDDS's event loop has not run")
+            && stderr.contains("watchdog pings withheld"),
+        "{stderr}"
+    );
+    service.signal(libc::SIGTERM);
+    let _ = service.child.wait();
 }

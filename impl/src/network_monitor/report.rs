@@ -9,7 +9,7 @@ use crate::core::network::{AlarmCause, AlarmSubject, Conclusion, Verdict};
 use crate::core::types::{ControllerId, Incarnation};
 use crate::dds::Writer;
 use crate::event::{Event, EventLine};
-use crate::wire::{Certainty, NetworkAlarm, NetworkAlarmSample};
+use crate::wire::{fit_cause, Certainty, NetworkAlarm, NetworkAlarmSample};
 use std::io::Write;
 use tracing::{info, warn};
 
@@ -27,6 +27,23 @@ pub fn certainty(cause: &AlarmCause) -> Certainty {
         AlarmCause::Concluded(_) => Certainty::Concluded,
         AlarmCause::Suspected { .. } => Certainty::Suspected,
         AlarmCause::Unexplained { .. } => Certainty::Unexplained,
+    }
+}
+
+/// The network alarm sample's value for a subject raised (`Some(cause)`) or cleared (`None`),
+/// its cause cut to what the wire carries.
+fn alarm_of(
+    reporter: ControllerId,
+    reporter_incarnation: Incarnation,
+    subject: AlarmSubject,
+    cause: Option<&AlarmCause>,
+) -> NetworkAlarm {
+    NetworkAlarm {
+        reporter,
+        reporter_incarnation,
+        subject,
+        raised: cause.map(certainty),
+        cause: cause.map_or_else(String::new, |cause| fit_cause(&cause.to_string())),
     }
 }
 
@@ -64,17 +81,11 @@ impl Reporter {
                 controller: controller_of(subject),
                 raised: raised.is_some(),
                 certainty: raised,
-                cause: cause_text.clone(),
+                cause: cause_text,
             },
             t_ms,
         );
-        let alarm = NetworkAlarm {
-            reporter: self.id,
-            reporter_incarnation: self.incarnation,
-            subject,
-            raised,
-            cause: cause_text.unwrap_or_default(),
-        };
+        let alarm = alarm_of(self.id, self.incarnation, subject, cause);
         if let Err(error) = self.alarms_out.write(&alarm) {
             warn!("network alarm not published: {error}");
         }
@@ -121,5 +132,85 @@ impl Reporter {
         let mut out = std::io::stdout().lock();
         let _ = writeln!(out, "{}", line.to_json());
         let _ = out.flush();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::core::network::alarms::implicated;
+    use crate::core::network::{conclude, Finding, Link, LinkMatrix, LinkState, Members, Network};
+    use crate::wire::{WireSample, CAUSE_MAX_BYTES};
+
+    /// The longest cause the monitor concludes (measured over all 3^12 link matrices, each
+    /// controller observing): four links failed and two good, seen by controller 1, leave 16
+    /// smallest explanations, 1,912 bytes of text. Uncut, its sample would fail the writer's
+    /// own check (a cause is at most 512 bytes on the wire) and the alarm would never leave.
+    #[test]
+    fn an_alarm_with_the_longest_cause_is_published_with_the_cause_cut() {
+        let mut matrix = LinkMatrix::unknown();
+        for (from, to, network) in [
+            (1, 2, Network::A),
+            (3, 1, Network::A),
+            (1, 2, Network::B),
+            (2, 3, Network::B),
+        ] {
+            matrix.set(Link::new(from, to, network), LinkState::Fail);
+        }
+        for (from, to, network) in [(2, 3, Network::A), (3, 1, Network::B)] {
+            matrix.set(Link::new(from, to, network), LinkState::Good);
+        }
+        let conclusion = conclude(&matrix, Members::ALL, 1);
+        let (subject, cause) = implicated(&conclusion)
+            .into_iter()
+            .max_by_key(|(_, cause)| cause.to_string().len())
+            .expect("the failed links implicate a subject");
+        let text = cause.to_string();
+        assert_eq!(text.len(), 1912, "{text}");
+
+        let alarm = alarm_of(1, 7, subject, Some(&cause));
+        assert!(alarm.cause.len() <= CAUSE_MAX_BYTES);
+        let kept = alarm
+            .cause
+            .strip_suffix('…')
+            .expect("a cut cause ends with …");
+        assert!(text.starts_with(kept), "{}", alarm.cause);
+        let sample = NetworkAlarmSample::encode(&alarm);
+        assert_eq!(sample.decode(), Ok(alarm));
+    }
+
+    proptest::proptest! {
+        /// Whatever the monitor sees, every alarm it raises goes out as a sample the
+        /// readers accept.
+        #[test]
+        fn every_alarm_of_any_link_matrix_fits_the_wire(
+            states in proptest::array::uniform12(0..3u8),
+            observer in 1..=3u8,
+        ) {
+            let mut matrix = LinkMatrix::unknown();
+            for (link, state) in Link::all().zip(states) {
+                let state = [LinkState::Unknown, LinkState::Good, LinkState::Fail][state as usize];
+                matrix.set(link, state);
+            }
+            let conclusion = conclude(&matrix, Members::ALL, observer);
+            for (subject, cause) in implicated(&conclusion) {
+                let alarm = alarm_of(observer, 1, subject, Some(&cause));
+                proptest::prop_assert_eq!(
+                    NetworkAlarmSample::encode(&alarm).decode(),
+                    Ok(alarm)
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn a_cleared_alarm_has_no_cause_and_a_short_cause_is_whole() {
+        let subject = AlarmSubject::Network(Network::B);
+        let cleared = alarm_of(2, 9, subject, None);
+        assert_eq!((cleared.raised, cleared.cause.as_str()), (None, ""));
+        let cause = AlarmCause::Concluded(Finding::NetworkFailure(Network::B));
+        let raised = alarm_of(2, 9, subject, Some(&cause));
+        assert_eq!(raised.raised, Some(Certainty::Concluded));
+        assert_eq!(raised.cause, "network B failed");
     }
 }

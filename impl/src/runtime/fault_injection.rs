@@ -1,7 +1,10 @@
 //! Test-only fault injection (feature `fault-injection`): heartbeats from the peers named on
 //! stdin are dropped on arrival, as if the network lost them one way, each drop logged as a
 //! `heartbeat_dropped` event (with `--json-events`); `stall-voting-loop <ms>`
-//! blocks the voting loop once for that long, as a hung loop would (the watchdog test).
+//! blocks the voting loop once for that long, as a hung loop would (the watchdog test);
+//! `break-dds-event-loop` makes RustDDS's event loop fail its poll and exit, as it does on a
+//! poll error: the process's every participant then sends and receives nothing while writes
+//! still succeed (the watchdog test).
 
 use std::collections::BTreeSet;
 use std::io::BufRead;
@@ -27,13 +30,70 @@ pub fn dropped(from: u8) -> bool {
         .contains(&from)
 }
 
-/// Reads `drop-heartbeats-from <id>`, `accept-heartbeats-from <id>` and
-/// `stall-voting-loop <ms>` lines.
+/// The thread name (as the kernel keeps it, 15 bytes) of a RustDDS participant's event loop,
+/// "RustDDS Participant <n> event loop".
+const DDS_EVENT_LOOP_COMM: &str = "RustDDS Partici";
+
+/// The epoll descriptor a thread of this process waits on now, if it is blocked in
+/// `epoll_wait`/`epoll_pwait`: `/proc/self/task/<tid>/syscall` shows the system call's
+/// arguments, the first being the descriptor, which must be an epoll instance.
+fn epoll_fd_waited_on_by(task: &std::path::Path) -> Option<i32> {
+    let syscall = std::fs::read_to_string(task.join("syscall")).ok()?;
+    let first_argument = syscall.split_whitespace().nth(1)?;
+    let fd = i32::from_str_radix(first_argument.trim_start_matches("0x"), 16).ok()?;
+    let target = std::fs::read_link(format!("/proc/self/fd/{fd}")).ok()?;
+    (target.to_string_lossy() == "anon_inode:[eventpoll]").then_some(fd)
+}
+
+/// Replaces the epoll descriptor of every RustDDS event loop in this process with
+/// `/dev/null`: its next poll fails (`EINVAL`) and the loop exits, as on any poll error.
+fn break_dds_event_loops() {
+    let mut broken = 0;
+    let tasks = std::fs::read_dir("/proc/self/task").into_iter().flatten();
+    for task in tasks.flatten() {
+        let comm = std::fs::read_to_string(task.path().join("comm")).unwrap_or_default();
+        if comm.trim_end() != DDS_EVENT_LOOP_COMM {
+            continue;
+        }
+        // The loop may be between two polls: look again for a moment.
+        let fd = (0..200).find_map(|_| {
+            epoll_fd_waited_on_by(&task.path()).or_else(|| {
+                std::thread::sleep(Duration::from_millis(5));
+                None
+            })
+        });
+        let Some(fd) = fd else {
+            tracing::warn!("fault injection: no epoll descriptor found for a RustDDS event loop");
+            continue;
+        };
+        // SAFETY: plain system calls on descriptors; `fd` is an epoll instance this process
+        // owns, replaced in place so the number stays taken.
+        let replaced = unsafe {
+            let null = libc::open(c"/dev/null".as_ptr(), libc::O_RDONLY | libc::O_CLOEXEC);
+            let replaced = null >= 0 && libc::dup2(null, fd) == fd;
+            if null >= 0 {
+                libc::close(null);
+            }
+            replaced
+        };
+        if replaced {
+            broken += 1;
+        }
+    }
+    tracing::warn!("fault injection: broke {broken} RustDDS event loop(s)");
+}
+
+/// Reads `drop-heartbeats-from <id>`, `accept-heartbeats-from <id>`,
+/// `stall-voting-loop <ms>` and `break-dds-event-loop` lines.
 pub fn listen_on_stdin() {
     let _ = std::thread::Builder::new()
         .name("rl-fault-injection".into())
         .spawn(|| {
             for line in std::io::stdin().lock().lines().map_while(Result::ok) {
+                if line.trim() == "break-dds-event-loop" {
+                    break_dds_event_loops();
+                    continue;
+                }
                 let mut words = line.split_whitespace();
                 let (Some(verb), Some(id)) = (words.next(), words.next()) else {
                     continue;

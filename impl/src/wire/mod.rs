@@ -44,6 +44,8 @@ mod codes;
 mod heartbeat;
 mod network;
 #[cfg(test)]
+mod proptests;
+#[cfg(test)]
 mod tests;
 mod vote;
 
@@ -59,9 +61,9 @@ pub use self::codes::{
 };
 pub use self::heartbeat::{HeartbeatSample, HEARTBEAT_TYPE_NAME};
 pub use self::network::{
-    Certainty, NetworkAlarm, NetworkAlarmKey, NetworkAlarmSample, NetworkHeartbeatSample,
-    CAUSE_MAX_BYTES, LINK_FAIL, LINK_GOOD, LINK_UNKNOWN, NETWORK_ALARM_TYPE_NAME, NETWORK_COUNT,
-    NETWORK_HEARTBEAT_TYPE_NAME,
+    fit_cause, Certainty, NetworkAlarm, NetworkAlarmKey, NetworkAlarmSample,
+    NetworkHeartbeatSample, CAUSE_MAX_BYTES, LINK_FAIL, LINK_GOOD, LINK_UNKNOWN,
+    NETWORK_ALARM_TYPE_NAME, NETWORK_COUNT, NETWORK_HEARTBEAT_TYPE_NAME,
 };
 pub use self::vote::{VoteSample, VOTE_TYPE_NAME};
 

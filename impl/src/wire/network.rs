@@ -146,6 +146,22 @@ pub struct NetworkAlarm {
     pub cause: String,
 }
 
+/// `cause` as it fits on the wire: unchanged up to [`CAUSE_MAX_BYTES`], otherwise cut at a
+/// character boundary and ended with `…`. A suspected verdict can list many alternatives
+/// (the monitor's longest cause is almost 2 KB); the alarm must be published all the same,
+/// and the event and console line carry the whole text.
+pub fn fit_cause(cause: &str) -> String {
+    const CUT: &str = "…";
+    if cause.len() <= CAUSE_MAX_BYTES {
+        return cause.to_string();
+    }
+    let mut end = CAUSE_MAX_BYTES - CUT.len();
+    while !cause.is_char_boundary(end) {
+        end -= 1;
+    }
+    format!("{}{CUT}", &cause[..end])
+}
+
 /// One instance of the network alarm topic per reporter and subject, so a late reader
 /// (transient local) gets each alarm's latest state: raised with its cause, or cleared.
 #[derive(

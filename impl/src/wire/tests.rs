@@ -516,3 +516,30 @@ fn an_established_strength_above_the_commanded_one_or_outside_the_rules_is_named
         assert!(sample.decode().is_ok(), "{sample:?}");
     }
 }
+
+#[test]
+fn a_long_cause_is_cut_to_fit_the_wire_at_a_character_boundary() {
+    for short in ["", "network A failed", &"x".repeat(CAUSE_MAX_BYTES)] {
+        assert_eq!(fit_cause(short), short);
+    }
+    for long in [
+        "x".repeat(CAUSE_MAX_BYTES + 1),
+        "é".repeat(CAUSE_MAX_BYTES),
+        format!("x{}", "€".repeat(CAUSE_MAX_BYTES)),
+    ] {
+        let cut = fit_cause(&long);
+        assert!(cut.len() <= CAUSE_MAX_BYTES, "{} bytes", cut.len());
+        // Within a character of the limit: nothing more is dropped than needs to be.
+        assert!(cut.len() > CAUSE_MAX_BYTES - 4, "{} bytes", cut.len());
+        let kept = cut.strip_suffix('…').unwrap();
+        assert!(long.starts_with(kept));
+        let alarm = NetworkAlarm {
+            reporter: 1,
+            reporter_incarnation: 1,
+            subject: crate::core::network::AlarmSubject::Network(crate::core::network::Network::A),
+            raised: Some(Certainty::Suspected),
+            cause: cut,
+        };
+        assert_eq!(round_trip::<NetworkAlarmSample>(&alarm).unwrap(), alarm);
+    }
+}

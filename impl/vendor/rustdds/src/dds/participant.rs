@@ -80,6 +80,8 @@ pub struct DomainParticipantBuilder {
 
   send_on_every_interface: bool, // never narrow a reader to one learnt route
 
+  max_sample_size: usize, // largest sample a reader reassembles from fragments
+
   socket_receive_buffer_size: usize,
   socket_send_buffer_size: usize,
 
@@ -96,6 +98,7 @@ impl DomainParticipantBuilder {
       only_networks: None,
       same_host_loopback: true,
       send_on_every_interface: false,
+      max_sample_size: Self::DEFAULT_MAX_SAMPLE_SIZE,
       socket_receive_buffer_size: Self::DEFAULT_SOCKET_RECEIVE_BUFFER_SIZE,
       socket_send_buffer_size: Self::DEFAULT_SOCKET_SEND_BUFFER_SIZE,
       #[cfg(feature = "security")]
@@ -146,6 +149,23 @@ impl DomainParticipantBuilder {
     self.send_on_every_interface = enabled;
     self
   }
+
+  /// The largest sample (serialized payload, bytes) a reader reassembles from
+  /// DATA_FRAG submessages (default [`Self::DEFAULT_MAX_SAMPLE_SIZE`]).
+  ///
+  /// A reader sizes its reassembly buffer from the `dataSize` a DATA_FRAG
+  /// announces, before any fragment beyond the first has arrived. Without a
+  /// bound, one datagram announcing a 4 GB sample makes the participant
+  /// allocate 4 GB. Fragments of a larger sample are dropped (one warning per
+  /// remote writer) and nothing is allocated for them. Raise it if the
+  /// application exchanges larger samples (images, point clouds).
+  pub fn max_sample_size(mut self, bytes: usize) -> Self {
+    self.max_sample_size = bytes;
+    self
+  }
+
+  /// 1 MiB.
+  pub const DEFAULT_MAX_SAMPLE_SIZE: usize = 1024 * 1024;
 
   pub const DEFAULT_SOCKET_RECEIVE_BUFFER_SIZE: usize = 8 * 1024 * 1024;
   pub const DEFAULT_SOCKET_SEND_BUFFER_SIZE: usize = 8 * 1024 * 1024;
@@ -363,6 +383,7 @@ impl DomainParticipantBuilder {
       self.only_networks,
       self.same_host_loopback,
       self.send_on_every_interface,
+      self.max_sample_size,
       dp_waker,
       discovery_sample_sender,
     )?;
@@ -554,6 +575,15 @@ impl DomainParticipant {
   /// ```
   pub fn participant_id(&self) -> u16 {
     self.dpi.lock().unwrap().participant_id()
+  }
+
+  /// How many times the participant's event loop (the thread that sends and
+  /// receives all its RTPS traffic) has gone round. It goes round at least
+  /// every 2 s, and whenever a socket, a timer or a local writer wakes it. A
+  /// value that stops growing means the loop has exited (e.g. on a poll error)
+  /// or hangs: writes still return `Ok`, but nothing is sent or received.
+  pub fn event_loop_iterations(&self) -> u64 {
+    self.dpi.lock().unwrap().event_loop_iterations()
   }
 
   pub(crate) fn only_networks(&self) -> Option<Arc<[IpAddr]>> {
@@ -997,6 +1027,7 @@ impl DomainParticipantDisc {
     only_networks: Option<Vec<IpAddr>>,
     same_host_loopback: bool,
     send_on_every_interface: bool,
+    max_sample_size: usize,
     dp_waker: LoopWaker,
     discovery_sample_sender: ReadySender<mio1::Token>,
   ) -> CreateResult<Self> {
@@ -1015,6 +1046,7 @@ impl DomainParticipantDisc {
       only_networks,
       same_host_loopback,
       send_on_every_interface,
+      max_sample_size,
       dp_waker,
       discovery_sample_sender,
     )?;
@@ -1084,6 +1116,10 @@ impl DomainParticipantDisc {
 
   pub fn participant_id(&self) -> u16 {
     self.dpi.participant_id()
+  }
+
+  pub fn event_loop_iterations(&self) -> u64 {
+    self.dpi.event_loop_iterations()
   }
 
   pub fn discovered_topics(&self) -> Vec<DiscoveredTopicData> {
@@ -1195,6 +1231,8 @@ pub(crate) struct DomainParticipantInner {
   stop_poll_sender: WakeUnboundedSender<EventLoopCommand>,
   ev_loop_handle: Option<JoinHandle<()>>, // this is Option, because it needs to be extracted
   // out of the struct (take) in order to .join() on the handle.
+  // Bumped by the event loop at every iteration (`event_loop_iterations`).
+  event_loop_iterations: Arc<atomic::AtomicU64>,
 
   // Writers
   add_writer_sender: WakeSender<WriterIngredients>,
@@ -1258,6 +1296,7 @@ impl DomainParticipantInner {
     only_networks: Option<Vec<IpAddr>>,
     same_host_loopback: bool,
     send_on_every_interface: bool,
+    max_sample_size: usize,
     dp_waker: LoopWaker,
     discovery_sample_sender: ReadySender<mio1::Token>,
   ) -> CreateResult<Self> {
@@ -1395,6 +1434,8 @@ impl DomainParticipantInner {
     let (stop_poll_sender, stop_poll_receiver) = wake_channel_unbounded(&dp_waker);
 
     let (ev_ready_tx, ev_ready_rx) = std::sync::mpsc::sync_channel::<CreateResult<()>>(1);
+    let event_loop_iterations = Arc::new(atomic::AtomicU64::new(0));
+    let event_loop_iterations_for_ev_loop = Arc::clone(&event_loop_iterations);
 
     // Launch the background thread for DomainParticipant
     let disc_db_clone = discovery_db.clone();
@@ -1435,6 +1476,8 @@ impl DomainParticipantInner {
           socket_send_buffer_size,
           same_host_loopback,
           send_on_every_interface,
+          max_sample_size,
+          event_loop_iterations_for_ev_loop,
           reader_ready_rx,
           writer_ready_rx,
           dp_waker,
@@ -1477,6 +1520,7 @@ impl DomainParticipantInner {
       discovery_sample_sender,
       stop_poll_sender,
       ev_loop_handle: Some(ev_loop_handle),
+      event_loop_iterations,
       add_writer_sender,
       remove_writer_sender,
       writer_ready,
@@ -1699,6 +1743,10 @@ impl DomainParticipantInner {
 
   pub fn participant_id(&self) -> u16 {
     self.domain_info.participant_id
+  }
+
+  pub fn event_loop_iterations(&self) -> u64 {
+    self.event_loop_iterations.load(atomic::Ordering::Relaxed)
   }
 
   pub fn discovered_topics(&self) -> Vec<DiscoveredTopicData> {

@@ -3,7 +3,10 @@ use std::{
   collections::{BTreeMap, BTreeSet, HashMap, VecDeque},
   net::IpAddr,
   rc::Rc,
-  sync::{Arc, RwLock},
+  sync::{
+    atomic::{AtomicU64, Ordering},
+    Arc, RwLock,
+  },
   time::{Duration, Instant},
 };
 
@@ -143,6 +146,13 @@ pub struct DPEventLoop {
 
   // Participant-builder `send_on_every_interface` knob, handed to every writer.
   send_on_every_interface: bool,
+
+  // Participant-builder `max_sample_size`, handed to every reader.
+  max_sample_size: usize,
+
+  // Bumped at every iteration, so the application can tell the loop runs
+  // (`DomainParticipant::event_loop_iterations`).
+  iterations: Arc<AtomicU64>,
 }
 
 impl DPEventLoop {
@@ -168,6 +178,8 @@ impl DPEventLoop {
     socket_send_buffer_size: usize,
     same_host_loopback: bool,
     send_on_every_interface: bool,
+    max_sample_size: usize,
+    iterations: Arc<AtomicU64>,
     reader_ready: ReadyReceiver<EntityId>,
     writer_ready: ReadyReceiver<EntityId>,
     waker: LoopWaker,
@@ -262,6 +274,8 @@ impl DPEventLoop {
       discovery_command_sender,
       same_host_loopback,
       send_on_every_interface,
+      max_sample_size,
+      iterations,
     })
   }
 
@@ -317,6 +331,7 @@ impl DPEventLoop {
           break;
         }
       }
+      ev_wrapper.iterations.fetch_add(1, Ordering::Relaxed);
 
       // liveness watchdog
       let now = Instant::now();
@@ -1075,6 +1090,7 @@ impl DPEventLoop {
 
     // Reader commands share the poll waker. The ready queue records the entity
     // id, so there is nothing to register under the reader token.
+    new_reader.set_max_sample_size(self.max_sample_size);
     new_reader.set_requested_deadline_check_timer();
     trace!("Add reader: {new_reader:?}");
     self.message_receiver.add_reader(new_reader);
@@ -1353,6 +1369,8 @@ mod tests {
         0,
         true,
         false,
+        crate::DomainParticipantBuilder::DEFAULT_MAX_SAMPLE_SIZE,
+        Arc::new(AtomicU64::new(0)),
         reader_ready,
         writer_ready,
         waker,

@@ -193,6 +193,17 @@ pub(crate) struct FragmentAssembler {
   // Whether the owning reader is Reliable. This decides which buffer to drop
   // when `MAX_ASSEMBLY_BUFFERS` is exceeded (see `new_datafrag`).
   reliable: bool,
+  // Largest `dataSize` given a buffer: the buffer is allocated from the first
+  // fragment's announced size, so a hostile or broken writer could otherwise
+  // make us allocate up to 4 GB with one datagram.
+  max_sample_size: usize,
+  // Whether this writer's oversized samples have been reported (once).
+  warned_oversized: bool,
+  // Whether samples dropped because the reader's budget was spent have been
+  // reported (once).
+  warned_over_budget: bool,
+  // When the last DATA_FRAG from this writer arrived.
+  last_datafrag: Timestamp,
 }
 
 impl fmt::Debug for FragmentAssembler {
@@ -204,31 +215,80 @@ impl fmt::Debug for FragmentAssembler {
 }
 
 impl FragmentAssembler {
-  pub fn new(fragment_size: u16, reliable: bool) -> Self {
+  pub fn new(fragment_size: u16, reliable: bool, max_sample_size: usize) -> Self {
     debug!("new FragmentAssembler. frag_size = {fragment_size} reliable = {reliable}");
     Self {
       fragment_size,
       assembly_buffers: BTreeMap::new(),
       reliable,
+      max_sample_size,
+      warned_oversized: false,
+      warned_over_budget: false,
+      last_datafrag: Timestamp::now(),
     }
   }
 
+  /// Whether any sample is being reassembled.
+  pub fn has_buffers(&self) -> bool {
+    !self.assembly_buffers.is_empty()
+  }
+
+  /// Nothing in reassembly, and no DATA_FRAG since `since`: the reader can
+  /// forget this writer.
+  pub fn is_idle_since(&self, since: Timestamp) -> bool {
+    !self.has_buffers() && self.last_datafrag < since
+  }
+
   // Returns completed DDSData, when complete, and disposes the assembly buffer.
+  //
+  // `held` counts the bytes of all the reader's assembly buffers (every
+  // writer's): a new sample is started only if it keeps `held` within
+  // `budget`, and `held` follows every buffer made or dropped here. Without
+  // that, many incomplete samples each within `max_sample_size` (up to
+  // MAX_ASSEMBLY_BUFFERS per writer, and writers cost nothing to invent) add
+  // up to gigabytes.
   pub fn new_datafrag(
     &mut self,
     datafrag: &DataFrag,
     flags: BitFlags<DATAFRAG_Flags>,
+    held: &mut usize,
+    budget: usize,
   ) -> Option<DDSData> {
+    self.last_datafrag = Timestamp::now();
     let writer_sn = datafrag.writer_sn;
     let frag_size = self.fragment_size;
 
     let sn = datafrag.writer_sn;
     match self.assembly_buffers.entry(sn) {
       Entry::Vacant(v) => {
+        if usize::try_from(datafrag.data_size).map_or(true, |size| size > self.max_sample_size) {
+          if !self.warned_oversized {
+            self.warned_oversized = true;
+            warn!(
+              "new_datafrag: dropping fragments of {sn:?}: dataSize {} exceeds the maximum \
+               sample size {} (further oversized samples from this writer are dropped silently)",
+              datafrag.data_size, self.max_sample_size
+            );
+          }
+          return None;
+        }
+        let size = datafrag.data_size as usize; // fits: checked above
+        if held.saturating_add(size) > budget {
+          if !self.warned_over_budget {
+            self.warned_over_budget = true;
+            warn!(
+              "new_datafrag: dropping fragments of {sn:?}: the reader's incomplete samples \
+               already hold {held} of {budget} bytes (further samples from this writer that do \
+               not fit are dropped silently)"
+            );
+          }
+          return None;
+        }
         let Some(buf) = AssemblyBuffer::new(datafrag) else {
           error!("new_datafrag: failed to create AssemblyBuffer for {sn:?}");
           return None;
         };
+        *held += buf.buffer_bytes.len();
         v.insert(buf);
       }
       Entry::Occupied(_) => {}
@@ -247,6 +307,7 @@ impl FragmentAssembler {
     if assembly_buffer.is_complete() {
       debug!("new_datafrag: COMPLETED FRAGMENT");
       if let Some(assembly_buffer) = self.assembly_buffers.remove(&writer_sn) {
+        *held = held.saturating_sub(assembly_buffer.buffer_bytes.len());
         // Return what we have assembled.
         let serialized_data_or_key =
           SerializedPayload::from_bytes(&assembly_buffer.buffer_bytes.freeze()).map_or_else(
@@ -289,19 +350,22 @@ impl FragmentAssembler {
         } else {
           self.assembly_buffers.pop_first()
         };
-        if evicted.is_none() {
-          break;
+        match evicted {
+          Some((_, buffer)) => *held = held.saturating_sub(buffer.buffer_bytes.len()),
+          None => break,
         }
       }
       None
     }
   }
 
-  pub fn garbage_collect_before(&mut self, expire_before: Timestamp) {
+  // `held`: as for `new_datafrag`.
+  pub fn garbage_collect_before(&mut self, expire_before: Timestamp, held: &mut usize) {
     self.assembly_buffers.retain(|sn, ab| {
       let retain = ab.modified_time >= expire_before;
       if !retain {
         info!("AssemblyBuffer dropping {sn:?}");
+        *held = held.saturating_sub(ab.buffer_bytes.len());
       }
       retain
     });
@@ -421,9 +485,97 @@ mod tests {
     let frag_size = 256u16;
     let data_size = 512u32;
     let bad = datafrag(2, 2, frag_size, data_size, vec![0u8; 256]);
-    let mut fa = FragmentAssembler::new(frag_size, true);
+    let mut fa = FragmentAssembler::new(frag_size, true, 1024 * 1024);
     assert!(fa
-      .new_datafrag(&bad, BitFlags::<DATAFRAG_Flags>::empty())
+      .new_datafrag(
+        &bad,
+        BitFlags::<DATAFRAG_Flags>::empty(),
+        &mut 0,
+        usize::MAX
+      )
       .is_none());
+  }
+
+  // A fragment announcing a sample over the bound allocates nothing; samples
+  // within it still reassemble.
+  #[test]
+  fn fragment_assembler_drops_samples_over_the_maximum_size() {
+    use enumflags2::BitFlags;
+
+    use super::FragmentAssembler;
+    use crate::messages::submessages::submessages::DATAFRAG_Flags;
+
+    let frag_size = 1024u16;
+    let mut fa = FragmentAssembler::new(frag_size, true, 4096);
+    let hostile = datafrag(1, 1, frag_size, 0xFFFF_FFF0, vec![0u8; 1024]);
+    assert!(fa
+      .new_datafrag(
+        &hostile,
+        BitFlags::<DATAFRAG_Flags>::empty(),
+        &mut 0,
+        usize::MAX
+      )
+      .is_none());
+    assert!(fa.assembly_buffers.is_empty(), "nothing allocated");
+    assert!(fa.warned_oversized);
+
+    let mut fitting = datafrag(1, 2, frag_size, 2048, vec![0u8; 2048]);
+    fitting.writer_sn = crate::structure::sequence_number::SequenceNumber::new(2);
+    assert!(fa
+      .new_datafrag(
+        &fitting,
+        BitFlags::<DATAFRAG_Flags>::empty(),
+        &mut 0,
+        usize::MAX
+      )
+      .is_some());
+  }
+
+  // Incomplete samples stop being started once they hold the budget; bytes
+  // come back when a sample completes.
+  #[test]
+  fn fragment_assembler_keeps_incomplete_samples_within_the_budget() {
+    use enumflags2::BitFlags;
+
+    use super::FragmentAssembler;
+    use crate::{
+      messages::submessages::submessages::DATAFRAG_Flags,
+      structure::sequence_number::SequenceNumber,
+    };
+
+    let frag_size = 1024u16;
+    let flags = BitFlags::<DATAFRAG_Flags>::empty();
+    let mut fa = FragmentAssembler::new(frag_size, false, 4096);
+    let mut held = 0usize;
+    let first_half = |sn: i64| {
+      let mut frag = datafrag(1, 2, frag_size, 4096, vec![0u8; 2048]);
+      frag.writer_sn = SequenceNumber::new(sn);
+      frag
+    };
+    // Two incomplete samples of 4096 fit a budget of 8192; a third does not.
+    assert!(fa
+      .new_datafrag(&first_half(1), flags, &mut held, 8192)
+      .is_none());
+    assert!(fa
+      .new_datafrag(&first_half(2), flags, &mut held, 8192)
+      .is_none());
+    assert_eq!(held, 8192);
+    assert!(fa
+      .new_datafrag(&first_half(3), flags, &mut held, 8192)
+      .is_none());
+    assert_eq!(held, 8192);
+    assert!(!fa.is_partially_received(SequenceNumber::new(3)));
+    assert!(fa.warned_over_budget);
+    // Sample 1 completes: its bytes are free again.
+    let mut second_half = datafrag(3, 2, frag_size, 4096, vec![0u8; 2048]);
+    second_half.writer_sn = SequenceNumber::new(1);
+    assert!(fa
+      .new_datafrag(&second_half, flags, &mut held, 8192)
+      .is_some());
+    assert_eq!(held, 4096);
+    // Expired buffers give their bytes back too.
+    fa.garbage_collect_before(crate::structure::time::Timestamp::now(), &mut held);
+    assert_eq!(held, 0);
+    assert!(!fa.has_buffers());
   }
 }

@@ -134,6 +134,12 @@ pub(crate) struct Reader {
   received_heartbeat_count: i32,
 
   fragment_assemblers: BTreeMap<GUID, FragmentAssembler>,
+  // Largest sample reassembled from fragments (participant-builder
+  // `max_sample_size`); larger ones are dropped before any allocation.
+  max_sample_size: usize,
+  // Bytes held by all `fragment_assemblers`' buffers, kept within
+  // INCOMPLETE_SAMPLES_HELD maximum-size samples.
+  reassembly_bytes_held: usize,
   last_fragment_garbage_collect: Timestamp,
   matched_writers: BTreeMap<GUID, RtpsWriterProxy>,
   writer_match_count_total: i32, // total count, never decreases
@@ -158,6 +164,10 @@ pub(crate) struct Reader {
 const FRAGMENT_ASSEMBLY_TIMEOUT: Duration = Duration::from_secs(10);
 // minimum interval (max frequency) of AssemblyBuffer GC
 const MIN_FRAGMENT_GC_INTERVAL: Duration = Duration::from_secs(2);
+// How many maximum-size samples' worth of incomplete samples a reader holds,
+// all writers together. Fragments of a sample that does not fit are dropped
+// (a reliable writer sends them again).
+const INCOMPLETE_SAMPLES_HELD: usize = 4;
 
 impl Reader {
   pub(crate) fn new(
@@ -201,6 +211,8 @@ impl Reader {
       heartbeat_suppression_duration: StdDuration::new(0, 0),
       received_heartbeat_count: 0,
       fragment_assemblers: BTreeMap::new(),
+      max_sample_size: crate::DomainParticipantBuilder::DEFAULT_MAX_SAMPLE_SIZE,
+      reassembly_bytes_held: 0,
       last_fragment_garbage_collect: Timestamp::now(),
       matched_writers: BTreeMap::new(),
       writer_match_count_total: 0,
@@ -224,6 +236,12 @@ impl Reader {
   #[allow(dead_code)]
   pub fn entity_token(&self) -> Token {
     self.guid().entity_id.as_token()
+  }
+
+  /// The largest sample this reader reassembles from DATA_FRAGs (the
+  /// participant-builder `max_sample_size`).
+  pub fn set_max_sample_size(&mut self, bytes: usize) {
+    self.max_sample_size = bytes;
   }
 
   pub fn set_requested_deadline_check_timer(&mut self) {
@@ -635,9 +653,19 @@ impl Reader {
 
     // Feed to fragment assembler ...
     let writer_seq_num = datafrag.writer_sn; // for borrow checker
+    let reliable = self.reliability != policy::Reliability::BestEffort;
+    let max_sample_size = self.max_sample_size;
+    let budget = max_sample_size.saturating_mul(INCOMPLETE_SAMPLES_HELD);
     let completed_dds_data = self
-      .fragment_assembler_mutable(writer_guid, datafrag.fragment_size)
-      .new_datafrag(datafrag, datafrag_flags);
+      .fragment_assemblers
+      .entry(writer_guid)
+      .or_insert_with(|| FragmentAssembler::new(datafrag.fragment_size, reliable, max_sample_size))
+      .new_datafrag(
+        datafrag,
+        datafrag_flags,
+        &mut self.reassembly_bytes_held,
+        budget,
+      );
 
     // ... and continue processing, if data was completed.
     if let Some(dds_data) = completed_dds_data {
@@ -655,18 +683,6 @@ impl Reader {
     }
   }
 
-  fn fragment_assembler_mutable(
-    &mut self,
-    writer_guid: GUID,
-    frag_size: u16,
-  ) -> &mut FragmentAssembler {
-    let reliable = self.reliability != policy::Reliability::BestEffort;
-    self
-      .fragment_assemblers
-      .entry(writer_guid)
-      .or_insert_with(|| FragmentAssembler::new(frag_size, reliable))
-  }
-
   fn garbage_collect_fragments(&mut self) {
     // If GC time/packet limit has been exceeded, iterate through
     // fragment assemblers and discard those assembly buffers whose
@@ -678,13 +694,19 @@ impl Reader {
 
       let expire_before = now - FRAGMENT_ASSEMBLY_TIMEOUT;
 
+      let held = &mut self.reassembly_bytes_held;
       self
         .fragment_assemblers
         .iter_mut()
         .for_each(|(writer, fa)| {
           debug!("AssemblyBuffer GC writer {writer:?}");
-          fa.garbage_collect_before(expire_before);
+          fa.garbage_collect_before(expire_before, held);
         });
+      // Writers with nothing in reassembly and silent for as long are forgotten,
+      // so writers that only ever sent unusable fragments do not accumulate.
+      self
+        .fragment_assemblers
+        .retain(|_, fa| !fa.is_idle_since(expire_before));
     } else {
       trace!("Not yet AssemblyBuffer GC time.");
     }

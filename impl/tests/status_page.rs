@@ -1,0 +1,594 @@
+//! `rl status --serve` with real processes: three controllers and the status server on one
+//! DDS domain. `/status.json` is the `rl status --json` object, bad requests get 4xx and the
+//! server serves on, `/metrics` parses with the Prometheus client library, and headless
+//! Chromium shows the LEDs and sees the page follow a `kill -9` of the Primary.
+//!
+//! The Chromium and Prometheus tests need outside tools (Debian's `chromium`, Python's
+//! `prometheus_client`; `.ci/run` installs both), so they are ignored by default.
+
+mod support;
+
+use rl::core::Role;
+use serde_json::Value;
+use std::io::{Read, Write};
+use std::net::TcpStream;
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+use support::Cluster;
+
+/// A port free now on the loopback.
+fn free_port() -> u16 {
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    listener.local_addr().unwrap().port()
+}
+
+/// Sends `request` as is; returns the status code and the body (`None`: no answer). Reads
+/// `Content-Length` bytes of body, or to the close without one.
+fn exchange(port: u16, request: &[u8]) -> Option<(u16, String)> {
+    let mut stream = TcpStream::connect(("127.0.0.1", port)).ok()?;
+    stream.set_read_timeout(Some(Duration::from_secs(5))).ok()?;
+    // A server may answer and close before it has read everything: a failed write is fine.
+    let _ = stream.write_all(request);
+    let mut answer = Vec::new();
+    let mut chunk = [0u8; 4096];
+    loop {
+        if let Some(end) = answer.windows(4).position(|w| w == b"\r\n\r\n") {
+            let head = String::from_utf8_lossy(&answer[..end]).to_ascii_lowercase();
+            let length = head
+                .lines()
+                .find_map(|l| l.strip_prefix("content-length:"))
+                .and_then(|n| n.trim().parse::<usize>().ok());
+            if length.is_some_and(|n| answer.len() >= end + 4 + n) {
+                break;
+            }
+        }
+        match stream.read(&mut chunk) {
+            Ok(0) | Err(_) => break,
+            Ok(n) => answer.extend_from_slice(&chunk[..n]),
+        }
+    }
+    let text = String::from_utf8_lossy(&answer).into_owned();
+    let status = text.split(' ').nth(1)?.parse().ok()?;
+    let body = text
+        .split_once("\r\n\r\n")
+        .map_or("", |(_, b)| b)
+        .to_string();
+    Some((status, body))
+}
+
+fn get(port: u16, path: &str) -> Option<(u16, String)> {
+    exchange(
+        port,
+        format!("GET {path} HTTP/1.1\r\nHost: localhost\r\n\r\n").as_bytes(),
+    )
+}
+
+/// Three controllers in their roles and `rl status --serve` on a free port.
+fn formation(tag: &str, domain: u16) -> (Cluster, u16) {
+    let mut cluster = Cluster::new(tag, domain, "");
+    for id in 1..=3 {
+        cluster.start(id);
+    }
+    cluster.wait_for(
+        "three controllers in three roles",
+        Duration::from_secs(30),
+        |c| {
+            [Role::Primary, Role::Secondary, Role::Tertiary]
+                .iter()
+                .all(|role| (1..=3).any(|id| c.steady_with(id, Some(*role))))
+        },
+    );
+    let port = free_port();
+    let addr = format!("127.0.0.1:{port}");
+    cluster
+        .fleet
+        .start_other("status", &["status", "--serve", &addr])
+        .expect("start rl status --serve");
+    let deadline = Instant::now() + Duration::from_secs(15);
+    loop {
+        if let Some((200, body)) = get(port, "/status.json") {
+            let view: Value = serde_json::from_str(&body).unwrap_or(Value::Null);
+            let alive = view["controllers"]
+                .as_array()
+                .map_or(0, |c| c.iter().filter(|c| c["alive"] == true).count());
+            if alive == 3 {
+                break;
+            }
+        }
+        assert!(
+            Instant::now() < deadline,
+            "rl status --serve never showed three controllers"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    (cluster, port)
+}
+
+/// The shape of a JSON value: object keys (recursively), array element shapes, value kinds.
+fn shape(value: &Value) -> Value {
+    match value {
+        Value::Object(map) => {
+            Value::Object(map.iter().map(|(k, v)| (k.clone(), shape(v))).collect())
+        }
+        Value::Array(items) => Value::Array(items.iter().map(shape).collect()),
+        Value::Number(_) => Value::String("number".into()),
+        Value::String(_) => Value::String("string".into()),
+        Value::Bool(_) => Value::String("bool".into()),
+        Value::Null => Value::String("null".into()),
+    }
+}
+
+#[test]
+fn status_json_is_the_status_object_and_bad_requests_are_refused() {
+    let (cluster, port) = formation("status-page-json", 170);
+
+    // The same object `rl status --json --once` prints, field for field.
+    let once = Command::new(support::RL)
+        .args(["status", "--json", "--once", "--domain", "170"])
+        .output()
+        .expect("rl status --json --once");
+    let printed: Value = serde_json::from_slice(&once.stdout).expect("rl status --json");
+    let (status, body) = get(port, "/status.json").expect("an answer");
+    assert_eq!(status, 200);
+    let served: Value = serde_json::from_str(&body).expect("/status.json is JSON");
+    assert_eq!(
+        shape(&served),
+        shape(&printed),
+        "served {served}\nprinted {printed}"
+    );
+    for id in 1..=3u8 {
+        let pick = |view: &Value| {
+            view["controllers"]
+                .as_array()
+                .and_then(|c| c.iter().find(|c| c["id"] == id))
+                .map(|c| {
+                    (
+                        c["role"].clone(),
+                        c["strength"].clone(),
+                        c["incarnation"].clone(),
+                    )
+                })
+        };
+        assert_eq!(pick(&served), pick(&printed), "C{id}");
+        let role = cluster.role_of(id).map(|r| r.name());
+        assert_eq!(pick(&served).map(|p| p.0), Some(Value::from(role)), "C{id}");
+    }
+
+    // Bad requests: answered 4xx, and the server serves on.
+    let refused: &[(&str, Vec<u8>, u16)] = &[
+        ("garbage", b"\x00\xffnot http at all\r\n\r\n".to_vec(), 400),
+        (
+            "a huge header",
+            {
+                let mut huge = b"GET / HTTP/1.1\r\nX-Filler: ".to_vec();
+                huge.extend(std::iter::repeat_n(b'a', 64 * 1024));
+                huge.extend_from_slice(b"\r\n\r\n");
+                huge
+            },
+            431,
+        ),
+        (
+            "an unknown path",
+            b"GET /etc/passwd HTTP/1.1\r\n\r\n".to_vec(),
+            404,
+        ),
+        (
+            "a POST",
+            b"POST /status.json HTTP/1.1\r\nContent-Length: 0\r\n\r\n".to_vec(),
+            405,
+        ),
+        (
+            "HTTP/2 preface",
+            b"PRI * HTTP/2.0\r\n\r\nSM\r\n\r\n".to_vec(),
+            400,
+        ),
+    ];
+    for (what, request, expected) in refused {
+        let answer = exchange(port, request);
+        assert_eq!(answer.map(|a| a.0), Some(*expected), "{what}");
+        assert_eq!(
+            get(port, "/status.json").map(|a| a.0),
+            Some(200),
+            "after {what}"
+        );
+    }
+    // A client that connects and says nothing holds one connection, not the server.
+    let _silent = TcpStream::connect(("127.0.0.1", port)).expect("connect");
+    let (status, page) = get(port, "/").expect("the page");
+    assert_eq!(status, 200);
+    assert!(page.contains("data-led"), "{page}");
+    assert!(
+        !page.contains("http://") && !page.contains("https://"),
+        "the page loads nothing from elsewhere"
+    );
+}
+
+/// Runs Python's Prometheus parser over `text`: one `name{labels} value` JSON per sample.
+fn prometheus_samples(text: &str) -> Vec<Value> {
+    let script = "import sys, json\n\
+        from prometheus_client.parser import text_string_to_metric_families\n\
+        for family in text_string_to_metric_families(sys.stdin.read()):\n\
+        \x20   for s in family.samples:\n\
+        \x20       print(json.dumps({'family': family.name, 'type': family.type, 'name': s.name, 'labels': s.labels, 'value': s.value}))\n";
+    let mut python = Command::new("python3")
+        .args(["-c", script])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("python3 runs");
+    python
+        .stdin
+        .take()
+        .expect("stdin")
+        .write_all(text.as_bytes())
+        .expect("feed the parser");
+    let output = python.wait_with_output().expect("python3 ends");
+    assert!(
+        output.status.success(),
+        "prometheus_client refused the exposition ({}):\n{text}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    String::from_utf8_lossy(&output.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("a sample line"))
+        .collect()
+}
+
+fn value_of(samples: &[Value], name: &str, labels: &[(&str, &str)]) -> Option<f64> {
+    samples
+        .iter()
+        .find(|s| s["name"] == name && labels.iter().all(|(k, v)| s["labels"][*k] == *v))
+        .and_then(|s| s["value"].as_f64())
+}
+
+#[test]
+#[ignore = "needs Python's prometheus_client (pip install prometheus_client)"]
+fn metrics_parse_with_the_prometheus_client() {
+    let (mut cluster, port) = formation("status-page-metrics", 171);
+    let (status, text) = get(port, "/metrics").expect("an answer");
+    assert_eq!(status, 200);
+    let samples = prometheus_samples(&text);
+    for id in 1..=3u8 {
+        let role = cluster.role_of(id).expect("a role");
+        let c = id.to_string();
+        let strength = value_of(&samples, "rl_strength", &[("controller", &c)]);
+        assert_eq!(strength, Some(f64::from(role.strength())), "C{id}\n{text}");
+        let held = value_of(
+            &samples,
+            "rl_role",
+            &[("controller", &c), ("role", role.name())],
+        );
+        assert_eq!(held, Some(1.0), "C{id}\n{text}");
+        assert_eq!(
+            value_of(&samples, "rl_alive", &[("controller", &c)]),
+            Some(1.0)
+        );
+        let seen = value_of(&samples, "rl_heartbeats_seen_total", &[("controller", &c)]);
+        assert!(seen.is_some_and(|n| n >= 1.0), "C{id}\n{text}");
+    }
+    let primary = (1..=3u8)
+        .find(|id| cluster.role_of(*id) == Some(Role::Primary))
+        .expect("a Primary");
+    assert_eq!(
+        value_of(&samples, "rl_commander", &[]),
+        Some(f64::from(primary))
+    );
+    assert_eq!(
+        value_of(&samples, "rl_commander_changes_total", &[]),
+        Some(0.0)
+    );
+    assert!(
+        samples.iter().all(|s| s["family"] != "rl_controller_alarm"),
+        "{text}"
+    );
+
+    // Kill the Primary: the alarm, the new commander and the change appear. (Changes count
+    // from the end of the status process's first listening window, 1.75 s after its start.)
+    std::thread::sleep(Duration::from_secs(2));
+    cluster.fleet.kill(primary).expect("kill -9");
+    let about = primary.to_string();
+    let deadline = Instant::now() + Duration::from_secs(10);
+    let samples = loop {
+        let (_, text) = get(port, "/metrics").expect("an answer");
+        let samples = prometheus_samples(&text);
+        let alarmed = value_of(
+            &samples,
+            "rl_controller_alarm",
+            &[("about", &about), ("reason", "lost")],
+        );
+        let commander = value_of(&samples, "rl_commander", &[]);
+        if alarmed == Some(1.0) && commander.is_some_and(|c| c != f64::from(primary)) {
+            break samples;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "no alarm or new commander after the kill:\n{text}"
+        );
+        std::thread::sleep(Duration::from_millis(200));
+    };
+    assert_eq!(
+        value_of(&samples, "rl_alive", &[("controller", &about)]),
+        Some(0.0)
+    );
+    assert!(value_of(&samples, "rl_commander_changes_total", &[]).is_some_and(|n| n >= 1.0));
+    assert!(value_of(&samples, "rl_commander_last_gap_ms", &[]).is_some());
+    cluster.pump(Duration::from_millis(10));
+}
+
+/// Chromium on PATH (Debian's `chromium`, or `chromium-browser` elsewhere).
+fn chromium() -> Option<PathBuf> {
+    let path = std::env::var_os("PATH")?;
+    std::env::split_paths(&path)
+        .flat_map(|dir| [dir.join("chromium"), dir.join("chromium-browser")])
+        .find(|candidate| candidate.is_file())
+}
+
+const HEADLESS: &[&str] = &[
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+];
+
+/// A fresh profile directory for one Chromium run.
+fn profile(tag: &str) -> support::tempdir::Dir {
+    support::tempdir::Dir::new(&format!("chromium-{tag}"))
+}
+
+/// The page's DOM after its script ran for a while (in Chromium's virtual time).
+fn dump_dom(browser: &PathBuf, url: &str) -> String {
+    let dir = profile("dom");
+    let output = Command::new(browser)
+        .args(HEADLESS)
+        .args(["--virtual-time-budget=2000", "--dump-dom"])
+        .arg(format!("--user-data-dir={}", dir.0.display()))
+        .arg(url)
+        .stderr(Stdio::null())
+        .output()
+        .expect("chromium runs");
+    String::from_utf8_lossy(&output.stdout).into_owned()
+}
+
+/// The colour an LED shows in a dumped DOM (`None`: no such LED).
+fn led(dom: &str, controller: u8, led: u8) -> Option<String> {
+    let tag_start = format!("data-controller=\"{controller}\" data-led=\"{led}\" data-colour=\"");
+    let at = dom.find(&tag_start)? + tag_start.len();
+    dom[at..].split('"').next().map(str::to_string)
+}
+
+/// A Chromium kept open on a page; its tabs' titles read through the DevTools HTTP endpoint.
+struct OpenPage {
+    browser: Child,
+    debug_port: u16,
+    _profile: support::tempdir::Dir,
+}
+
+impl OpenPage {
+    fn open(browser: &PathBuf, url: &str) -> OpenPage {
+        let dir = profile("live");
+        let debug_port = free_port();
+        let child = Command::new(browser)
+            .args(HEADLESS)
+            .arg(format!("--remote-debugging-port={debug_port}"))
+            .arg("--remote-allow-origins=*")
+            .arg(format!("--user-data-dir={}", dir.0.display()))
+            .arg(url)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("chromium runs");
+        OpenPage {
+            browser: child,
+            debug_port,
+            _profile: dir,
+        }
+    }
+
+    /// The LED colours the open page shows now, read from its live DOM through the DevTools
+    /// protocol (`Runtime.evaluate` over the tab's WebSocket): (controller, LED) -> colour.
+    fn leds(&self) -> Option<std::collections::BTreeMap<(u8, u8), String>> {
+        let (_, body) = get(self.debug_port, "/json/list")?;
+        let tabs: Value = serde_json::from_str(&body).ok()?;
+        let socket_url = tabs.as_array()?.iter().find(|t| t["type"] == "page")?
+            ["webSocketDebuggerUrl"]
+            .as_str()?
+            .to_string();
+        // Chromium names the host the request named; the port is the debugging port.
+        let path = &socket_url[socket_url.find("/devtools/")?..];
+        let socket_url = format!("ws://127.0.0.1:{}{path}", self.debug_port);
+        let (mut socket, _) = match tungstenite::connect(socket_url.as_str()) {
+            Ok(connected) => connected,
+            Err(error) => {
+                eprintln!("DevTools WebSocket {socket_url}: {error}");
+                return None;
+            }
+        };
+        let expression = "JSON.stringify([...document.querySelectorAll('[data-led]')].map(\
+            e => [e.dataset.controller, e.dataset.led, e.dataset.colour]))";
+        let request = serde_json::json!({
+            "id": 1,
+            "method": "Runtime.evaluate",
+            "params": {"expression": expression, "returnByValue": true}
+        });
+        socket
+            .send(tungstenite::Message::text(request.to_string()))
+            .ok()?;
+        loop {
+            let reply = socket.read().ok()?;
+            let Ok(text) = reply.to_text() else { continue };
+            let reply: Value = serde_json::from_str(text).ok()?;
+            if reply["id"] != 1 {
+                continue;
+            }
+            let list: Vec<(String, String, String)> =
+                serde_json::from_str(reply["result"]["result"]["value"].as_str()?).ok()?;
+            let _ = socket.close(None);
+            return Some(
+                list.into_iter()
+                    .filter_map(|(c, n, colour)| Some(((c.parse().ok()?, n.parse().ok()?), colour)))
+                    .collect(),
+            );
+        }
+    }
+
+    /// The title of the page's tab now, if the browser answers.
+    fn title(&self) -> Option<String> {
+        let (_, body) = get(self.debug_port, "/json/list")?;
+        let tabs: Value = serde_json::from_str(&body).ok()?;
+        tabs.as_array()?
+            .iter()
+            .filter(|t| t["type"] == "page")
+            .find_map(|t| {
+                t["title"]
+                    .as_str()
+                    .filter(|t| t.starts_with("RL:"))
+                    .map(str::to_string)
+            })
+    }
+}
+
+impl Drop for OpenPage {
+    fn drop(&mut self) {
+        let _ = self.browser.kill();
+        let _ = self.browser.wait();
+        // Chromium's helper processes outlive the browser briefly and write to the profile.
+        std::thread::sleep(Duration::from_millis(300));
+    }
+}
+
+#[test]
+#[ignore = "needs chromium (apt install chromium)"]
+fn chromium_shows_the_leds_and_follows_a_kill_of_the_primary() {
+    let browser =
+        chromium().unwrap_or_else(|| panic!("no chromium on PATH (apt install chromium)"));
+    let (mut cluster, port) = formation("status-page-chromium", 172);
+    let url = format!("http://127.0.0.1:{port}/");
+    let primary = (1..=3u8)
+        .find(|id| cluster.role_of(*id) == Some(Role::Primary))
+        .expect("a Primary");
+
+    // Every controller's LEDs: green on its own role and on LED4, off elsewhere.
+    let dom = dump_dom(&browser, &url);
+    for id in 1..=3u8 {
+        let rank = cluster.role_of(id).expect("a role").rank() as u8 + 1;
+        for n in 1..=4u8 {
+            let expected = if n == rank || n == 4 { "green" } else { "off" };
+            assert_eq!(
+                led(&dom, id, n).as_deref(),
+                Some(expected),
+                "C{id} LED{n}\n{dom}"
+            );
+        }
+    }
+    if let Ok(dir) = std::env::var("RL_STATUS_SCREENSHOT_DIR") {
+        screenshot(&browser, &url, &format!("{dir}/status-page.png"));
+    }
+
+    // An open page follows the kill without a reload.
+    let page = OpenPage::open(&browser, &url);
+    let lost = format!("C{primary} LOST");
+    let deadline = Instant::now() + Duration::from_secs(15);
+    let formed = |t: &String| {
+        ["primary", "secondary", "tertiary"]
+            .iter()
+            .all(|r| t.contains(r))
+    };
+    while !page.title().is_some_and(|t| formed(&t)) {
+        assert!(
+            Instant::now() < deadline,
+            "the page never showed the formation: {:?}",
+            page.title()
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    cluster.fleet.kill(primary).expect("kill -9");
+    let killed = Instant::now();
+    let mut title = page.title();
+    while !title.as_ref().is_some_and(|t| t.contains(&lost)) {
+        assert!(
+            killed.elapsed() < Duration::from_secs(2),
+            "the page did not show C{primary} lost within 2 s of the kill: {title:?}"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+        title = page.title();
+    }
+    let latency = killed.elapsed();
+    eprintln!(
+        "the open page showed the kill after {} ms: {title:?}",
+        latency.as_millis()
+    );
+    // Its LEDs, read from the live DOM: the killed controller's unknown, a survivor's red for
+    // the failed unit, within 2 s of the kill.
+    let leds_follow = |leds: &std::collections::BTreeMap<(u8, u8), String>| {
+        let unknown = (1..=4).all(|n| leds.get(&(primary, n)).is_some_and(|c| c == "unknown"));
+        let red = (1..=3u8)
+            .filter(|id| *id != primary)
+            .any(|id| (1..=3).any(|n| leds.get(&(id, n)).is_some_and(|c| c == "red")));
+        unknown && red
+    };
+    let mut leds = page.leds();
+    while !leds.as_ref().is_some_and(leds_follow) {
+        assert!(
+            killed.elapsed() < Duration::from_secs(2),
+            "the open page's LEDs did not follow the kill of C{primary} within 2 s: {leds:?}"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+        leds = page.leds();
+    }
+    eprintln!(
+        "the open page's LEDs showed the kill after {} ms",
+        killed.elapsed().as_millis()
+    );
+
+    // The LEDs: the killed controller's are unknown, a survivor shows the failed unit red.
+    let deadline = Instant::now() + Duration::from_secs(5);
+    loop {
+        let dom = dump_dom(&browser, &url);
+        let unknown = (1..=4).all(|n| led(&dom, primary, n).as_deref() == Some("unknown"));
+        let red = (1..=3u8)
+            .filter(|id| *id != primary)
+            .any(|id| (1..=3).any(|n| led(&dom, id, n).as_deref() == Some("red")));
+        if unknown && red {
+            // Includes starting a fresh Chromium for the dump.
+            eprintln!(
+                "a page loaded after the kill showed the LEDs {} ms after it",
+                killed.elapsed().as_millis()
+            );
+            break;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "no red LED for the failed unit:\n{dom}"
+        );
+    }
+    if let Ok(dir) = std::env::var("RL_STATUS_SCREENSHOT_DIR") {
+        screenshot(&browser, &url, &format!("{dir}/status-page-after-kill.png"));
+    }
+    cluster.pump(Duration::from_millis(10));
+}
+
+/// A screenshot of the page (for the documentation: `RL_STATUS_SCREENSHOT_DIR=docs/img`).
+fn screenshot(browser: &PathBuf, url: &str, path: &str) {
+    let dir = profile("shot");
+    let status = Command::new(browser)
+        .args(HEADLESS)
+        .args([
+            "--virtual-time-budget=2000",
+            "--hide-scrollbars",
+            "--window-size=1200,800",
+        ])
+        .arg(format!("--screenshot={path}"))
+        .arg(format!("--user-data-dir={}", dir.0.display()))
+        .arg(url)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .expect("chromium runs");
+    assert!(status.success(), "chromium --screenshot failed");
+}
