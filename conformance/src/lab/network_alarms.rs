@@ -89,7 +89,12 @@ pub struct NapRecord {
 /// controller id and event; `None` for any other line.
 pub fn parse(text: &str) -> Option<(u64, u8, NapEvent)> {
     let line = EventLine::parse(text)?;
-    let event = match line.event {
+    Some((line.t_ms, line.id, nap_event(&line.event)?))
+}
+
+/// The network alarm or conclusion an event is, if it is one.
+pub fn nap_event(event: &Event) -> Option<NapEvent> {
+    match event {
         Event::NetworkAlarm {
             network,
             controller,
@@ -101,25 +106,24 @@ pub fn parse(text: &str) -> Option<(u64, u8, NapEvent)> {
                 Network::A => Net::A,
                 Network::B => Net::B,
             };
-            NapEvent::Alarm {
+            Some(NapEvent::Alarm {
                 subject: controller.map_or(Subject::Network(net), |controller| {
                     Subject::Transceiver { controller, net }
                 }),
-                raised,
+                raised: *raised,
                 certainty: certainty.map(|c| certainty_name(c).to_string()),
-                cause,
-            }
+                cause: cause.clone(),
+            })
         }
         Event::NetworkConclusion {
             conclusion,
             findings,
-        } => NapEvent::Conclusion {
-            text: conclusion,
-            findings,
-        },
-        _ => return None,
-    };
-    Some((line.t_ms, line.id, event))
+        } => Some(NapEvent::Conclusion {
+            text: conclusion.clone(),
+            findings: findings.clone(),
+        }),
+        _ => None,
+    }
 }
 
 /// A certainty as the event line writes it.

@@ -71,18 +71,18 @@ impl Observations {
                     .iter()
                     .find(|l| l.label() == source)
                     .map_or(0.0, |l| l.round_clock_offset_ms() as f64);
-                if let Some((t_ms, id, event)) = network_alarms::parse(&line.text) {
-                    self.network.push(NapRecord {
-                        life: source.to_string(),
-                        id,
-                        at_ms: clock.of_wall_ms(t_ms as f64 - offset_ms),
-                        event,
-                    });
-                    return;
-                }
                 let Some(event) = EventLine::parse(&line.text) else {
                     return;
                 };
+                if let Some(nap) = network_alarms::nap_event(&event.event) {
+                    self.network.push(NapRecord {
+                        life: source.to_string(),
+                        id: event.id,
+                        at_ms: clock.of_wall_ms(event.t_ms as f64 - offset_ms),
+                        event: nap,
+                    });
+                    return;
+                }
                 self.controller.push(ControllerEvent {
                     life: source.to_string(),
                     at_ms: clock.of_wall_ms(event.t_ms as f64 - offset_ms),
