@@ -387,7 +387,7 @@ impl Voting {
             self.step(Input::Heartbeat(heartbeat.value));
         }
         for vote in self.endpoints.votes_in.take() {
-            if self.admit_vote(vote.value.from, vote.writer) {
+            if self.admit_vote(&vote) {
                 self.step(Input::Vote(vote.value));
             }
         }

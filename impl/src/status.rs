@@ -334,7 +334,7 @@ impl BoardFeed {
             let admission =
                 self.identities
                     .heartbeat(received.value.id, received.value.incarnation, from, now);
-            if admission == crate::identity::Admission::Accepted {
+            if !matches!(admission, crate::identity::Admission::Impostor { .. }) {
                 heartbeats.push(received.value);
             }
         }

@@ -1,7 +1,7 @@
 //! The voting loop's guard against samples in another controller's name (crate::identity):
-//! a heartbeat or vote for a controller id from a participant other than the one that id
-//! speaks from is not believed; its first one raises an impostor alarm about that id, which
-//! clears once no impostor has been heard for the peer deadline.
+//! a copy of a live controller's heartbeat or vote from another participant, and anything from
+//! a participant that lost a contest for an id, is not believed; the first raises an impostor
+//! alarm about that id, which clears once no impostor has been heard for the peer deadline.
 //!
 //! Heartbeats with this controller's own id are let through: the core ignores them and counts
 //! those of another incarnation (another process configured with its id, a console warning),
@@ -29,13 +29,16 @@ impl Voting {
     }
 
     /// Whether to believe a vote record, by the participant that wrote it.
-    pub(super) fn admit_vote(&mut self, id: ControllerId, writer: crate::dds::GUID) -> bool {
+    pub(super) fn admit_vote(&mut self, vote: &Received<crate::core::VoteRecord>) -> bool {
+        let (id, writer) = (vote.value.from, vote.writer);
         if id == self.core.config().id {
             return true;
         }
         let now_ms = self.clock.now_ms();
         let from = ParticipantKey::of(writer);
-        let admission = self.identities.vote(id, from, now_ms);
+        let admission = self
+            .identities
+            .vote(id, vote.value.incarnation, from, now_ms);
         self.on_admission(id, "vote", from, admission)
     }
 
@@ -48,6 +51,16 @@ impl Voting {
     ) -> bool {
         match admission {
             Admission::Accepted => true,
+            Admission::Contested => {
+                warn!(
+                    "C{}: two participants speak as C{id} (another process with id {id}, or a \
+                     forgery): believing the one that spoke first, {}",
+                    self.core.config().id,
+                    hex(from)
+                );
+                self.raise_impostor_alarm(id);
+                true
+            }
             Admission::Impostor { first } => {
                 if first {
                     warn!(
@@ -57,13 +70,17 @@ impl Voting {
                         self.core.config().id,
                         hex(from)
                     );
-                    if !self.impostor_alarms.contains(&id) {
-                        self.impostor_alarms.push(id);
-                        self.alarm(id, AlarmReason::Impostor, true);
-                    }
+                    self.raise_impostor_alarm(id);
                 }
                 false
             }
+        }
+    }
+
+    fn raise_impostor_alarm(&mut self, id: ControllerId) {
+        if !self.impostor_alarms.contains(&id) {
+            self.impostor_alarms.push(id);
+            self.alarm(id, AlarmReason::Impostor, true);
         }
     }
 

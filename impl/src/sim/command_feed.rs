@@ -60,18 +60,24 @@ impl CommandFeed {
         {
             self.refresh(session, now_ms);
         }
-        let mut newest = None;
+        let mut batch = Vec::new();
         for command in self.commands.take() {
-            let writer = command.writer;
             // A writer not yet in discovery: look again, at most every 10 ms.
-            if !self.strengths.contains_key(&writer)
+            if !self.strengths.contains_key(&command.writer)
                 && self
                     .last_refresh_ms
                     .is_none_or(|last| now_ms.saturating_sub(last) >= 10)
             {
                 self.refresh(session, now_ms);
             }
-            let strength = self.strengths.get(&writer).copied().unwrap_or(0);
+            let strength = self.strengths.get(&command.writer).copied().unwrap_or(0);
+            batch.push((strength, command));
+        }
+        // A burst goes strongest first, as at `rl servo` (crate::sim::servo).
+        batch.sort_by_key(|(strength, _)| std::cmp::Reverse(*strength));
+        let mut newest = None;
+        for (strength, command) in batch {
+            let writer = command.writer;
             if self.trust.admit(writer, strength, now_ms).is_err() {
                 continue;
             }

@@ -69,7 +69,7 @@ impl CommandTrust {
             from,
             now_ms,
         );
-        admission == Admission::Accepted
+        !matches!(admission, Admission::Impostor { .. })
     }
 
     /// Whether to take a command from `writer` at `strength`.

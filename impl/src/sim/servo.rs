@@ -312,8 +312,18 @@ impl Servo {
         if self.writers.refresh_due(now, DISCOVERY_REFRESH_MS) {
             self.refresh_writers(session, now);
         }
+        // Samples taken together arrived together (a stall of this process or of the network
+        // delivers a burst): the strongest writer's go first, so that ownership passes to the
+        // strongest live writer and not to whichever sample happens to lead the burst. The
+        // sort is stable: each writer's samples keep their order.
+        let now = self.now_ms();
+        let mut batch: Vec<(i32, Received<ServoControl>)> = Vec::new();
         for command in self.commands.take() {
-            if !self.offer(session, command)? {
+            batch.push((self.strength_of(session, command.writer, now), command));
+        }
+        batch.sort_by_key(|(strength, _)| std::cmp::Reverse(*strength));
+        for (strength, command) in batch {
+            if !self.offer(command, strength)? {
                 return Ok(false);
             }
         }
@@ -342,10 +352,9 @@ impl Servo {
 
     /// Offers one command to the arbiter and prints what changed; `Ok(false)` when stdout is
     /// gone.
-    fn offer(&mut self, session: &Session, command: Received<ServoControl>) -> Result<bool, Error> {
+    fn offer(&mut self, command: Received<ServoControl>, strength: i32) -> Result<bool, Error> {
         let now = self.now_ms();
         let writer = command.writer;
-        let strength = self.strength_of(session, writer, now);
         if let Err(refusal) = self.trust.admit(writer, strength, now) {
             if self.trust.first_warning(writer) {
                 tracing::warn!(
