@@ -97,9 +97,13 @@ impl Fleet {
     }
 
     fn command(&self, args: &[&str]) -> Command {
+        self.command_configured(args, self.config.as_deref())
+    }
+
+    fn command_configured(&self, args: &[&str], config: Option<&Path>) -> Command {
         let mut command = Command::new(&self.exe);
         command.args(args);
-        if let Some(config) = &self.config {
+        if let Some(config) = config {
             command.arg("--config").arg(config);
         }
         command
@@ -132,6 +136,38 @@ impl Fleet {
         forward_lines(&mut child, &format!("C{id}"), self.lines.clone());
         let pid = child.id();
         self.controllers.insert(id, child);
+        Ok(pid)
+    }
+
+    /// Starts `rl controller --id <id> <extra>` with its own configuration file (each
+    /// secured controller names its own keystore); returns its pid.
+    pub fn start_controller_configured(
+        &mut self,
+        id: ControllerId,
+        config: &Path,
+        extra: &[&str],
+    ) -> std::io::Result<u32> {
+        let id_text = id.to_string();
+        let mut args = vec!["controller", "--id", &id_text];
+        args.extend_from_slice(extra);
+        let mut child = self.command_configured(&args, Some(config)).spawn()?;
+        forward_lines(&mut child, &format!("C{id}"), self.lines.clone());
+        let pid = child.id();
+        self.controllers.insert(id, child);
+        Ok(pid)
+    }
+
+    /// Starts another `rl` subcommand with its own configuration file, tagged `source`.
+    pub fn start_other_configured(
+        &mut self,
+        source: &str,
+        config: &Path,
+        args: &[&str],
+    ) -> std::io::Result<u32> {
+        let mut child = self.command_configured(args, Some(config)).spawn()?;
+        forward_lines(&mut child, source, self.lines.clone());
+        let pid = child.id();
+        self.others.push(child);
         Ok(pid)
     }
 

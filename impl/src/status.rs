@@ -289,12 +289,7 @@ impl BoardFeed {
 pub fn run(args: StatusArgs) -> Result<(), crate::Error> {
     let config = crate::controller::load_config(args.config.as_deref(), args.domain)?;
     let stop = crate::controller::stop_on_signals()?;
-    let session = if config.networks.configured() {
-        crate::dds::Session::on_every_interface(&config.dds, &config.timing)
-    } else {
-        crate::dds::Session::new(&config.dds, &config.timing)
-    }
-    .map_err(|e| crate::Error::Dds(e.to_string()))?;
+    let session = crate::dds::Session::for_config(&config)?;
     let mut feed = BoardFeed::new(&session)?;
     let mut board = Board::default();
     let period_ms = config.timing.heartbeat_period_ms;

@@ -169,7 +169,7 @@ fn parse_errors_name_the_field_and_place() {
     assert_eq!(field.as_deref(), Some("timin"));
     assert_eq!(
         message,
-        "rl.toml:1:1: unknown field `timin`, expected one of `timing`, `dds`, `tracker`, `leds`, `networks`"
+        "rl.toml:1:1: unknown field `timin`, expected one of `timing`, `dds`, `tracker`, `leds`, `networks`, `security`"
     );
 
     let (field, message) = error_of("[timing]\nheartbeat = 250\n");

@@ -134,7 +134,7 @@ fn create_topic(
 impl Session {
     /// Joins `dds.domain` and creates the RL topics. `timing` sets the deadlines.
     pub fn new(dds: &Dds, timing: &Timing) -> Result<Session, DdsError> {
-        Session::open(dds, timing, false)
+        Session::open(dds, timing, false, None)
     }
 
     /// The same on two redundant networks: every datagram goes out on every interface, so
@@ -142,17 +142,51 @@ impl Session {
     /// interface it first heard that reader on, and takes about 30 s to notice that it died
     /// (docs/protocol.md, "Two networks").
     pub fn on_every_interface(dds: &Dds, timing: &Timing) -> Result<Session, DdsError> {
-        Session::open(dds, timing, true)
+        Session::open(dds, timing, true, None)
     }
 
-    fn open(dds: &Dds, timing: &Timing, every_interface: bool) -> Result<Session, DdsError> {
+    /// A session as `new` or `on_every_interface` make it, secured with `keystore` when one
+    /// is given (DDS Security: authenticated, access-controlled topics; crate::security).
+    pub fn with_keystore(
+        dds: &Dds,
+        timing: &Timing,
+        every_interface: bool,
+        keystore: Option<&crate::security::Keystore>,
+    ) -> Result<Session, DdsError> {
+        Session::open(dds, timing, every_interface, keystore)
+    }
+
+    /// The session a command's configuration asks for: its keystore checked and used, on
+    /// every interface when two networks are configured.
+    pub fn for_config(config: &crate::config::Config) -> Result<Session, crate::Error> {
+        let keystore = crate::security::keystore_of(config)?;
+        Ok(Session::open(
+            &config.dds,
+            &config.timing,
+            config.networks.configured(),
+            keystore.as_ref(),
+        )?)
+    }
+
+    fn open(
+        dds: &Dds,
+        timing: &Timing,
+        every_interface: bool,
+        keystore: Option<&crate::security::Keystore>,
+    ) -> Result<Session, DdsError> {
         let participant_error = |reason: String| DdsError::Participant {
             domain: dds.domain,
             reason,
         };
-        let context = if every_interface {
-            let participant = DomainParticipantBuilder::new(dds.domain)
-                .send_on_every_interface(true)
+        let context = if every_interface || keystore.is_some() {
+            let builder =
+                DomainParticipantBuilder::new(dds.domain).send_on_every_interface(every_interface);
+            #[cfg(feature = "security")]
+            let builder = match keystore {
+                Some(keystore) => builder.builtin_security(keystore.participant_files()),
+                None => builder,
+            };
+            let participant = builder
                 .build()
                 .map_err(|e| participant_error(e.to_string()))?;
             Context::from_domain_participant(participant)

@@ -1,0 +1,125 @@
+//! DDS Security for RL's control plane (docs/security.md): keystores, their start-up check,
+//! and `rl keys`, which makes them.
+//!
+//! With `[security] keystore` set, every RL participant (controller, `rl status`, `rl servo`,
+//! `rl shapes`) authenticates with a certificate from the RL CA, and the governance and
+//! permissions documents (signed by the same CA) decide who may write which topic. Before the
+//! participant is created, [`keystore_of`] checks the files (the command exits with status 2
+//! naming the one at fault); the participant itself is created by
+//! [`crate::dds::Session::with_keystore`]. The network monitor's participants stay
+//! unsecured: they carry only network heartbeats on their own domains (docs/security.md).
+//!
+//! The cryptography (RustDDS's builtin plugins, rcgen, ring) is behind the `security`
+//! feature; without it a keystore in the configuration is refused and `rl keys` says so.
+
+#[cfg(feature = "security")]
+mod check;
+pub mod documents;
+#[cfg(feature = "security")]
+pub mod keys;
+#[cfg(feature = "security")]
+mod pem;
+#[cfg(feature = "security")]
+mod smime;
+
+use crate::config::Config;
+use std::path::{Path, PathBuf};
+
+/// The CA's private key (only in the directory `rl keys init` made).
+pub const CA_KEY: &str = "ca.key.pem";
+/// The CA certificate: identity CA and permissions CA both.
+pub const CA_CERT: &str = "ca.cert.pem";
+/// The governance document with every RL topic protected.
+pub const GOVERNANCE: &str = "governance.p7s";
+/// The governance document with the device topics open (`open_device_topics`).
+pub const GOVERNANCE_OPEN: &str = "governance_open_device_topics.p7s";
+/// The participant's identity certificate.
+pub const CERT: &str = "cert.pem";
+/// The participant's private key (PKCS#8).
+pub const KEY: &str = "key.pem";
+/// The participant's permissions document.
+pub const PERMISSIONS: &str = "permissions.p7s";
+
+/// A keystore file that is missing, unreadable, expired or does not belong with the others.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("security keystore: {}: {problem}", file.display())]
+pub struct KeystoreError {
+    pub file: PathBuf,
+    pub problem: String,
+}
+
+impl KeystoreError {
+    pub fn new(file: &Path, problem: impl Into<String>) -> KeystoreError {
+        KeystoreError {
+            file: file.to_path_buf(),
+            problem: problem.into(),
+        }
+    }
+}
+
+/// A checked keystore: one participant's files.
+#[derive(Clone, Debug)]
+pub struct Keystore {
+    pub dir: PathBuf,
+    pub open_device_topics: bool,
+}
+
+impl Keystore {
+    pub fn path(&self, name: &str) -> PathBuf {
+        self.dir.join(name)
+    }
+
+    /// The governance document in force.
+    pub fn governance_file(&self) -> &'static str {
+        if self.open_device_topics {
+            GOVERNANCE_OPEN
+        } else {
+            GOVERNANCE
+        }
+    }
+
+    /// Checks the keystore at `dir` (every file, see `check.rs`).
+    pub fn open(dir: &Path, open_device_topics: bool) -> Result<Keystore, KeystoreError> {
+        let keystore = Keystore {
+            dir: dir.to_path_buf(),
+            open_device_topics,
+        };
+        #[cfg(feature = "security")]
+        check::check(&keystore)?;
+        #[cfg(not(feature = "security"))]
+        return Err(KeystoreError::new(
+            dir,
+            "this rl was built without the `security` feature",
+        ));
+        #[cfg(feature = "security")]
+        Ok(keystore)
+    }
+
+    /// RustDDS's view of the files.
+    #[cfg(feature = "security")]
+    pub fn participant_files(&self) -> rustdds::DomainParticipantSecurityConfigFiles {
+        use rustdds::DomainParticipantSecurityConfigFiles as Files;
+        let mut files = Files::with_ros_default_names(&self.dir, String::new());
+        files.identity_ca_certificate = self.path(CA_CERT);
+        files.permissions_ca_certificate = self.path(CA_CERT);
+        files.domain_governance_document = self.path(self.governance_file());
+        files
+    }
+}
+
+/// The checked keystore `config` names (`None`: security off). A problem is a usage error
+/// (exit status 2) naming the file.
+pub fn keystore_of(config: &Config) -> Result<Option<Keystore>, crate::Error> {
+    if !config.security.enabled() {
+        return Ok(None);
+    }
+    Keystore::open(
+        Path::new(&config.security.keystore),
+        config.security.open_device_topics,
+    )
+    .map(Some)
+    .map_err(|e| crate::Error::Usage(e.to_string()))
+}
+
+mod cli;
+pub use cli::{run, KeysArgs};
