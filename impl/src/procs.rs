@@ -91,6 +91,11 @@ impl Fleet {
         )
     }
 
+    /// The configuration file every child gets (unless started with its own).
+    pub fn config(&self) -> Option<&Path> {
+        self.config.as_deref()
+    }
+
     /// An environment variable every child gets (e.g. `RUST_LOG`).
     pub fn env(&mut self, key: &str, value: &str) {
         self.extra_env.push((key.into(), value.into()));

@@ -141,9 +141,7 @@ pub fn failover(
         ),
     )?;
     let (mut fleet, mut watch) = setup.fleet(&config);
-    fleet
-        .start_other("servo", &["servo", "--json"])
-        .map_err(BenchError::spawn)?;
+    setup.start_app(&mut fleet, "servo", &["servo", "--json"])?;
     for id in 1..=3 {
         setup.start_controller(&mut fleet, id)?;
     }

@@ -277,7 +277,10 @@ fn a_missing_expired_or_mismatched_keystore_file_exits_2_naming_it() {
                 let text = std::fs::read_to_string(&path).unwrap();
                 std::fs::write(
                     &path,
-                    text.replace("<data_protection_kind>SIGN", "<data_protection_kind>NONE"),
+                    text.replace(
+                        "<enable_join_access_control>true",
+                        "<enable_join_access_control>false",
+                    ),
                 )
                 .unwrap();
             }),
