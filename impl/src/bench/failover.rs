@@ -145,7 +145,7 @@ pub fn failover(
     for id in 1..=3 {
         setup.start_controller(&mut fleet, id)?;
     }
-    let formed = |w: &Watch| w.all_steady(&[1, 2, 3]) && w.owner.is_some();
+    let formed = |w: &Watch| w.formed() && w.owner.is_some();
     if !watch.wait(FORMATION_TIMEOUT, formed) {
         return Err(BenchError::NoFormation {
             run: format!("failover run at deadline {deadline_ms} ms"),
@@ -274,7 +274,7 @@ fn kill_once(
         None
     };
     setup.start_controller(fleet, primary)?;
-    if !watch.wait(REJOIN_TIMEOUT, |w| w.all_steady(&[1, 2, 3])) {
+    if !watch.wait(REJOIN_TIMEOUT, Watch::formed) {
         sample.failure = sample.failure.or(Some(KillFailure::NotRejoined));
         sample.restarted = restart_failed(setup, fleet, watch)?;
     }
@@ -309,7 +309,7 @@ fn restart_failed(
         setup.start_controller(fleet, id)?;
     }
     if !failed.is_empty() {
-        watch.wait(REJOIN_TIMEOUT, |w| w.all_steady(&[1, 2, 3]));
+        watch.wait(REJOIN_TIMEOUT, Watch::formed);
     }
     Ok(failed)
 }

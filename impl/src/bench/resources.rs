@@ -61,7 +61,7 @@ pub fn resources(setup: &Setup, seconds: u64) -> Result<ResourceResult, BenchErr
     for id in 1..=3 {
         setup.start_controller(&mut fleet, id)?;
     }
-    if !watch.wait(Duration::from_secs(20), |w| w.all_steady(&[1, 2, 3])) {
+    if !watch.wait(Duration::from_secs(20), super::watch::Watch::formed) {
         return Err(BenchError::NoFormation {
             run: "resource run".into(),
             timeout_s: 20,

@@ -37,13 +37,15 @@ fn keystores(dir: &Path) -> PathBuf {
     keys_dir
 }
 
-/// A configuration naming `keystore` (the test timing: a 1 s initialization window).
+/// A configuration naming `keystore`, with a 5 s initialization window: secured discovery
+/// (authentication, key exchange) takes about 2 s on loopback, and within the window the
+/// three form at once as P=1 S=2 T=3.
 fn secured_config(dir: &Path, name: &str, keystore: &Path) -> PathBuf {
     let path = dir.join(format!("{name}.toml"));
     std::fs::write(
         &path,
         format!(
-            "[timing]\ninit_window_ms = 1000\n[security]\nkeystore = {:?}\n",
+            "[timing]\ninit_window_ms = 5000\n[security]\nkeystore = {:?}\n",
             keystore.display().to_string()
         ),
     )
