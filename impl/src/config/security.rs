@@ -1,7 +1,7 @@
 //! The `[security]` section: DDS Security for RL's control plane (docs/security.md).
 //!
 //! `keystore` is the directory `rl keys add` made for this participant (its certificate, key,
-//! permissions, the CA certificate and the governance documents). Empty: security off, and
+//! permissions, the CA certificate and the governance document). Empty: security off, and
 //! anyone on the network can publish RL's topics. Whether the files are present, current and
 //! belong together is checked when a command starts (crate::security), not here: the
 //! configuration is often checked on another machine than the one holding the keys.
@@ -15,7 +15,8 @@ pub struct Security {
     /// The participant's keystore directory. Empty: DDS Security off.
     pub keystore: String,
     /// Leave the device topics (`dds.command_topic`, `dds.camera_topic`) unprotected, so a
-    /// camera or actuator without DDS Security still works; RL's own topics stay protected.
+    /// camera or actuator without DDS Security still works: they go on a second, unsecured
+    /// participant; RL's own topics stay protected.
     pub open_device_topics: bool,
 }
 

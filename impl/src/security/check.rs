@@ -83,7 +83,7 @@ pub fn check(keystore: &Keystore) -> Result<(), KeystoreError> {
         ));
     }
 
-    let governance = keystore.governance_file();
+    let governance = super::GOVERNANCE;
     smime::verify(&read(keystore, governance)?, &ca_key)
         .map_err(|e| KeystoreError::new(&keystore.path(governance), e))?;
 

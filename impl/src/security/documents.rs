@@ -8,10 +8,12 @@
 //! forged or altered sample is dropped. The payload is not protected separately
 //! (`data_protection_kind` NONE): RustDDS 0.15.1 fails to decode every sample whose payload
 //! is signed or encrypted (ring "Unspecified"; measured: no formation), and the submessage's
-//! MAC covers the payload anyway. The device topics
-//! (command, camera) are the same unless they are left open for devices without DDS
-//! Security; then unauthenticated participants are let in, but only to the open topics. Any
-//! other topic (the ROS 2 graph: `rt/rosout`, `ros_discovery_info`) is unprotected.
+//! MAC covers the payload anyway. The device topics (command, camera) are the same; left
+//! open for devices without DDS Security (`open_device_topics`), they are not on the secured
+//! participant at all but on a second, unsecured one (crate::dds::Session): RustDDS 0.15.1
+//! sends protected submessages to unauthenticated participants even for unprotected topics
+//! (measured: an unsecured servo received no command). Any other topic (the ROS 2 graph:
+//! `rt/rosout`, `ros_discovery_info`) is unprotected.
 
 use crate::config::{Dds, DOMAIN_MAX};
 
@@ -87,19 +89,14 @@ fn open_rule(topic: &str) -> String {
     )
 }
 
-/// The governance document; `open_device_topics` leaves the command and camera topics open
-/// to participants without DDS Security.
-pub fn governance(dds: &Dds, open_device_topics: bool) -> String {
+/// The governance document.
+pub fn governance(dds: &Dds) -> String {
     let mut rules = String::new();
     for topic in controller_topics(dds) {
         rules.push_str(&protected_rule(topic));
     }
     for topic in [&dds.command_topic, &dds.camera_topic] {
-        rules.push_str(&if open_device_topics {
-            open_rule(topic)
-        } else {
-            protected_rule(topic)
-        });
+        rules.push_str(&protected_rule(topic));
     }
     // The first matching rule applies: everything else (the ROS 2 graph) is open.
     rules.push_str(&open_rule("*"));
@@ -111,7 +108,7 @@ pub fn governance(dds: &Dds, open_device_topics: bool) -> String {
       <domains>
         <id_range><min>0</min><max>{DOMAIN_MAX}</max></id_range>
       </domains>
-      <allow_unauthenticated_participants>{open_device_topics}</allow_unauthenticated_participants>
+      <allow_unauthenticated_participants>false</allow_unauthenticated_participants>
       <enable_join_access_control>true</enable_join_access_control>
       <discovery_protection_kind>SIGN</discovery_protection_kind>
       <liveliness_protection_kind>SIGN</liveliness_protection_kind>

@@ -2,17 +2,16 @@
 //! each participant's key, certificate and permissions, all ECDSA P-256 (what RustDDS and the
 //! DDS Security builtin plugins accept), in pure Rust.
 //!
-//! `init` writes the CA's key and certificate and both governance documents (RL's topics
-//! protected; the device topics protected or open) to the directory. `add` writes one
+//! `init` writes the CA's key and certificate and the governance document to the directory. `add` writes one
 //! participant's keystore to a subdirectory (`c<id>` for a controller, the name for an
 //! application): its own `key.pem`, `cert.pem` (subject `CN=rl-controller-<id>` or
 //! `CN=rl-app-<name>`) and `permissions.p7s`, plus copies of `ca.cert.pem` and the governance
-//! documents, so that one directory is what a machine needs (`[security] keystore`). The CA
+//! document, so that one directory is what a machine needs (`[security] keystore`). The CA
 //! key never leaves the directory `init` made.
 
 use super::documents::{self, Grantee};
 use super::pem::{self, Der};
-use super::{smime, CA_CERT, CA_KEY, CERT, GOVERNANCE, GOVERNANCE_OPEN, KEY, PERMISSIONS};
+use super::{smime, CA_CERT, CA_KEY, CERT, GOVERNANCE, KEY, PERMISSIONS};
 use crate::config::Dds;
 use rcgen::{
     BasicConstraints, CertificateParams, DnType, IsCa, KeyPair, KeyUsagePurpose, SerialNumber,
@@ -153,15 +152,13 @@ pub fn init(dir: &Path, dds: &Dds, validity: Validity) -> Result<Vec<PathBuf>, K
     write(&dir.join(CA_CERT), &cert.pem(), false)?;
     let ca = load_ca(dir)?;
     let mut written = vec![key_path, dir.join(CA_CERT)];
-    for (name, open) in [(GOVERNANCE, false), (GOVERNANCE_OPEN, true)] {
-        let path = dir.join(name);
-        write(
-            &path,
-            &sign(&ca, &documents::governance(dds, open), &path)?,
-            false,
-        )?;
-        written.push(path);
-    }
+    let path = dir.join(GOVERNANCE);
+    write(
+        &path,
+        &sign(&ca, &documents::governance(dds), &path)?,
+        false,
+    )?;
+    written.push(path);
     Ok(written)
 }
 
@@ -220,7 +217,7 @@ pub fn add(
         &sign(&ca, &permissions, &permissions_path)?,
         false,
     )?;
-    for shared in [CA_CERT, GOVERNANCE, GOVERNANCE_OPEN] {
+    for shared in [CA_CERT, GOVERNANCE] {
         let from = dir.join(shared);
         write(&target.join(shared), &read(&from)?, false)?;
     }

@@ -29,10 +29,8 @@ use std::path::{Path, PathBuf};
 pub const CA_KEY: &str = "ca.key.pem";
 /// The CA certificate: identity CA and permissions CA both.
 pub const CA_CERT: &str = "ca.cert.pem";
-/// The governance document with every RL topic protected.
+/// The governance document: how each topic is protected.
 pub const GOVERNANCE: &str = "governance.p7s";
-/// The governance document with the device topics open (`open_device_topics`).
-pub const GOVERNANCE_OPEN: &str = "governance_open_device_topics.p7s";
 /// The participant's identity certificate.
 pub const CERT: &str = "cert.pem";
 /// The participant's private key (PKCS#8).
@@ -57,7 +55,8 @@ impl KeystoreError {
     }
 }
 
-/// A checked keystore: one participant's files.
+/// A checked keystore: one participant's files. With `open_device_topics` the device topics
+/// go on a second, unsecured participant (crate::dds::Session).
 #[derive(Clone, Debug)]
 pub struct Keystore {
     pub dir: PathBuf,
@@ -67,15 +66,6 @@ pub struct Keystore {
 impl Keystore {
     pub fn path(&self, name: &str) -> PathBuf {
         self.dir.join(name)
-    }
-
-    /// The governance document in force.
-    pub fn governance_file(&self) -> &'static str {
-        if self.open_device_topics {
-            GOVERNANCE_OPEN
-        } else {
-            GOVERNANCE
-        }
     }
 
     /// Checks the keystore at `dir` (every file, see `check.rs`).
@@ -102,7 +92,7 @@ impl Keystore {
         let mut files = Files::with_ros_default_names(&self.dir, String::new());
         files.identity_ca_certificate = self.path(CA_CERT);
         files.permissions_ca_certificate = self.path(CA_CERT);
-        files.domain_governance_document = self.path(self.governance_file());
+        files.domain_governance_document = self.path(GOVERNANCE);
         files
     }
 }
@@ -113,12 +103,27 @@ pub fn keystore_of(config: &Config) -> Result<Option<Keystore>, crate::Error> {
     if !config.security.enabled() {
         return Ok(None);
     }
-    Keystore::open(
-        Path::new(&config.security.keystore),
-        config.security.open_device_topics,
-    )
-    .map(Some)
-    .map_err(|e| crate::Error::Usage(e.to_string()))
+    let dir = keystore_dir(&config.security.keystore)?;
+    Keystore::open(&dir, config.security.open_device_topics)
+        .map(Some)
+        .map_err(|e| crate::Error::Usage(e.to_string()))
+}
+
+/// Where systemd's `LoadCredential=` puts a service's files (docs/deploy-pi.md, "Security"):
+/// `keystore = "$CREDENTIALS_DIRECTORY"` lets one rl.toml serve every Pi's `rl@<id>`.
+const CREDENTIALS_DIRECTORY: &str = "$CREDENTIALS_DIRECTORY";
+
+/// The keystore directory `keystore` names, `$CREDENTIALS_DIRECTORY` expanded.
+fn keystore_dir(keystore: &str) -> Result<PathBuf, crate::Error> {
+    let Some(rest) = keystore.strip_prefix(CREDENTIALS_DIRECTORY) else {
+        return Ok(PathBuf::from(keystore));
+    };
+    let base = std::env::var_os("CREDENTIALS_DIRECTORY").ok_or_else(|| {
+        crate::Error::Usage(format!(
+            "security.keystore = {keystore:?}: CREDENTIALS_DIRECTORY is not set (only a systemd service with LoadCredential= has it)"
+        ))
+    })?;
+    Ok(PathBuf::from(base).join(rest.trim_start_matches('/')))
 }
 
 mod cli;

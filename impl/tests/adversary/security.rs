@@ -1,5 +1,6 @@
-//! DDS Security (docs/security.md): secured controllers form and vote, and an unsecured
-//! participant's forged heartbeat and strength-100 command are refused; a keystore that is
+//! DDS Security (docs/security.md): secured controllers form and vote, an unsecured
+//! participant's forged heartbeat and strength-100 command are refused, and a failover still
+//! reaches the secured servo; a keystore that is
 //! missing a file, expired or mismatched stops every command with exit status 2 naming the
 //! file.
 
@@ -35,6 +36,40 @@ fn keystores(dir: &Path) -> PathBuf {
     }
     keys(&["add", "--dir", text, "--app", "servo"]);
     keys_dir
+}
+
+/// The same with the device topics left open (`open_device_topics`).
+fn open_devices_config(dir: &Path, name: &str, keystore: &Path) -> PathBuf {
+    let path = secured_config(dir, name, keystore);
+    let text = std::fs::read_to_string(&path).unwrap();
+    std::fs::write(&path, format!("{text}open_device_topics = true\n")).unwrap();
+    path
+}
+
+#[test]
+fn with_open_device_topics_an_unsecured_actuator_follows_secured_controllers() {
+    const DOMAIN: u16 = 142;
+    let dir = tempdir::Dir::new("sec-open");
+    let keys_dir = keystores(&dir.0);
+    let mut cluster = Cluster::new("sec-open", DOMAIN, "");
+    // The servo of the test configuration: no keystore.
+    cluster.start_servo();
+    for id in 1..=3u8 {
+        let config =
+            open_devices_config(&dir.0, &format!("c{id}"), &keys_dir.join(format!("c{id}")));
+        cluster
+            .fleet
+            .start_controller_configured(id, &config, &["--json-events"])
+            .unwrap();
+    }
+    cluster.wait_for("P=1 S=2 T=3, secured", FORM, |c| {
+        c.steady_with(1, P) && c.steady_with(2, S) && c.steady_with(3, T)
+    });
+    // It cannot read the (protected) heartbeats, so it cannot name the controller: it sees a
+    // writer at the Primary's strength.
+    cluster.wait_for("the unsecured servo follows the Primary at 30", FORM, |c| {
+        last_command(c).is_some_and(|(_, strength)| strength == 30)
+    });
 }
 
 /// A configuration naming `keystore`, with a 5 s initialization window: secured discovery
@@ -163,6 +198,24 @@ fn an_unsecured_participant_cannot_forge_heartbeats_or_commands() {
             "C{id} exited"
         );
     }
+    // A failover still works secured: the Secondary's new writer at 30 (created after the
+    // servo was matched) is decoded and followed.
+    cluster.fleet.kill(1).unwrap();
+    cluster.wait_for("the secured servo follows C2 at 30", FORM, |c| {
+        last_command(c) == Some((Some(2), 30))
+    });
+}
+
+/// The controller and strength of the last command the secured servo accepted.
+fn last_command(cluster: &Cluster) -> Option<(Option<u8>, i32)> {
+    cluster.servo.iter().rev().find_map(|(_, e)| match e {
+        ServoEvent::Command {
+            controller_id,
+            strength,
+            ..
+        } => Some((*controller_id, *strength)),
+        _ => None,
+    })
 }
 
 /// Runs `rl <args> --config <config> --domain 141` and returns its exit code and stderr.
