@@ -12,7 +12,7 @@ pub struct KeysArgs {
 
 #[derive(Subcommand, Debug)]
 pub enum KeysAction {
-    /// A new CA (ca.key.pem, ca.cert.pem) and the governance documents in DIR.
+    /// A new CA (ca.key.pem, ca.cert.pem) and the governance document in DIR.
     ///
     /// Example: rl keys init --dir keys
     Init {

@@ -1,13 +1,14 @@
-//! Making keystores (`rl keys init`, `rl keys add`): the CA, the governance documents, and
+//! Making keystores (`rl keys init`, `rl keys add`): the CA, the governance document, and
 //! each participant's key, certificate and permissions, all ECDSA P-256 (what RustDDS and the
 //! DDS Security builtin plugins accept), in pure Rust.
 //!
-//! `init` writes the CA's key and certificate and the governance document to the directory. `add` writes one
-//! participant's keystore to a subdirectory (`c<id>` for a controller, the name for an
-//! application): its own `key.pem`, `cert.pem` (subject `CN=rl-controller-<id>` or
-//! `CN=rl-app-<name>`) and `permissions.p7s`, plus copies of `ca.cert.pem` and the governance
-//! document, so that one directory is what a machine needs (`[security] keystore`). The CA
-//! key never leaves the directory `init` made.
+//! `init` writes the CA's key and certificate and the governance document to the directory.
+//! `add` writes one participant's keystore to a subdirectory (`c<id>` for a controller, the
+//! name for an application): its own `key.pem`, `cert.pem` (subject `CN=rl-controller-<id>`
+//! or `CN=rl-app-<name>`) and `permissions.p7s`, plus copies of `ca.cert.pem` and the
+//! governance document, so that one directory is what a machine needs (`[security]
+//! keystore`). The CA key never leaves the directory `init` made. (OpenSSL is not involved:
+//! RustDDS itself needs it only for its Diffie-Hellman exchange.)
 
 use super::documents::{self, Grantee};
 use super::pem::{self, Der};
@@ -133,7 +134,7 @@ fn sign(ca: &Ca, document: &str, path: &Path) -> Result<String, KeysError> {
     .map_err(|e| fail(path, e))
 }
 
-/// `rl keys init`: a new CA and the governance documents in `dir` (created if missing). An
+/// `rl keys init`: a new CA and the governance document in `dir` (created if missing). An
 /// existing CA is never overwritten.
 pub fn init(dir: &Path, dds: &Dds, validity: Validity) -> Result<Vec<PathBuf>, KeysError> {
     std::fs::create_dir_all(dir).map_err(|e| fail(dir, format!("cannot create: {e}")))?;

@@ -1,8 +1,8 @@
 //! DDS Security (docs/security.md): secured controllers form and vote, an unsecured
 //! participant's forged heartbeat and strength-100 command are refused, and a failover still
-//! reaches the secured servo; a keystore that is
-//! missing a file, expired or mismatched stops every command with exit status 2 naming the
-//! file.
+//! reaches the secured servo; with open device topics an unsecured actuator follows secured
+//! controllers; a keystore that is missing a file, expired or mismatched stops every command
+//! with exit status 2 naming the file.
 
 use crate::support::{tempdir, Cluster, RL};
 use rl::core::{Phase, Role};
