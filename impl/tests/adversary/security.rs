@@ -153,7 +153,7 @@ fn an_unsecured_participant_cannot_forge_heartbeats_or_commands() {
     let events_before = cluster.events.len();
     let forging_from = Instant::now();
     while forging_from.elapsed() < Duration::from_secs(4) {
-        heartbeats.write_sample(forged.clone()).unwrap();
+        heartbeats.write_sample(forged).unwrap();
         commands
             .write(rl::wire::ServoControl {
                 pan: 1,
