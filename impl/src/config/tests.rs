@@ -463,3 +463,27 @@ fn networks_are_addresses_or_interfaces_both_or_neither() {
         assert!(message.contains(rule), "{text}: {message}");
     }
 }
+
+#[test]
+fn security_names_its_field() {
+    let config = parse("[security]\nkeystore = \"/etc/rl/keys\"");
+    if cfg!(feature = "security") {
+        let config = config.unwrap();
+        assert!(config.security.enabled());
+        assert!(!config.security.open_device_topics);
+    } else {
+        let message = config.unwrap_err().to_string();
+        assert!(
+            message.contains("security.keystore") && message.contains("`security` feature"),
+            "{message}"
+        );
+    }
+    assert!(!Config::default().security.enabled());
+    let (field, message) = error_of("[security]\nopen_device_topics = true");
+    assert_eq!(
+        field.as_deref(),
+        Some("security.open_device_topics"),
+        "{message}"
+    );
+    assert!(message.contains("security.keystore set"), "{message}");
+}

@@ -235,3 +235,41 @@ pub fn verify(text: &str, ca_public_key: &[u8]) -> Result<String, String> {
     }
     Ok(parts.document)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::{sign, verify};
+    use crate::security::pem::Der;
+    use rcgen::{CertificateParams, KeyPair, PKCS_ECDSA_P256_SHA256};
+    use x509_parser::prelude::FromDer;
+
+    /// A signer: its PKCS#8 key, certificate, issuer name and serial (DER), public key.
+    fn signer() -> (Vec<u8>, Der, Vec<u8>, Vec<u8>, Vec<u8>) {
+        let key = KeyPair::generate_for(&PKCS_ECDSA_P256_SHA256).unwrap();
+        let mut params = CertificateParams::default();
+        params.serial_number = Some(rcgen::SerialNumber::from(7u64));
+        let cert = params.self_signed(&key).unwrap();
+        let der = cert.der().to_vec();
+        let (_, parsed) = x509_parser::certificate::X509Certificate::from_der(&der).unwrap();
+        let issuer = parsed.tbs_certificate.issuer.as_raw().to_vec();
+        let serial = vec![0x02, 0x01, 0x07];
+        let public = parsed.public_key().subject_public_key.data.to_vec();
+        (key.serialize_der(), Der(der), issuer, serial, public)
+    }
+
+    #[test]
+    fn a_signed_document_verifies_and_an_altered_or_foreign_one_does_not() {
+        let (key, cert, issuer, serial, public) = signer();
+        let document = "<dds>\n  <x>1</x>\n</dds>\n";
+        let signed = sign(document, &key, &cert, &issuer, &serial).unwrap();
+        assert_eq!(verify(&signed, &public).unwrap(), document.trim_end());
+        let altered = signed.replace("<x>1</x>", "<x>2</x>");
+        assert!(verify(&altered, &public).unwrap_err().contains("altered"));
+        let (_, _, _, _, other_public) = signer();
+        assert!(verify(&signed, &other_public)
+            .unwrap_err()
+            .contains("not the CA's"));
+        // CRLF line ends (a file edited on another system) verify the same.
+        assert!(verify(&signed.replace('\n', "\r\n"), &public).is_ok());
+    }
+}
