@@ -85,13 +85,10 @@ pub fn run(args: KeysArgs) -> Result<(), crate::Error> {
     use super::documents::Grantee;
     use super::keys;
     let usage = |e: keys::KeysError| crate::Error::Usage(format!("rl keys: {e}"));
-    let (common, written) = match &args.action {
+    let written = match &args.action {
         KeysAction::Init { dir, common } => {
             let config = crate::controller::load_config(common.config.as_deref(), None)?;
-            (
-                common,
-                keys::init(dir, &config.dds, validity(common)?).map_err(usage)?,
-            )
+            keys::init(dir, &config.dds, validity(common)?).map_err(usage)?
         }
         KeysAction::Add {
             dir,
@@ -118,10 +115,9 @@ pub fn run(args: KeysArgs) -> Result<(), crate::Error> {
                 (None, None) => return Err(crate::Error::Usage("--id or --app is needed".into())),
             };
             let target = keys::add(dir, &config.dds, &grantee, validity(common)?).map_err(usage)?;
-            (common, vec![target])
+            vec![target]
         }
     };
-    let _ = common;
     for path in written {
         println!("{}", path.display());
     }
