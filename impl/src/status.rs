@@ -19,7 +19,8 @@ pub struct StatusArgs {
     /// Print one JSON object per refresh instead of a table.
     #[arg(long)]
     pub json: bool,
-    /// Listen for a while (three heartbeat periods), print once and exit.
+    /// Listen for a while (1 s and three heartbeat periods; 3 s more with DDS Security), print
+    /// once and exit.
     #[arg(long)]
     pub once: bool,
     /// Configuration file (domain, topic names, heartbeat period).
@@ -295,7 +296,10 @@ pub fn run(args: StatusArgs) -> Result<(), crate::Error> {
     let period_ms = config.timing.heartbeat_period_ms;
     let alive_within_ms = config.timing.peer_deadline_ms;
     // Discovery plus a few heartbeats: enough to hear every live controller.
-    let listen_ms = 1000 + 3 * period_ms;
+    // Secured, discovery first authenticates and exchanges keys with every participant
+    // (about 2 s on loopback, docs/security.md): listen that much longer.
+    let authentication_ms = if config.security.enabled() { 3000 } else { 0 };
+    let listen_ms = 1000 + 3 * period_ms + authentication_ms;
     let refresh_ms = 500;
     let mut next_print_ms = if args.once { listen_ms } else { refresh_ms };
     loop {

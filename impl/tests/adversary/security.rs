@@ -35,6 +35,7 @@ fn keystores(dir: &Path) -> PathBuf {
         keys(&["add", "--dir", text, "--id", id]);
     }
     keys(&["add", "--dir", text, "--app", "servo"]);
+    keys(&["add", "--dir", text, "--app", "status"]);
     keys_dir
 }
 
@@ -198,6 +199,42 @@ fn an_unsecured_participant_cannot_forge_heartbeats_or_commands() {
             "C{id} exited"
         );
     }
+    // A secured `rl status` sees the three (after authenticating with each).
+    let status_config = secured_config(&dir.0, "status", &keys_dir.join("status"));
+    let output = Command::new(RL)
+        .args([
+            "status",
+            "--json",
+            "--once",
+            "--domain",
+            &DOMAIN.to_string(),
+        ])
+        .arg("--config")
+        .arg(&status_config)
+        .output()
+        .unwrap();
+    let board: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    let roles: Vec<(u64, String)> = board["controllers"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| {
+            (
+                c["id"].as_u64().unwrap(),
+                c["role"].as_str().unwrap_or("-").to_string(),
+            )
+        })
+        .collect();
+    assert_eq!(
+        roles,
+        [
+            (1, "primary".into()),
+            (2, "secondary".into()),
+            (3, "tertiary".into())
+        ],
+        "rl status: {}",
+        String::from_utf8_lossy(&output.stderr)
+    );
     // A failover still works secured: the Secondary's new writer at 30 (created after the
     // servo was matched) is decoded and followed.
     cluster.fleet.kill(1).unwrap();
