@@ -86,12 +86,8 @@ impl Redundancy {
         options: Options,
     ) -> Result<Redundancy, crate::Error> {
         // On two networks every datagram goes out on both, so losing one loses nothing.
-        let session = if config.networks.configured() {
-            Session::on_every_interface(&config.dds, &config.timing)
-        } else {
-            Session::new(&config.dds, &config.timing)
-        };
-        let session = Arc::new(session.map_err(|e| crate::Error::Dds(e.to_string()))?);
+        // With a keystore, secured (checked first: a bad file is named, exit status 2).
+        let session = Arc::new(Session::for_config(config)?);
         let (shared, thread) = runtime::spawn(Arc::clone(&session), config.clone(), id, options)?;
         Ok(Redundancy {
             shared,

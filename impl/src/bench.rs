@@ -15,6 +15,7 @@ pub mod failover;
 pub mod formation;
 mod report;
 pub mod resources;
+pub mod security;
 pub mod stats;
 mod watch;
 
@@ -54,6 +55,11 @@ pub struct BenchArgs {
     /// Print one JSON document with every figure on stdout (the report goes to stderr).
     #[arg(long)]
     pub json: bool,
+    /// Also run the first deadline's failover and the resource run with DDS Security
+    /// (keystores made in the bench's temporary directory) and report each figure secured
+    /// over unsecured (docs/performance.md, "DDS Security").
+    #[arg(long)]
+    pub security: bool,
 }
 
 /// Why `rl bench` failed.
@@ -122,6 +128,9 @@ pub struct BenchResult {
     pub resources: resources::ResourceResult,
     pub failed_kills: u32,
     pub failed_formations: u32,
+    /// The secured runs and their ratios to the unsecured ones (`--security`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub security: Option<security::SecurityComparison>,
 }
 
 /// Where the runs happen: the `rl` executable, a directory for configurations, the domain.
@@ -130,6 +139,8 @@ pub struct Setup {
     dir: PathBuf,
     domain: u16,
     heartbeat_period_ms: u64,
+    /// With DDS Security: the directory of `rl keys` (`c<id>`, `servo`, `camera`).
+    keystores: Option<PathBuf>,
 }
 
 impl Setup {
@@ -146,11 +157,42 @@ impl Setup {
         (fleet, watch::Watch::new(lines))
     }
 
+    /// The fleet's configuration, or with keystores a copy naming `who`'s keystore.
+    fn configured(&self, fleet: &Fleet, who: &str) -> Result<Option<PathBuf>, BenchError> {
+        let (Some(keys), Some(base)) = (&self.keystores, fleet.config()) else {
+            return Ok(None);
+        };
+        let text = std::fs::read_to_string(base)
+            .map_err(|e| BenchError::io(format!("reading {}", base.display()), e))?;
+        let name = format!(
+            "{}-{who}.toml",
+            base.file_stem().unwrap_or_default().to_string_lossy()
+        );
+        let keystore = keys.join(who).display().to_string();
+        self.write_config(
+            &name,
+            &format!("{text}\n[security]\nkeystore = {keystore:?}\n"),
+        )
+        .map(Some)
+    }
+
     fn start_controller(&self, fleet: &mut Fleet, id: ControllerId) -> Result<(), BenchError> {
-        fleet
-            .start_controller_with(id, &["--json-events"])
-            .map(|_| ())
-            .map_err(BenchError::spawn)
+        match self.configured(fleet, &format!("c{id}"))? {
+            Some(config) => fleet.start_controller_configured(id, &config, &["--json-events"]),
+            None => fleet.start_controller_with(id, &["--json-events"]),
+        }
+        .map(|_| ())
+        .map_err(BenchError::spawn)
+    }
+
+    /// Starts `rl <args>` (the servo, the camera) as application `who`.
+    fn start_app(&self, fleet: &mut Fleet, who: &str, args: &[&str]) -> Result<(), BenchError> {
+        match self.configured(fleet, who)? {
+            Some(config) => fleet.start_other_configured(who, &config, args),
+            None => fleet.start_other(who, args),
+        }
+        .map(|_| ())
+        .map_err(BenchError::spawn)
     }
 }
 
@@ -173,8 +215,8 @@ fn command_line(args: &BenchArgs, seed: u64) -> String {
         args.formations,
         args.resources_s,
         args.domain,
-        if args.json { " --json" } else { "" }
-    )
+        if args.json { " --json" } else { "" },
+    ) + if args.security { " --security" } else { "" }
 }
 
 /// Runs the benchmarks, prints the report (and the JSON document), and fails when a kill or
@@ -195,6 +237,7 @@ fn run_bench(args: BenchArgs) -> Result<(), BenchError> {
         dir,
         domain: args.domain,
         heartbeat_period_ms: crate::config::Timing::default().heartbeat_period_ms,
+        keystores: None,
     };
     let measured = measure(&setup, &args, seed);
     let _ = std::fs::remove_dir_all(&setup.dir);
@@ -230,16 +273,28 @@ fn measure(setup: &Setup, args: &BenchArgs, seed: u64) -> Result<BenchResult, Be
     }
     let formation = formation::formation(setup, args.formations)?;
     let resources = resources::resources(setup, args.resources_s)?;
+    let security = match (args.security, failovers.first()) {
+        (true, Some(unsecured)) => Some(security::compare(
+            setup,
+            unsecured,
+            &resources,
+            args,
+            &mut phases,
+        )?),
+        _ => None,
+    };
     Ok(BenchResult {
         rl_version: env!("CARGO_PKG_VERSION"),
         command: command_line(args, seed),
         seed,
         cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
         heartbeat_period_ms: setup.heartbeat_period_ms,
-        failed_kills: failovers.iter().map(|f| f.failed_kills).sum(),
+        failed_kills: failovers.iter().map(|f| f.failed_kills).sum::<u32>()
+            + security.as_ref().map_or(0, |s| s.failover.failed_kills),
         failed_formations: formation.failed_formations,
         failover: failovers,
         formation,
         resources,
+        security,
     })
 }

@@ -18,6 +18,7 @@
 //!   camera and actuator simulators, the live status view, the demo and the benchmarks.
 //! - [`service`], [`logging`]: running under systemd (readiness, watchdog, journald);
 //!   [`failed_exit`]: a controller that votes itself FAILED leaves, to be restarted.
+//! - [`security`]: DDS Security keystores (`rl keys`) and their start-up check.
 //!
 //! docs/architecture.md draws the layout and the RL API on one page.
 
@@ -40,6 +41,7 @@ pub mod network_monitor;
 pub mod procs;
 pub mod round_clock;
 pub mod runtime;
+pub mod security;
 pub mod service;
 pub mod sim;
 pub mod stall;

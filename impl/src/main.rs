@@ -46,6 +46,8 @@ enum Command {
     Demo(rl::demo::DemoArgs),
     /// Failover, promotion, formation and resource benchmarks (docs/performance.md).
     Bench(rl::bench::BenchArgs),
+    /// DDS Security keystores: a CA, then one per controller or application (docs/security.md).
+    Keys(rl::security::KeysArgs),
     /// Check a configuration file and print the effective configuration.
     CheckConfig {
         /// The TOML file to check.
@@ -75,6 +77,7 @@ fn main() -> ExitCode {
         Command::Status(args) => rl::status::run(args),
         Command::Demo(args) => rl::demo::run(args),
         Command::Bench(args) => rl::bench::run(args),
+        Command::Keys(args) => rl::security::run(args),
         Command::CheckConfig { path } => rl::config::Config::load(&path)
             .map(|config| print!("{}", toml::to_string(&config).unwrap_or_default()))
             .map_err(rl::Error::from),

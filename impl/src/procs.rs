@@ -91,15 +91,24 @@ impl Fleet {
         )
     }
 
+    /// The configuration file every child gets (unless started with its own).
+    pub fn config(&self) -> Option<&Path> {
+        self.config.as_deref()
+    }
+
     /// An environment variable every child gets (e.g. `RUST_LOG`).
     pub fn env(&mut self, key: &str, value: &str) {
         self.extra_env.push((key.into(), value.into()));
     }
 
     fn command(&self, args: &[&str]) -> Command {
+        self.command_configured(args, self.config.as_deref())
+    }
+
+    fn command_configured(&self, args: &[&str], config: Option<&Path>) -> Command {
         let mut command = Command::new(&self.exe);
         command.args(args);
-        if let Some(config) = &self.config {
+        if let Some(config) = config {
             command.arg("--config").arg(config);
         }
         command
@@ -132,6 +141,38 @@ impl Fleet {
         forward_lines(&mut child, &format!("C{id}"), self.lines.clone());
         let pid = child.id();
         self.controllers.insert(id, child);
+        Ok(pid)
+    }
+
+    /// Starts `rl controller --id <id> <extra>` with its own configuration file (each
+    /// secured controller names its own keystore); returns its pid.
+    pub fn start_controller_configured(
+        &mut self,
+        id: ControllerId,
+        config: &Path,
+        extra: &[&str],
+    ) -> std::io::Result<u32> {
+        let id_text = id.to_string();
+        let mut args = vec!["controller", "--id", &id_text];
+        args.extend_from_slice(extra);
+        let mut child = self.command_configured(&args, Some(config)).spawn()?;
+        forward_lines(&mut child, &format!("C{id}"), self.lines.clone());
+        let pid = child.id();
+        self.controllers.insert(id, child);
+        Ok(pid)
+    }
+
+    /// Starts another `rl` subcommand with its own configuration file, tagged `source`.
+    pub fn start_other_configured(
+        &mut self,
+        source: &str,
+        config: &Path,
+        args: &[&str],
+    ) -> std::io::Result<u32> {
+        let mut child = self.command_configured(args, Some(config)).spawn()?;
+        forward_lines(&mut child, source, self.lines.clone());
+        let pid = child.id();
+        self.others.push(child);
         Ok(pid)
     }
 

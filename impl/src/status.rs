@@ -19,7 +19,8 @@ pub struct StatusArgs {
     /// Print one JSON object per refresh instead of a table.
     #[arg(long)]
     pub json: bool,
-    /// Listen for a while (three heartbeat periods), print once and exit.
+    /// Listen for a while (1 s and three heartbeat periods; 3 s more with DDS Security), print
+    /// once and exit.
     #[arg(long)]
     pub once: bool,
     /// Configuration file (domain, topic names, heartbeat period).
@@ -355,18 +356,16 @@ impl BoardFeed {
 pub fn run(args: StatusArgs) -> Result<(), crate::Error> {
     let config = crate::controller::load_config(args.config.as_deref(), args.domain)?;
     let stop = crate::controller::stop_on_signals()?;
-    let session = if config.networks.configured() {
-        crate::dds::Session::on_every_interface(&config.dds, &config.timing)
-    } else {
-        crate::dds::Session::new(&config.dds, &config.timing)
-    }
-    .map_err(|e| crate::Error::Dds(e.to_string()))?;
+    let session = crate::dds::Session::for_config(&config)?;
     let mut feed = BoardFeed::new(&session)?;
     let mut board = Board::default();
     let period_ms = config.timing.heartbeat_period_ms;
     let alive_within_ms = config.timing.peer_deadline_ms;
     // Discovery plus a few heartbeats: enough to hear every live controller.
-    let listen_ms = 1000 + 3 * period_ms;
+    // Secured, discovery first authenticates and exchanges keys with every participant
+    // (about 2 s on loopback, docs/security.md): listen that much longer.
+    let authentication_ms = if config.security.enabled() { 3000 } else { 0 };
+    let listen_ms = 1000 + 3 * period_ms + authentication_ms;
     if let Some(addr) = args.serve {
         return serve(&addr, feed, board, alive_within_ms, listen_ms, &stop);
     }

@@ -8,10 +8,15 @@
 //! well-formed samples that name a controller it is not. The fragment tests need root (a memory
 //! cgroup), so they are ignored by default:
 //! `cargo test --release -p rl --test adversary -- --include-ignored`.
+//!
+//! With the `security` feature, `security` runs secured controllers against an unsecured
+//! forger and checks that broken keystores are refused (docs/security.md).
 
 mod support;
 
 mod adversary {
     pub mod forged;
     pub mod fragments;
+    #[cfg(feature = "security")]
+    pub mod security;
 }

@@ -168,16 +168,12 @@ pub fn failover(
         ),
     )?;
     let (mut fleet, mut watch) = setup.fleet(&config);
-    fleet
-        .start_other("servo", &["servo", "--json"])
-        .map_err(BenchError::spawn)?;
-    fleet
-        .start_other("camera", &["shapes", "--json"])
-        .map_err(BenchError::spawn)?;
+    setup.start_app(&mut fleet, "servo", &["servo", "--json"])?;
+    setup.start_app(&mut fleet, "camera", &["shapes", "--json"])?;
     for id in 1..=3 {
         setup.start_controller(&mut fleet, id)?;
     }
-    let formed = |w: &Watch| w.all_steady(&[1, 2, 3]) && w.owner.is_some();
+    let formed = |w: &Watch| w.formed() && w.owner.is_some();
     if !watch.wait(FORMATION_TIMEOUT, formed) {
         return Err(BenchError::NoFormation {
             run: format!("failover run at deadline {deadline_ms} ms"),
@@ -328,7 +324,7 @@ fn kill_once(
     sample.tracking_error_after_max_px = worst(after);
     sample.frames_unseen_after = unseen_after;
     setup.start_controller(fleet, primary)?;
-    if !watch.wait(REJOIN_TIMEOUT, |w| w.all_steady(&[1, 2, 3])) {
+    if !watch.wait(REJOIN_TIMEOUT, Watch::formed) {
         sample.failure = sample.failure.or(Some(KillFailure::NotRejoined));
         sample.restarted = restart_failed(setup, fleet, watch)?;
     }
@@ -363,7 +359,7 @@ fn restart_failed(
         setup.start_controller(fleet, id)?;
     }
     if !failed.is_empty() {
-        watch.wait(REJOIN_TIMEOUT, |w| w.all_steady(&[1, 2, 3]));
+        watch.wait(REJOIN_TIMEOUT, Watch::formed);
     }
     Ok(failed)
 }

@@ -93,5 +93,34 @@ pub fn write_report(out: &mut impl Write, result: &BenchResult) -> std::io::Resu
         result.resources.seconds,
         result.resources.rss_kb_max,
         result.resources.cpu_percent_of_one_core
-    )
+    )?;
+    if let Some(secured) = &result.security {
+        let f = &secured.failover;
+        writeln!(
+            out,
+            "with DDS Security: failover @ deadline {} ms: command gap, ms: {}; promotion, ms: {}; failed kills {} of {}",
+            f.deadline_ms,
+            summary(&f.gap_ms),
+            summary(&f.promotion_ms),
+            f.failed_kills,
+            f.kills
+        )?;
+        writeln!(
+            out,
+            "with DDS Security: controller resources over {} s: max RSS {} kB, CPU {:.2}% of one core",
+            secured.resources.seconds,
+            secured.resources.rss_kb_max,
+            secured.resources.cpu_percent_of_one_core
+        )?;
+        writeln!(
+            out,
+            "secured / unsecured: gap p50 {:.2}, gap max {:.2}, promotion p50 {:.2}, CPU {:.2}, RSS {:.2}",
+            secured.gap_p50_ratio,
+            secured.gap_max_ratio,
+            secured.promotion_p50_ratio,
+            secured.cpu_ratio,
+            secured.rss_ratio
+        )?;
+    }
+    Ok(())
 }

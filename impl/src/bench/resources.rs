@@ -57,13 +57,11 @@ pub fn resources(setup: &Setup, seconds: u64) -> Result<ResourceResult, BenchErr
         "[timing]\ninit_window_ms = 1000\ncommand_republish_ms = 34\n",
     )?;
     let (mut fleet, mut watch) = setup.fleet(&config);
-    fleet
-        .start_other("camera", &["shapes", "--rate-hz", "30"])
-        .map_err(BenchError::spawn)?;
+    setup.start_app(&mut fleet, "camera", &["shapes", "--rate-hz", "30"])?;
     for id in 1..=3 {
         setup.start_controller(&mut fleet, id)?;
     }
-    if !watch.wait(Duration::from_secs(20), |w| w.all_steady(&[1, 2, 3])) {
+    if !watch.wait(Duration::from_secs(20), super::watch::Watch::formed) {
         return Err(BenchError::NoFormation {
             run: "resource run".into(),
             timeout_s: 20,

@@ -149,6 +149,26 @@ impl Watch {
             .map(|s| s.report.id)
     }
 
+    /// Whether controllers 1-3 are steady and commanding as one group: one Primary, one
+    /// Secondary, one Tertiary. (Alone, each is a steady provisional Primary: with DDS
+    /// Security, discovery can outlast a short initialization window, and the group forms by
+    /// merging a moment later.)
+    pub fn formed(&self) -> bool {
+        let mut roles: Vec<Option<Role>> = [1, 2, 3]
+            .iter()
+            .filter_map(|id| self.status.get(id))
+            .filter(|s| s.report.phase == Phase::Steady && s.report.strength.is_some())
+            .map(|s| s.report.role)
+            .collect();
+        roles.sort();
+        roles
+            == [
+                Some(Role::Primary),
+                Some(Role::Secondary),
+                Some(Role::Tertiary),
+            ]
+    }
+
     /// Whether every one of `ids` is steady and commanding.
     pub fn all_steady(&self, ids: &[ControllerId]) -> bool {
         ids.iter().all(|id| {

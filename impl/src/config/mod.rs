@@ -7,7 +7,7 @@
 //!
 //! ```text
 //! rl.toml: timing.peer_deadline_ms = 300: must be a whole number of heartbeat periods (250 ms) and at least 2 of them
-//! rl.toml:1:1: unknown field `timin`, expected one of `timing`, `dds`, `tracker`, `leds`, `networks`
+//! rl.toml:1:1: unknown field `timin`, expected one of `timing`, `dds`, `tracker`, `leds`, `networks`, `security`
 //! rl.toml:2:20: timing.heartbeat_period_ms: invalid type: string "fast", expected u64
 //! ```
 //!
@@ -18,7 +18,7 @@
 //! [`Timing::dead_after_rounds`] and [`Timing::window_rounds`] are those counts
 //! ([`Timing::rounds`] hands them to the core, which derives the rest).
 //!
-//! One file per section (`timing`, `dds`, `tracker`, `leds`, `networks`) with its defaults and rules;
+//! One file per section (`timing`, `dds`, `tracker`, `leds`, `networks`, `security`) with its defaults and rules;
 //! `error` says what goes wrong, `parse` turns TOML errors into one line naming the field.
 
 mod dds;
@@ -26,6 +26,7 @@ mod error;
 mod leds;
 mod networks;
 mod parse;
+mod security;
 #[cfg(test)]
 mod tests;
 mod timing;
@@ -35,6 +36,7 @@ pub use self::dds::{Dds, DOMAIN_MAX};
 pub use self::error::{ConfigError, InvalidValue};
 pub use self::leds::{LedBackend, Leds};
 pub use self::networks::{NetworkName, Networks};
+pub use self::security::Security;
 pub use self::timing::{Timing, DURATION_MS_MAX, HEARTBEAT_PERIOD_MS_RANGE};
 pub use self::tracker::{AperiodicPolicy, Tracker, SERVO_FREQUENCY_HZ_RANGE};
 
@@ -50,6 +52,7 @@ pub struct Config {
     pub tracker: Tracker,
     pub leds: Leds,
     pub networks: Networks,
+    pub security: Security,
 }
 
 impl Config {
@@ -87,6 +90,7 @@ impl Config {
         self.dds.validate()?;
         self.tracker.validate()?;
         self.leds.validate()?;
-        self.networks.validate(self.dds.domain)
+        self.networks.validate(self.dds.domain)?;
+        self.security.validate()
     }
 }

@@ -169,7 +169,7 @@ fn parse_errors_name_the_field_and_place() {
     assert_eq!(field.as_deref(), Some("timin"));
     assert_eq!(
         message,
-        "rl.toml:1:1: unknown field `timin`, expected one of `timing`, `dds`, `tracker`, `leds`, `networks`"
+        "rl.toml:1:1: unknown field `timin`, expected one of `timing`, `dds`, `tracker`, `leds`, `networks`, `security`"
     );
 
     let (field, message) = error_of("[timing]\nheartbeat = 250\n");
@@ -462,4 +462,28 @@ fn networks_are_addresses_or_interfaces_both_or_neither() {
         assert_eq!(got_field.as_deref(), Some(field), "{text}: {message}");
         assert!(message.contains(rule), "{text}: {message}");
     }
+}
+
+#[test]
+fn security_names_its_field() {
+    let config = parse("[security]\nkeystore = \"/etc/rl/keys\"");
+    if cfg!(feature = "security") {
+        let config = config.unwrap();
+        assert!(config.security.enabled());
+        assert!(!config.security.open_device_topics);
+    } else {
+        let message = config.unwrap_err().to_string();
+        assert!(
+            message.contains("security.keystore") && message.contains("`security` feature"),
+            "{message}"
+        );
+    }
+    assert!(!Config::default().security.enabled());
+    let (field, message) = error_of("[security]\nopen_device_topics = true");
+    assert_eq!(
+        field.as_deref(),
+        Some("security.open_device_topics"),
+        "{message}"
+    );
+    assert!(message.contains("security.keystore set"), "{message}");
 }

@@ -99,12 +99,23 @@ struct Topics {
     camera: Topic,
 }
 
-/// One DDS participant and the RL topics on it.
+/// The unsecured participant of the device topics (command, camera) beside a secured one,
+/// with `[security] open_device_topics`: a camera or actuator without DDS Security talks to
+/// it, while RL's own topics stay on the secured participant.
+struct DeviceParticipant {
+    participant: DomainParticipant,
+    publisher: Publisher,
+    subscriber: Subscriber,
+}
+
+/// One DDS participant and the RL topics on it (and with open device topics, a second,
+/// unsecured participant for those).
 pub struct Session {
     context: Context,
     participant: DomainParticipant,
     publisher: Publisher,
     subscriber: Subscriber,
+    device: Option<DeviceParticipant>,
     topics: Topics,
     config: Dds,
     timing: Timing,
@@ -134,7 +145,7 @@ fn create_topic(
 impl Session {
     /// Joins `dds.domain` and creates the RL topics. `timing` sets the deadlines.
     pub fn new(dds: &Dds, timing: &Timing) -> Result<Session, DdsError> {
-        Session::open(dds, timing, false)
+        Session::open(dds, timing, false, None)
     }
 
     /// The same on two redundant networks: every datagram goes out on every interface, so
@@ -142,17 +153,51 @@ impl Session {
     /// interface it first heard that reader on, and takes about 30 s to notice that it died
     /// (docs/protocol.md, "Two networks").
     pub fn on_every_interface(dds: &Dds, timing: &Timing) -> Result<Session, DdsError> {
-        Session::open(dds, timing, true)
+        Session::open(dds, timing, true, None)
     }
 
-    fn open(dds: &Dds, timing: &Timing, every_interface: bool) -> Result<Session, DdsError> {
+    /// A session as `new` or `on_every_interface` make it, secured with `keystore` when one
+    /// is given (DDS Security: authenticated, access-controlled topics; crate::security).
+    pub fn with_keystore(
+        dds: &Dds,
+        timing: &Timing,
+        every_interface: bool,
+        keystore: Option<&crate::security::Keystore>,
+    ) -> Result<Session, DdsError> {
+        Session::open(dds, timing, every_interface, keystore)
+    }
+
+    /// The session a command's configuration asks for: its keystore checked and used, on
+    /// every interface when two networks are configured.
+    pub fn for_config(config: &crate::config::Config) -> Result<Session, crate::Error> {
+        let keystore = crate::security::keystore_of(config)?;
+        Ok(Session::open(
+            &config.dds,
+            &config.timing,
+            config.networks.configured(),
+            keystore.as_ref(),
+        )?)
+    }
+
+    fn open(
+        dds: &Dds,
+        timing: &Timing,
+        every_interface: bool,
+        keystore: Option<&crate::security::Keystore>,
+    ) -> Result<Session, DdsError> {
         let participant_error = |reason: String| DdsError::Participant {
             domain: dds.domain,
             reason,
         };
-        let context = if every_interface {
-            let participant = DomainParticipantBuilder::new(dds.domain)
-                .send_on_every_interface(true)
+        let context = if every_interface || keystore.is_some() {
+            let builder =
+                DomainParticipantBuilder::new(dds.domain).send_on_every_interface(every_interface);
+            #[cfg(feature = "security")]
+            let builder = match keystore {
+                Some(keystore) => builder.builtin_security(keystore.participant_files()),
+                None => builder,
+            };
+            let participant = builder
                 .build()
                 .map_err(|e| participant_error(e.to_string()))?;
             Context::from_domain_participant(participant)
@@ -168,6 +213,27 @@ impl Session {
         let subscriber = participant
             .create_subscriber(&default_qos)
             .map_err(|e| participant_error(format!("subscriber: {e}")))?;
+        let device = match keystore {
+            Some(keystore) if keystore.open_device_topics => {
+                let participant = DomainParticipantBuilder::new(dds.domain)
+                    .send_on_every_interface(every_interface)
+                    .build()
+                    .map_err(|e| participant_error(format!("device participant: {e}")))?;
+                let publisher = participant
+                    .create_publisher(&default_qos)
+                    .map_err(|e| participant_error(format!("device publisher: {e}")))?;
+                let subscriber = participant
+                    .create_subscriber(&default_qos)
+                    .map_err(|e| participant_error(format!("device subscriber: {e}")))?;
+                Some(DeviceParticipant {
+                    participant,
+                    publisher,
+                    subscriber,
+                })
+            }
+            _ => None,
+        };
+        let device_participant = device.as_ref().map_or(&participant, |d| &d.participant);
         let topics = Topics {
             heartbeat: create_topic(
                 &participant,
@@ -194,13 +260,13 @@ impl Session {
                 TopicKind::WithKey,
             )?,
             command: create_topic(
-                &participant,
+                device_participant,
                 &dds.command_topic,
                 ServoControl::TYPE_NAME,
                 TopicKind::NoKey,
             )?,
             camera: create_topic(
-                &participant,
+                device_participant,
                 &dds.camera_topic,
                 ShapeTypeExtended::TYPE_NAME,
                 TopicKind::WithKey,
@@ -211,6 +277,7 @@ impl Session {
             participant,
             publisher,
             subscriber,
+            device,
             topics,
             config: dds.clone(),
             timing: timing.clone(),
@@ -248,13 +315,33 @@ impl Session {
         ParticipantKey::of(self.participant.guid())
     }
 
+    /// Whether `topic` lives on the device participant (open device topics).
+    fn on_device(&self, topic: &Topic) -> bool {
+        self.device.is_some()
+            && [&self.config.command_topic, &self.config.camera_topic].contains(&&topic.name())
+    }
+
+    fn publisher_of(&self, topic: &Topic) -> &Publisher {
+        match &self.device {
+            Some(device) if self.on_device(topic) => &device.publisher,
+            _ => &self.publisher,
+        }
+    }
+
+    fn subscriber_of(&self, topic: &Topic) -> &Subscriber {
+        match &self.device {
+            Some(device) if self.on_device(topic) => &device.subscriber,
+            _ => &self.subscriber,
+        }
+    }
+
     fn keyed_reader<S>(&self, topic: &Topic, qos: QosPolicies) -> Result<Reader<S>, DdsError>
     where
         S: WireSample + rustdds::Keyed + serde::de::DeserializeOwned + Send + 'static,
         S::K: serde::de::DeserializeOwned + Send,
     {
         let raw = self
-            .subscriber
+            .subscriber_of(topic)
             .create_datareader::<S, CDRDeserializerAdapter<S>>(topic, Some(qos))
             .map_err(|e| create_error("reader", topic, e))?;
         Ok(Reader::keyed(raw, topic))
@@ -265,7 +352,7 @@ impl Session {
         S: WireSample + serde::de::DeserializeOwned + Send + 'static,
     {
         let raw = self
-            .subscriber
+            .subscriber_of(topic)
             .create_datareader_no_key::<S, CDRDeserializerAdapter<S>>(topic, Some(qos))
             .map_err(|e| create_error("reader", topic, e))?;
         Ok(Reader::unkeyed(raw, topic))
@@ -277,7 +364,7 @@ impl Session {
         S::K: serde::Serialize,
     {
         let raw = self
-            .publisher
+            .publisher_of(topic)
             .create_datawriter::<S, CDRSerializerAdapter<S>>(topic, Some(qos))
             .map_err(|e| create_error("writer", topic, e))?;
         Ok(Writer::keyed(raw, topic))
@@ -324,7 +411,7 @@ impl Session {
     /// The command writer at `strength` (`None` = no writer until a strength is set).
     pub fn command_writer(&self, strength: Option<i32>) -> Result<CommandWriter, DdsError> {
         CommandWriter::new(
-            self.publisher.clone(),
+            self.publisher_of(&self.topics.command).clone(),
             self.topics.command.clone(),
             self.timing.clone(),
             strength,
@@ -350,7 +437,16 @@ impl Session {
 
     /// Ownership strengths of the remote EXCLUSIVE writers of any topic.
     pub fn writer_strengths(&self, topic_name: &str) -> BTreeMap<GUID, i32> {
-        self.participant
+        let participant = match &self.device {
+            Some(device)
+                if [&self.config.command_topic, &self.config.camera_topic]
+                    .contains(&&topic_name.to_string()) =>
+            {
+                &device.participant
+            }
+            _ => &self.participant,
+        };
+        participant
             .discovered_writers()
             .into_iter()
             .filter(|w| w.publication_topic_data.topic_name == topic_name)

@@ -192,7 +192,9 @@ impl Writers {
 pub fn run(args: ServoArgs) -> Result<(), Error> {
     let config = load_config(args.config.as_ref(), args.domain)?;
     let stop = stop_flag()?;
-    let session = Session::new(&config.dds, &config.timing).map_err(dds_error)?;
+    let keystore = crate::security::keystore_of(&config)?;
+    let session = Session::with_keystore(&config.dds, &config.timing, false, keystore.as_ref())
+        .map_err(dds_error)?;
     let output = Output { json: args.json };
     let deadline_ms = config.timing.command_deadline_ms;
     if !output.json {

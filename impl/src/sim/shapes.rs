@@ -123,8 +123,9 @@ pub fn run(args: ShapesArgs) -> Result<(), Error> {
     }
     let config = load_config(args.config.as_ref(), args.domain)?;
     let stop = stop_flag()?;
-    let session =
-        Session::new(&config.dds, &config.timing).map_err(|e| Error::Dds(e.to_string()))?;
+    let keystore = crate::security::keystore_of(&config)?;
+    let session = Session::with_keystore(&config.dds, &config.timing, false, keystore.as_ref())
+        .map_err(|e| Error::Dds(e.to_string()))?;
     let writer = session
         .camera_writer()
         .map_err(|e| Error::Dds(e.to_string()))?;

@@ -1344,30 +1344,23 @@ impl SecurityPluginsHandle {
   }
 
   pub(crate) fn get_plugins(&self) -> MutexGuard<'_, SecurityPlugins> {
-    let mut count = 0;
-    loop {
-      match self.try_lock() {
-        Ok(guard) => {
-          *self.who_has_it.lock().unwrap() = std::thread::current().name().map(|s| s.to_owned());
-          return guard;
+    // RL patch 10: wait for the lock. It used to be tried, and on contention the thread slept
+    // 100 ms before trying again: the event loop, sending a sample while the discovery thread
+    // held the plugins for a moment (a handshake, a key exchange), then sent nothing for
+    // 100 ms, and an exclusive-ownership reader with a 100 ms deadline fell to a weaker
+    // writer.
+    match self.lock() {
+      Ok(guard) => {
+        if let Ok(mut who) = self.who_has_it.lock() {
+          *who = std::thread::current().name().map(|s| s.to_owned());
         }
-        Err(std::sync::TryLockError::WouldBlock) => {
-          if count > 10 {
-            error!(
-              "I need my lock!! {:?} Looks like {:?} has it.",
-              count,
-              self.who_has_it.lock().unwrap()
-            );
-          }
-          count += 1;
-          std::thread::sleep(std::time::Duration::from_millis(100));
-        }
-        Err(poisoned) => {
-          create_security_error_and_log!("Security plugins are poisoned! {poisoned:?}");
-          panic!("RustDDS internal bug: SecurityPlugins mutex poisoned after a prior panic");
-        }
+        guard
       }
-    } // loop
+      Err(poisoned) => {
+        create_security_error_and_log!("Security plugins are poisoned! {poisoned:?}");
+        panic!("RustDDS internal bug: SecurityPlugins mutex poisoned after a prior panic");
+      }
+    }
   } // fn
 }
 

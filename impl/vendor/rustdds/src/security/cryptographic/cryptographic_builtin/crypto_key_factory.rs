@@ -25,16 +25,11 @@ impl CryptographicBuiltin {
     remote_participant_crypto_handle: ParticipantCryptoHandle,
     local_endpoint_crypto_handle: EndpointCryptoHandle,
   ) -> EndpointCryptoHandle {
-    // If a corresponding handle exists, get and return
-    if let Some(remote_endpoint_crypto_handle) = self
-      .matched_remote_endpoint
-      .get(&local_endpoint_crypto_handle)
-      .and_then(|remote_participant_to_remote_endpoint| {
-        remote_participant_to_remote_endpoint.get(&remote_participant_crypto_handle)
-      })
+    // RL patch 8: always a new handle. The caller (SecurityPlugins) registers each (local,
+    // remote) endpoint GUID pair once; reusing the handle of another endpoint of the same
+    // remote participant (a writer re-created with a new ownership strength) made its key
+    // materials collide ("already associated") and its samples undecodable.
     {
-      *remote_endpoint_crypto_handle
-    } else {
       // Otherwise generate a new handle
       let remote_endpoint_crypto_handle = self.generate_crypto_handle();
       // Associate it with the remote participant
