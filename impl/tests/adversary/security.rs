@@ -53,8 +53,13 @@ fn with_open_device_topics_an_unsecured_actuator_follows_secured_controllers() {
     let dir = tempdir::Dir::new("sec-open");
     let keys_dir = keystores(&dir.0);
     let mut cluster = Cluster::new("sec-open", DOMAIN, "");
-    // The servo of the test configuration: no keystore.
-    cluster.start_servo();
+    // An unsecured actuator cannot hear the secured heartbeats that name the controllers, so
+    // it obeys plain exclusive ownership (`--any-writer`): on the open path the actuator
+    // cannot tell a controller from anyone else (docs/security.md).
+    cluster
+        .fleet
+        .start_other("servo", &["servo", "--json", "--any-writer"])
+        .unwrap();
     for id in 1..=3u8 {
         let config =
             open_devices_config(&dir.0, &format!("c{id}"), &keys_dir.join(format!("c{id}")));
@@ -113,10 +118,12 @@ fn an_unsecured_participant_cannot_forge_heartbeats_or_commands() {
         .fleet
         .start_other_configured("servo", &servo_config, &["servo", "--json"])
         .unwrap();
-    // The control: an unsecured actuator on the same domain, which the forger can reach.
+    // The control: an unsecured actuator on the same domain, which the forger can reach,
+    // obeying plain exclusive ownership (without `--any-writer` the servo's own check refuses
+    // a writer that sends no controller heartbeat, docs/protocol.md "Hostile input").
     cluster
         .fleet
-        .start_other("servo-open", &["servo", "--json"])
+        .start_other("servo-open", &["servo", "--json", "--any-writer"])
         .unwrap();
     for id in 1..=3u8 {
         let config = secured_config(&dir.0, &format!("c{id}"), &keys_dir.join(format!("c{id}")));
