@@ -121,6 +121,26 @@ pub struct Session {
     timing: Timing,
 }
 
+/// A publisher and a subscriber with default QoS (each endpoint sets its own); `role` prefixes
+/// the error (`device `).
+fn publisher_and_subscriber(
+    participant: &DomainParticipant,
+    role: &str,
+) -> Result<(Publisher, Subscriber), DdsError> {
+    let error = |what: &str, e: rustdds::dds::CreateError| DdsError::Participant {
+        domain: participant.domain_id(),
+        reason: format!("{role}{what}: {e}"),
+    };
+    let default_qos = QosPolicyBuilder::new().build();
+    let publisher = participant
+        .create_publisher(&default_qos)
+        .map_err(|e| error("publisher", e))?;
+    let subscriber = participant
+        .create_subscriber(&default_qos)
+        .map_err(|e| error("subscriber", e))?;
+    Ok((publisher, subscriber))
+}
+
 fn create_topic(
     participant: &DomainParticipant,
     name: &str,
@@ -206,25 +226,14 @@ impl Session {
         }
         .map_err(|e| participant_error(e.to_string()))?;
         let participant = context.domain_participant();
-        let default_qos = QosPolicyBuilder::new().build();
-        let publisher = participant
-            .create_publisher(&default_qos)
-            .map_err(|e| participant_error(format!("publisher: {e}")))?;
-        let subscriber = participant
-            .create_subscriber(&default_qos)
-            .map_err(|e| participant_error(format!("subscriber: {e}")))?;
+        let (publisher, subscriber) = publisher_and_subscriber(&participant, "")?;
         let device = match keystore {
             Some(keystore) if keystore.open_device_topics => {
                 let participant = DomainParticipantBuilder::new(dds.domain)
                     .send_on_every_interface(every_interface)
                     .build()
                     .map_err(|e| participant_error(format!("device participant: {e}")))?;
-                let publisher = participant
-                    .create_publisher(&default_qos)
-                    .map_err(|e| participant_error(format!("device publisher: {e}")))?;
-                let subscriber = participant
-                    .create_subscriber(&default_qos)
-                    .map_err(|e| participant_error(format!("device subscriber: {e}")))?;
+                let (publisher, subscriber) = publisher_and_subscriber(&participant, "device ")?;
                 Some(DeviceParticipant {
                     participant,
                     publisher,

@@ -10,11 +10,11 @@
 //! by A's, whatever interface it arrived on (measured in `impl/tests/two_networks.rs`).
 
 use super::endpoint::{Reader, Writer};
-use super::{create_topic, qos, DdsError};
+use super::{create_topic, publisher_and_subscriber, qos, DdsError};
 use crate::wire::{NetworkHeartbeatSample, WireSample};
 use rustdds::{
     serialization::CDRSerializerAdapter, CDRDeserializerAdapter, DomainParticipant,
-    DomainParticipantBuilder, QosPolicyBuilder, TopicKind,
+    DomainParticipantBuilder, TopicKind,
 };
 use std::net::Ipv4Addr;
 
@@ -45,13 +45,7 @@ impl NetworkParticipant {
             .same_host_loopback(false)
             .build()
             .map_err(|e| participant_error(e.to_string()))?;
-        let default_qos = QosPolicyBuilder::new().build();
-        let publisher = participant
-            .create_publisher(&default_qos)
-            .map_err(|e| participant_error(format!("publisher: {e}")))?;
-        let subscriber = participant
-            .create_subscriber(&default_qos)
-            .map_err(|e| participant_error(format!("subscriber: {e}")))?;
+        let (publisher, subscriber) = publisher_and_subscriber(&participant, "")?;
         let topic = create_topic(
             &participant,
             topic_name,

@@ -171,16 +171,7 @@ pub fn run(args: ShapesArgs) -> Result<(), Error> {
         }
         let t_s = elapsed.as_secs_f64();
         let t_ms = u64::try_from(elapsed.as_millis()).unwrap_or(u64::MAX);
-        let yellow = match &mut feed {
-            None => Some(position("YELLOW", t_s)),
-            Some(feed) => {
-                if let Some((command, _)) = feed.take(&session, t_ms) {
-                    gimbal.command(command.pan, command.tilt);
-                }
-                gimbal.advance(period.as_secs_f64());
-                gimbal.sees(ball(t_s))
-            }
-        };
+        let yellow = see_yellow(&mut feed, &mut gimbal, &session, t_s, t_ms, period);
         for color in COLORS {
             let sample = match (color, yellow) {
                 ("YELLOW", None) => continue,
@@ -195,23 +186,9 @@ pub fn run(args: ShapesArgs) -> Result<(), Error> {
                 .write(&sample)
                 .map_err(|e| Error::Dds(e.to_string()))?;
         }
-        if args.json {
-            let frame = CameraFrame {
-                t_ms,
-                x: yellow.map(|(x, _)| x),
-                y: yellow.map(|(_, y)| y),
-                error_px: yellow.map(error_px),
-                pan: gimbal.pan,
-                tilt: gimbal.tilt,
-            };
-            if let Ok(line) = serde_json::to_string(&frame) {
-                use std::io::Write;
-                let mut out = std::io::stdout().lock();
-                // A closed stdout (the reader left) ends the camera.
-                if writeln!(out, "{line}").and_then(|()| out.flush()).is_err() {
-                    return Ok(());
-                }
-            }
+        // A closed stdout (the reader left) ends the camera.
+        if args.json && !print_frame(t_ms, yellow, &gimbal) {
+            return Ok(());
         }
         published += 1;
         // Fixed-rate schedule; after a stall, resume from now rather than bursting.
@@ -227,6 +204,44 @@ pub fn run(args: ShapesArgs) -> Result<(), Error> {
         println!("shapes: stopped after {published} rounds");
     }
     Ok(())
+}
+
+/// Where the camera sees the YELLOW ball this frame: on its fixed path (open loop), or from
+/// the gimbal after `period` of servo motion toward the owner's newest command.
+fn see_yellow(
+    feed: &mut Option<CommandFeed>,
+    gimbal: &mut Gimbal,
+    session: &Session,
+    t_s: f64,
+    t_ms: u64,
+    period: Duration,
+) -> Option<(i32, i32)> {
+    let Some(feed) = feed else {
+        return Some(position("YELLOW", t_s));
+    };
+    if let Some((command, _)) = feed.take(session, t_ms) {
+        gimbal.command(command.pan, command.tilt);
+    }
+    gimbal.advance(period.as_secs_f64());
+    gimbal.sees(ball(t_s))
+}
+
+/// One `--json` frame line on stdout; false once stdout is closed.
+fn print_frame(t_ms: u64, yellow: Option<(i32, i32)>, gimbal: &Gimbal) -> bool {
+    use std::io::Write;
+    let frame = CameraFrame {
+        t_ms,
+        x: yellow.map(|(x, _)| x),
+        y: yellow.map(|(_, y)| y),
+        error_px: yellow.map(error_px),
+        pan: gimbal.pan,
+        tilt: gimbal.tilt,
+    };
+    let Ok(line) = serde_json::to_string(&frame) else {
+        return true;
+    };
+    let mut out = std::io::stdout().lock();
+    writeln!(out, "{line}").and_then(|()| out.flush()).is_ok()
 }
 
 #[cfg(test)]
