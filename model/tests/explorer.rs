@@ -104,31 +104,55 @@ fn chromium_renders_an_action_and_a_state_by_name() {
     });
     let port = free_port();
     let _explorer = start(port);
-    let profile = std::env::temp_dir().join(format!("rl-explorer-chromium-{port}"));
     // Deep link: the first initial state, then its first action (a round ends).
     let url = format!("http://127.0.0.1:{port}/#/steps/0/0");
-    let output = Command::new(&browser)
-        .args([
-            "--headless",
-            "--no-sandbox",
-            "--disable-gpu",
-            "--disable-quic",
-            "--no-first-run",
-            "--disable-background-networking",
-            "--disable-component-update",
-            "--disable-sync",
-            "--virtual-time-budget=10000",
-            "--dump-dom",
-        ])
-        .arg(format!("--user-data-dir={}", profile.display()))
-        .arg(&url)
-        .output()
-        .expect("chromium runs");
-    let _ = std::fs::remove_dir_all(&profile);
-    let dom = String::from_utf8_lossy(&output.stdout);
+    let dom = dump_dom(&browser, port, &url);
     assert!(dom.contains("round ends"), "no action by name in:\n{dom}");
     assert!(
         dom.contains("C1 up#0"),
         "no controller state by name in:\n{dom}"
     );
+}
+
+/// The page's DOM after its scripts ran, from headless Chromium. A Chromium that exits
+/// without printing a page (it sometimes crashes on its first start after installation, or
+/// under load) is started again with a fresh profile, twice at most; its exit status and
+/// error output are in the failure message.
+fn dump_dom(browser: &std::path::Path, port: u16, url: &str) -> String {
+    let mut attempts = Vec::new();
+    for attempt in 1..=3 {
+        let profile = std::env::temp_dir().join(format!("rl-explorer-chromium-{port}-{attempt}"));
+        let output = Command::new(browser)
+            .args([
+                "--headless",
+                "--no-sandbox",
+                "--disable-gpu",
+                "--disable-dev-shm-usage",
+                "--disable-quic",
+                "--no-first-run",
+                "--disable-background-networking",
+                "--disable-component-update",
+                "--disable-sync",
+                "--virtual-time-budget=10000",
+                "--dump-dom",
+            ])
+            .arg(format!("--user-data-dir={}", profile.display()))
+            .arg(url)
+            .output()
+            .expect("chromium runs");
+        let _ = std::fs::remove_dir_all(&profile);
+        let dom = String::from_utf8_lossy(&output.stdout).into_owned();
+        if output.status.success() && dom.contains("<body") {
+            return dom;
+        }
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        let tail: String = stderr.lines().rev().take(8).collect::<Vec<_>>().join("\n");
+        attempts.push(format!(
+            "attempt {attempt}: {} with {} bytes of DOM; stderr ends:\n{tail}",
+            output.status,
+            dom.len()
+        ));
+        std::thread::sleep(Duration::from_secs(1));
+    }
+    panic!("chromium printed no page:\n{}", attempts.join("\n"));
 }
