@@ -1,5 +1,6 @@
 //! Forged heartbeats, votes and commands from a participant that is not the controller it
-//! names, and garbage datagrams.
+//! names, and garbage datagrams. The forgeries are functions of their own: `security` runs
+//! them against secured controllers too.
 
 use crate::support::Cluster;
 use rl::core::{AlarmReason, Heartbeat, Phase, Role, VoteRecord};
@@ -28,7 +29,7 @@ fn formed(tag: &str, domain: u16) -> Cluster {
 }
 
 /// The forger: a participant of its own on the cluster's domain.
-fn forger(domain: u16) -> Session {
+pub fn forger(domain: u16) -> Session {
     let dds = rl::config::Dds {
         domain,
         ..Default::default()
@@ -42,7 +43,7 @@ fn report_of(cluster: &Cluster, id: u8) -> Heartbeat {
 }
 
 /// Output lines (a role or strength change) since `since`.
-fn outputs_since(cluster: &Cluster, since: Instant) -> Vec<String> {
+pub fn outputs_since(cluster: &Cluster, since: Instant) -> Vec<String> {
     cluster
         .events
         .iter()
@@ -52,7 +53,7 @@ fn outputs_since(cluster: &Cluster, since: Instant) -> Vec<String> {
 }
 
 /// Who raised (`raised` true) or cleared an impostor alarm about `about` since `since`.
-fn impostor_alarms(cluster: &Cluster, about: u8, raised: bool, since: Instant) -> Vec<u8> {
+pub fn impostor_alarms(cluster: &Cluster, about: u8, raised: bool, since: Instant) -> Vec<u8> {
     let mut by: Vec<u8> = cluster
         .events
         .iter()
@@ -69,11 +70,22 @@ fn impostor_alarms(cluster: &Cluster, about: u8, raised: bool, since: Instant) -
 }
 
 /// Writes `write` every 100 ms for `ATTACK`, pumping the cluster meanwhile.
-fn keep_forging(cluster: &mut Cluster, mut write: impl FnMut()) {
+pub fn keep_forging(cluster: &mut Cluster, mut write: impl FnMut()) {
     let until = Instant::now() + ATTACK;
     while Instant::now() < until {
         write();
         cluster.pump(Duration::from_millis(100));
+    }
+}
+
+/// C1's own last heartbeat, same incarnation, now saying FAILED.
+pub fn failed_heartbeat_of_c1(cluster: &Cluster) -> Heartbeat {
+    Heartbeat {
+        phase: Phase::Failed,
+        role: None,
+        strength: None,
+        established_strength: None,
+        ..report_of(cluster, 1)
     }
 }
 
@@ -83,14 +95,7 @@ fn a_forged_failed_heartbeat_for_the_primary_is_refused_and_alarmed() {
     let mut cluster = formed("forged-failed", domain);
     let forger = forger(domain);
     let heartbeats = forger.heartbeat_writer().unwrap();
-    // C1's own last heartbeat, same incarnation, now saying FAILED.
-    let forged = Heartbeat {
-        phase: Phase::Failed,
-        role: None,
-        strength: None,
-        established_strength: None,
-        ..report_of(&cluster, 1)
-    };
+    let forged = failed_heartbeat_of_c1(&cluster);
     let since = Instant::now();
     keep_forging(&mut cluster, || heartbeats.write(&forged).unwrap());
     assert_eq!(
@@ -112,6 +117,25 @@ fn a_forged_failed_heartbeat_for_the_primary_is_refused_and_alarmed() {
     );
 }
 
+/// Heartbeats in the names of C1 and C2, live incumbents of a newer epoch, agreeing on C3
+/// as Primary: two of three would be a majority.
+pub fn incumbent_claims(cluster: &Cluster) -> Vec<Heartbeat> {
+    let c3 = report_of(cluster, 3);
+    let agreed = rl::core::Assignment::from_ranked([3, 1, 2].map(|id| rl::core::Holder {
+        id,
+        incarnation: report_of(cluster, id).incarnation,
+    }));
+    [1u8, 2]
+        .iter()
+        .map(|&id| Heartbeat {
+            agreed: Some(agreed),
+            vote: Some(agreed),
+            epoch: c3.epoch + 5,
+            ..report_of(cluster, id)
+        })
+        .collect()
+}
+
 #[test]
 fn two_forged_incumbents_cannot_outvote_the_three() {
     let domain = 161;
@@ -122,23 +146,7 @@ fn two_forged_incumbents_cannot_outvote_the_three() {
         .iter()
         .map(|f| f.heartbeat_writer().unwrap())
         .collect();
-    let c3 = report_of(&cluster, 3);
-    let agreed = rl::core::Assignment::from_ranked([3, 1, 2].map(|id| {
-        let report = report_of(&cluster, id);
-        rl::core::Holder {
-            id,
-            incarnation: report.incarnation,
-        }
-    }));
-    let claims: Vec<Heartbeat> = [1u8, 2]
-        .iter()
-        .map(|&id| Heartbeat {
-            agreed: Some(agreed),
-            vote: Some(agreed),
-            epoch: c3.epoch + 5,
-            ..report_of(&cluster, id)
-        })
-        .collect();
+    let claims = incumbent_claims(&cluster);
     let since = Instant::now();
     keep_forging(&mut cluster, || {
         for (writer, claim) in writers.iter().zip(&claims) {
@@ -154,22 +162,26 @@ fn two_forged_incumbents_cannot_outvote_the_three() {
     assert_eq!(impostor_alarms(&cluster, 2, true, since), vec![1, 3]);
 }
 
+/// A vote in C2's name, its incarnation, for the reverse order (C3, C2, C1).
+pub fn reversed_vote_of_c2(cluster: &Cluster) -> VoteRecord {
+    let reversed = rl::core::Assignment::from_ranked([3, 2, 1].map(|id| rl::core::Holder {
+        id,
+        incarnation: report_of(cluster, id).incarnation,
+    }));
+    VoteRecord {
+        from: 2,
+        incarnation: report_of(cluster, 2).incarnation,
+        vote: Some(reversed),
+    }
+}
+
 #[test]
 fn a_forged_vote_is_refused_and_alarmed() {
     let domain = 162;
     let mut cluster = formed("forged-vote", domain);
     let forger = forger(domain);
     let votes = forger.vote_writer().unwrap();
-    let c2 = report_of(&cluster, 2);
-    let reversed = rl::core::Assignment::from_ranked([3, 2, 1].map(|id| rl::core::Holder {
-        id,
-        incarnation: report_of(&cluster, id).incarnation,
-    }));
-    let record = VoteRecord {
-        from: 2,
-        incarnation: c2.incarnation,
-        vote: Some(reversed),
-    };
+    let record = reversed_vote_of_c2(&cluster);
     let since = Instant::now();
     keep_forging(&mut cluster, || votes.write(&record).unwrap());
     assert_eq!(
@@ -236,10 +248,9 @@ fn with_plain_dds_ownership_a_strength_100_writer_takes_the_servo() {
     );
 }
 
-#[test]
-fn garbage_datagrams_on_the_dds_ports_change_nothing() {
-    let domain = 165;
-    let mut cluster = formed("garbage", domain);
+/// Random datagrams, half of them with an RTPS header, at every DDS port of `domain` for
+/// `ATTACK`, then a second's quiet; how many were sent.
+pub fn flood_with_garbage(cluster: &mut Cluster, domain: u16) -> u32 {
     let socket = UdpSocket::bind("127.0.0.1:0").unwrap();
     let base = 7400 + 250 * domain;
     // Discovery and user ports of participants 0-9, multicast and unicast (RTPS 9.6.1.1).
@@ -255,7 +266,6 @@ fn garbage_datagrams_on_the_dds_ports_change_nothing() {
         seed ^= seed << 17;
         seed
     };
-    let since = Instant::now();
     let mut sent = 0u32;
     let until = Instant::now() + ATTACK;
     while Instant::now() < until {
@@ -275,6 +285,15 @@ fn garbage_datagrams_on_the_dds_ports_change_nothing() {
         cluster.pump(Duration::from_millis(1));
     }
     cluster.pump(Duration::from_secs(1));
+    sent
+}
+
+#[test]
+fn garbage_datagrams_on_the_dds_ports_change_nothing() {
+    let domain = 165;
+    let mut cluster = formed("garbage", domain);
+    let since = Instant::now();
+    let sent = flood_with_garbage(&mut cluster, domain);
     println!("sent {sent} garbage datagrams in {ATTACK:?}");
     assert!(sent > 10_000, "only {sent} sent");
     assert_eq!(

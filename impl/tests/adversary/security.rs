@@ -1,9 +1,14 @@
 //! DDS Security (docs/security.md): secured controllers form and vote, an unsecured
 //! participant's forged heartbeat and strength-100 command are refused, and a failover still
-//! reaches the secured servo; with open device topics an unsecured actuator follows secured
+//! reaches the secured servo; a forged vote, two forged incumbents and garbage datagrams
+//! (the forgeries of `forged`) do not reach secured controllers at all; with open device topics an unsecured actuator follows secured
 //! controllers; a keystore that is missing a file, expired or mismatched stops every command
 //! with exit status 2 naming the file.
 
+use crate::adversary::forged::{
+    failed_heartbeat_of_c1, flood_with_garbage, forger, impostor_alarms, incumbent_claims,
+    keep_forging, outputs_since, reversed_vote_of_c2,
+};
 use crate::support::{tempdir, Cluster, RL};
 use rl::core::{Phase, Role};
 use rl::procs::{parse_servo_event, ServoEvent};
@@ -248,6 +253,98 @@ fn an_unsecured_participant_cannot_forge_heartbeats_or_commands() {
     cluster.wait_for("the secured servo follows C2 at 30", FORM, |c| {
         last_command(c) == Some((Some(2), 30))
     });
+}
+
+/// Three secured controllers on `domain` with their configurations in `dir` and keystores
+/// in `keys_dir`, formed P=1 S=2 T=3.
+fn secured_formation(tag: &str, domain: u16, dir: &Path, keys_dir: &Path) -> Cluster {
+    let mut cluster = Cluster::new(tag, domain, "");
+    for id in 1..=3u8 {
+        let config = secured_config(dir, &format!("c{id}"), &keys_dir.join(format!("c{id}")));
+        cluster
+            .fleet
+            .start_controller_configured(id, &config, &["--json-events"])
+            .unwrap();
+    }
+    cluster.wait_for("P=1 S=2 T=3, secured", FORM, |c| {
+        c.steady_with(1, P) && c.steady_with(2, S) && c.steady_with(3, T)
+    });
+    cluster
+}
+
+#[test]
+fn forged_votes_incumbents_and_garbage_do_not_reach_secured_controllers() {
+    const DOMAIN: u16 = 143;
+    let dir = tempdir::Dir::new("sec-votes");
+    let keys_dir = keystores(&dir.0);
+    let mut cluster = secured_formation("sec-votes", DOMAIN, &dir.0, &keys_dir);
+    // The control: an unsecured participant that hears what the forgers write (and nothing
+    // from the secured controllers, whose discovery it cannot join).
+    let witness = forger(DOMAIN);
+    let mut heard_votes = witness.vote_reader().unwrap();
+    let mut heard_heartbeats = witness.heartbeat_reader().unwrap();
+    // The forgeries of the unsecured tests, all at once: C1 FAILED, C1 and C2 as incumbents
+    // of a newer epoch agreeing on C3, and C2 voting the reverse order; two participants.
+    let forgers = [forger(DOMAIN), forger(DOMAIN)];
+    let heartbeat_writers: Vec<_> = forgers
+        .iter()
+        .map(|f| f.heartbeat_writer().unwrap())
+        .collect();
+    let votes = forgers[0].vote_writer().unwrap();
+    let claims = incumbent_claims(&cluster);
+    let failed = failed_heartbeat_of_c1(&cluster);
+    let vote = reversed_vote_of_c2(&cluster);
+    let since = Instant::now();
+    let mut heartbeats = Vec::new();
+    let mut forged_votes = 0;
+    keep_forging(&mut cluster, || {
+        for (writer, claim) in heartbeat_writers.iter().zip(&claims) {
+            writer.write(claim).unwrap();
+        }
+        heartbeat_writers[0].write(&failed).unwrap();
+        votes.write(&vote).unwrap();
+        // The witness keeps the latest sample per writer: take them as they come.
+        heartbeats.extend(heard_heartbeats.take());
+        forged_votes += heard_votes.take().len();
+    });
+    let sent = flood_with_garbage(&mut cluster, DOMAIN);
+
+    assert!(
+        heartbeats.len() > 10 && forged_votes > 10,
+        "the unsecured witness heard {} heartbeats and {forged_votes} votes: the forgers reach \
+         nobody and the test proves nothing",
+        heartbeats.len()
+    );
+    assert!(
+        heartbeats.iter().all(|h| forgers
+            .iter()
+            .any(|f| f.participant_guid().prefix == h.writer.prefix)),
+        "an unsecured participant heard a secured controller's heartbeat"
+    );
+    assert!(sent > 10_000, "only {sent} garbage datagrams sent");
+    // The secured controllers never heard a forged sample: no impostor alarm (which
+    // unsecured controllers raise, `forged`), no role moved, nobody left.
+    assert_eq!(
+        outputs_since(&cluster, since),
+        Vec::<String>::new(),
+        "a role moved"
+    );
+    for id in 1..=3 {
+        assert_eq!(
+            impostor_alarms(&cluster, id, true, since),
+            Vec::<u8>::new(),
+            "a forged sample about C{id} reached a secured controller"
+        );
+        assert!(
+            cluster.steady_with(id, [P, S, T][usize::from(id) - 1]),
+            "{}",
+            cluster.describe()
+        );
+        assert!(
+            cluster.fleet.exit_status(id).unwrap().is_none(),
+            "C{id} exited"
+        );
+    }
 }
 
 /// The controller and strength of the last command the secured servo accepted.
