@@ -91,13 +91,6 @@ impl From<X509CertificateError> for SecurityError {
   }
 }
 
-impl From<openssl::error::ErrorStack> for SecurityError {
-  fn from(e: openssl::error::ErrorStack) -> Self {
-    SecurityError {
-      msg: format!("openssl Error: {e:?}"),
-    }
-  }
-}
 
 impl From<cryptoki::error::Error> for SecurityError {
   fn from(e: cryptoki::error::Error) -> Self {

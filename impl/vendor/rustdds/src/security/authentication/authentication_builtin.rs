@@ -4,7 +4,6 @@ use std::{
 };
 
 use bytes::Bytes;
-use openssl::{bn::BigNum, pkey::Private};
 use ring::agreement;
 
 use crate::{
@@ -22,6 +21,7 @@ use super::{
 };
 
 mod authentication;
+mod modp_2048_256;
 pub(in crate::security) mod types;
 
 // States for an ongoing handshake with a remote participant. Used by the plugin
@@ -117,15 +117,13 @@ struct HandshakeInfo {
 }
 
 pub enum DHKeys {
-  Modp(openssl::dh::Dh<Private>), // Modular Exponential keys from OpenSSL
+  Modp(modp_2048_256::ModpKeys), // Modular Exponential keys (RFC 5114 2048-256)
   EC(ring::agreement::EphemeralPrivateKey), // Elliptic Curves keys from ring
 }
 
 impl DHKeys {
-  fn new_modp_keys() -> SecurityResult<Self> {
-    let dh_params = openssl::dh::Dh::get_2048_256()?;
-    let modp_keys = dh_params.generate_key()?;
-    Ok(Self::Modp(modp_keys))
+  fn new_modp_keys(secure_rng: &ring::rand::SystemRandom) -> SecurityResult<Self> {
+    Ok(Self::Modp(modp_2048_256::ModpKeys::generate(secure_rng)?))
   }
 
   fn new_ec_keys(secure_rng: &ring::rand::SystemRandom) -> SecurityResult<Self> {
@@ -135,7 +133,7 @@ impl DHKeys {
 
   fn public_key_bytes(&self) -> SecurityResult<Bytes> {
     let vec = match self {
-      DHKeys::Modp(openssl_dh) => openssl_dh.public_key().to_vec(),
+      DHKeys::Modp(modp_keys) => modp_keys.public_key(),
       DHKeys::EC(ring_dh) => {
         let ring_pub_key = ring_dh.compute_public_key()?;
         Vec::from(ring_pub_key.as_ref())
@@ -146,9 +144,8 @@ impl DHKeys {
 
   fn compute_shared_secret(self, remote_dh_public_key: Bytes) -> SecurityResult<SharedSecret> {
     let shared_secret = match self {
-      DHKeys::Modp(openssl_dh) => {
-        let remote_public = BigNum::from_slice(&remote_dh_public_key)?;
-        let secret_key = openssl_dh.compute_key(&remote_public)?;
+      DHKeys::Modp(modp_keys) => {
+        let secret_key = modp_keys.shared_secret(&remote_dh_public_key)?;
         SharedSecret::from(Sha256::hash(&secret_key))
       }
       DHKeys::EC(ring_dh) => {
@@ -172,12 +169,11 @@ impl DHKeys {
   }
 }
 
-// Implement Debug manually because openssl::dh::Dh<Private> does not implement
-// it
+// Implement Debug manually: the MODP keys are not printed
 impl std::fmt::Debug for DHKeys {
   fn fmt(&self, f: &mut Formatter<'_>) -> fmt::Result {
     match self {
-      DHKeys::Modp(_dh) => f.debug_struct("Dh<Private>: TODO Debug print").finish(),
+      DHKeys::Modp(_dh) => f.debug_struct("ModpKeys").finish_non_exhaustive(),
       DHKeys::EC(dh) => dh.fmt(f),
     }
   }

@@ -554,7 +554,7 @@ impl Authentication for AuthenticationBuiltin {
     // Check which key agreement algorithm the remote has chosen & generate our own
     // key pair
     let dh2_keys = if request.c_kagree_algo == *DH_MODP_KAGREE_ALGO_NAME {
-      DHKeys::new_modp_keys()?
+      DHKeys::new_modp_keys(&self.secure_random_generator)?
     } else if request.c_kagree_algo == *ECDH_KAGREE_ALGO_NAME {
       DHKeys::new_ec_keys(&self.secure_random_generator)?
     } else {
