@@ -9,8 +9,10 @@
 //! cgroup), so they are ignored by default:
 //! `cargo test --release -p rl --test adversary -- --include-ignored`.
 //!
-//! With the `security` feature, `security` runs secured controllers against an unsecured
-//! forger and checks that broken keystores are refused (docs/security.md).
+//! With the `security` feature, `security` runs the same forgeries and the 4 GB fragment
+//! against secured controllers, and checks that broken keystores are refused
+//! (docs/security.md): `cargo test --release -p rl --features security --test adversary --
+//! --include-ignored`.
 
 mod support;
 

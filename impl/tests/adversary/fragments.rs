@@ -241,22 +241,62 @@ fn alarms_about(cluster: &Cluster, about: u8, since: Instant) -> Vec<String> {
 }
 
 /// What the attack sends: to each built-in reader, `writers` attacking writers (a GUID
-/// prefix each), each `samples` samples of `data_size` bytes announced.
-struct Attack {
-    tag: &'static str,
-    domain: u16,
-    data_size: u32,
-    writers: u8,
-    samples: u32,
+/// prefix each), each `samples` samples of `data_size` bytes announced. `configs`, when set,
+/// are the controllers' configuration files (C1, C2, C3), e.g. secured ones.
+pub struct Attack {
+    pub tag: &'static str,
+    pub domain: u16,
+    pub data_size: u32,
+    pub writers: u8,
+    pub samples: u32,
+    pub configs: Option<[PathBuf; 3]>,
+}
+
+/// The attack of `a_data_frag_announcing_4_gb_is_dropped_and_the_controller_keeps_voting`.
+pub fn four_gb_attack(tag: &'static str, domain: u16, configs: Option<[PathBuf; 3]>) -> Attack {
+    Attack {
+        tag,
+        domain,
+        data_size: 0xFFFF_FFF0,
+        writers: 1,
+        samples: 8,
+        configs,
+    }
+}
+
+/// Checks C1's stderr for the size bound's warnings: one per attacking writer.
+pub fn warned_once_per_writer(stderr: &[String]) {
+    let warnings: Vec<&String> = stderr
+        .iter()
+        .filter(|line| line.contains("exceeds the maximum sample size"))
+        .collect();
+    assert!(
+        !warnings.is_empty() && warnings.len() <= BUILT_IN_TARGETS.len(),
+        "one warning per attacking writer expected: {warnings:?}"
+    );
 }
 
 /// Forms three controllers, puts C1 in a 256 MB memory cgroup, attacks it and checks that
 /// it survives, does not grow and keeps voting. Returns C1's stderr lines.
-fn c1_survives(attack: Attack) -> Vec<String> {
+pub fn c1_survives(attack: Attack) -> Vec<String> {
     let cgroup = MemoryCgroup::new(attack.tag, LIMIT_BYTES);
     let mut cluster = Cluster::new(attack.tag, attack.domain, "");
-    for id in 1..=3 {
-        cluster.start(id);
+    for id in 1..=3u8 {
+        match &attack.configs {
+            Some(configs) => {
+                cluster
+                    .fleet
+                    .start_controller_configured(
+                        id,
+                        &configs[usize::from(id) - 1],
+                        &["--json-events"],
+                    )
+                    .expect("start a configured controller");
+            }
+            None => {
+                cluster.start(id);
+            }
+        }
     }
     cluster.wait_for("P=1 S=2 T=3", FORM, |c| {
         c.steady_with(1, P) && c.steady_with(2, S) && c.steady_with(3, T)
@@ -343,21 +383,8 @@ fn c1_survives(attack: Attack) -> Vec<String> {
 #[test]
 #[ignore = "needs root (a memory cgroup limiting the attacked controller to 256 MB)"]
 fn a_data_frag_announcing_4_gb_is_dropped_and_the_controller_keeps_voting() {
-    let stderr = c1_survives(Attack {
-        tag: "fragments-4gb",
-        domain: 151,
-        data_size: 0xFFFF_FFF0,
-        writers: 1,
-        samples: 8,
-    });
-    let warnings: Vec<&String> = stderr
-        .iter()
-        .filter(|line| line.contains("exceeds the maximum sample size"))
-        .collect();
-    assert!(
-        !warnings.is_empty() && warnings.len() <= BUILT_IN_TARGETS.len(),
-        "one warning per attacking writer expected: {warnings:?}"
-    );
+    let stderr = c1_survives(four_gb_attack("fragments-4gb", 151, None));
+    warned_once_per_writer(&stderr);
 }
 
 /// 3 x 128 samples of 1 MiB, each within the bound, would be 384 MiB if all were kept.
@@ -370,5 +397,6 @@ fn many_incomplete_samples_within_the_bound_do_not_add_up() {
         data_size: 1024 * 1024,
         writers: 1,
         samples: 128,
+        configs: None,
     });
 }
