@@ -400,13 +400,27 @@ fn bad_configuration_exits_2_naming_the_field() {
     let bad_id = run_rl(&["controller", "--id", "0"]);
     assert_eq!(bad_id.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&bad_id.stderr).contains("--id"));
-    let bad_domain = run_rl(&["controller", "--id", "1", "--domain", "300"]);
-    assert_eq!(
-        bad_domain.status.code(),
-        Some(2),
-        "{}",
-        String::from_utf8_lossy(&bad_domain.stderr)
-    );
+    // 233 is the first domain whose RTPS ports pass 65535; every command refuses it before
+    // joining DDS.
+    let commands: [&[&str]; 4] = [
+        &["controller", "--id", "1"],
+        &["servo", "--duration-ms", "3000"],
+        &["shapes", "--duration-ms", "3000"],
+        &["status", "--once"],
+    ];
+    for command in commands {
+        let bad_domain = run_rl(&[command, &["--domain", "233"]].concat());
+        let stderr = String::from_utf8_lossy(&bad_domain.stderr);
+        assert_eq!(
+            bad_domain.status.code(),
+            Some(2),
+            "rl {command:?}: {stderr}"
+        );
+        assert!(
+            stderr.contains("--domain 233"),
+            "rl {command:?} names --domain: {stderr}"
+        );
+    }
 }
 
 #[test]

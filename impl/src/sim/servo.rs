@@ -26,7 +26,6 @@
 //! `gap_ms` is the time since the previous owner's last accepted command.
 
 use crate::arbiter::Arbiter;
-use crate::config::Config;
 use crate::core::types::ControllerId;
 use crate::dds::{guid_hex, mio, ControllerDirectory, Reader, Received, Session, GUID};
 use crate::sim::command_trust::CommandTrust;
@@ -36,8 +35,7 @@ use serde::Serialize;
 use std::collections::{BTreeMap, BTreeSet};
 use std::io::{self, Write};
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 /// The actuator simulator: an exclusive-ownership reader of the command topic.
@@ -102,28 +100,6 @@ const SUMMARY_PERIOD_MS: u64 = 5_000;
 
 const COMMANDS: mio::Token = mio::Token(0);
 const HEARTBEATS: mio::Token = mio::Token(1);
-
-/// Loads the configuration (file or defaults) and applies a `--domain` override.
-pub(crate) fn load_config(path: Option<&PathBuf>, domain: Option<u16>) -> Result<Config, Error> {
-    let mut config = match path {
-        Some(path) => Config::load(path)?,
-        None => Config::default(),
-    };
-    if let Some(domain) = domain {
-        config.dds.domain = domain;
-    }
-    Ok(config)
-}
-
-/// Sets the returned flag on SIGINT or SIGTERM.
-pub(crate) fn stop_flag() -> Result<Arc<AtomicBool>, Error> {
-    let stop = Arc::new(AtomicBool::new(false));
-    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-        signal_hook::flag::register(signal, Arc::clone(&stop))
-            .map_err(|e| Error::io("installing a signal handler", e))?;
-    }
-    Ok(stop)
-}
 
 fn dds_error(error: crate::dds::DdsError) -> Error {
     Error::Dds(error.to_string())
@@ -190,8 +166,8 @@ impl Writers {
 
 /// Runs the servo simulator until SIGINT/SIGTERM or `--duration-ms`.
 pub fn run(args: ServoArgs) -> Result<(), Error> {
-    let config = load_config(args.config.as_ref(), args.domain)?;
-    let stop = stop_flag()?;
+    let config = crate::controller::load_config(args.config.as_deref(), args.domain)?;
+    let stop = crate::controller::stop_on_signals()?;
     let keystore = crate::security::keystore_of(&config)?;
     let session = Session::with_keystore(&config.dds, &config.timing, false, keystore.as_ref())
         .map_err(dds_error)?;

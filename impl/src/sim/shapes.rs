@@ -14,7 +14,6 @@
 //! Positions stay inside the shapes application's range, x 0..222 and y 0..252, and every
 //! path is a pure function of time, so runs are reproducible.
 
-use super::servo::{load_config, stop_flag};
 use crate::dds::Session;
 use crate::sim::command_feed::CommandFeed;
 use crate::sim::gimbal::{ball, error_px, Gimbal};
@@ -121,8 +120,8 @@ pub fn run(args: ShapesArgs) -> Result<(), Error> {
             args.rate_hz
         )));
     }
-    let config = load_config(args.config.as_ref(), args.domain)?;
-    let stop = stop_flag()?;
+    let config = crate::controller::load_config(args.config.as_deref(), args.domain)?;
+    let stop = crate::controller::stop_on_signals()?;
     let keystore = crate::security::keystore_of(&config)?;
     let session = Session::with_keystore(&config.dds, &config.timing, false, keystore.as_ref())
         .map_err(|e| Error::Dds(e.to_string()))?;
