@@ -6,6 +6,7 @@ use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
+use std::sync::{Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 /// The explorer process, killed when the test ends.
@@ -25,24 +26,62 @@ fn free_port() -> u16 {
         .expect("a free loopback port")
 }
 
-fn start(port: u16) -> Explorer {
-    let child = Command::new(env!("CARGO_BIN_EXE_model"))
-        .args(["explore", "--addr", &format!("127.0.0.1:{port}")])
-        .args(["--late-joiners", "0", "--crashes", "0", "--restarts", "0"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("the model binary starts");
-    let explorer = Explorer(child);
+/// The two tests run one after the other (each holds this while its explorer runs), so
+/// neither can take the other's port or connect to the other's explorer.
+static ONE_EXPLORER_AT_A_TIME: Mutex<()> = Mutex::new(());
+
+fn one_explorer_at_a_time() -> MutexGuard<'static, ()> {
+    ONE_EXPLORER_AT_A_TIME
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+/// Starts an explorer on a free port and waits until it listens; returns it and its port.
+/// An explorer that exits at start (the port was taken between `free_port` and its bind) is
+/// replaced by one on another port.
+fn start() -> (Explorer, u16) {
+    let mut exits = Vec::new();
+    for _ in 0..3 {
+        let port = free_port();
+        let child = Command::new(env!("CARGO_BIN_EXE_model"))
+            .args(["explore", "--addr", &format!("127.0.0.1:{port}")])
+            .args(["--late-joiners", "0", "--crashes", "0", "--restarts", "0"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("the model binary starts");
+        let mut explorer = Explorer(child);
+        match wait_listening(&mut explorer.0, port) {
+            Ok(()) => return (explorer, port),
+            Err(exit) => exits.push(format!("port {port}: {exit}")),
+        }
+    }
+    panic!("the explorer did not stay up: {exits:?}");
+}
+
+/// Waits until something listens on `port` (not a connection of the socket to itself, which
+/// a connect to a free local port can make) while `explorer` still runs.
+fn wait_listening(explorer: &mut Child, port: u16) -> Result<(), String> {
     let deadline = Instant::now() + Duration::from_secs(20);
-    while TcpStream::connect(("127.0.0.1", port)).is_err() {
-        assert!(
-            Instant::now() < deadline,
-            "explorer did not listen on {port}"
-        );
+    loop {
+        if let Some(status) = explorer.try_wait().expect("the explorer's status") {
+            return Err(format!("exited {status}"));
+        }
+        if let Ok(stream) = TcpStream::connect(("127.0.0.1", port)) {
+            if stream.local_addr().ok() != stream.peer_addr().ok() {
+                // A bind failure ends the process at once: still running now, it listens.
+                std::thread::sleep(Duration::from_millis(200));
+                return match explorer.try_wait().expect("the explorer's status") {
+                    Some(status) => Err(format!("exited {status}")),
+                    None => Ok(()),
+                };
+            }
+        }
+        if Instant::now() >= deadline {
+            return Err("did not listen within 20 s".to_string());
+        }
         std::thread::sleep(Duration::from_millis(100));
     }
-    explorer
 }
 
 /// One HTTP GET. stateright's explorer server sometimes resets a connection while its
@@ -75,8 +114,8 @@ fn try_get(port: u16, path: &str) -> std::io::Result<String> {
 
 #[test]
 fn explorer_json_names_actions_and_states() {
-    let port = free_port();
-    let _explorer = start(port);
+    let _serial = one_explorer_at_a_time();
+    let (_explorer, port) = start();
     let status = get(port, "/.status");
     assert!(status.contains("200 OK"), "{status}");
     assert!(status.contains("actuator has a single owner"), "{status}");
@@ -102,8 +141,8 @@ fn chromium_renders_an_action_and_a_state_by_name() {
     let browser = chromium().unwrap_or_else(|| {
         panic!("no chromium or chromium-browser on PATH (apt install chromium)")
     });
-    let port = free_port();
-    let _explorer = start(port);
+    let _serial = one_explorer_at_a_time();
+    let (_explorer, port) = start();
     // Deep link: the first initial state, then its first action (a round ends).
     let url = format!("http://127.0.0.1:{port}/#/steps/0/0");
     let dom = dump_dom(&browser, port, &url);

@@ -67,17 +67,7 @@ fn with_open_device_topics_an_unsecured_actuator_follows_secured_controllers() {
         .fleet
         .start_other("servo", &["servo", "--json", "--any-writer"])
         .unwrap();
-    for id in 1..=3u8 {
-        let config =
-            open_devices_config(&dir.0, &format!("c{id}"), &keys_dir.join(format!("c{id}")));
-        cluster
-            .fleet
-            .start_controller_configured(id, &config, &["--json-events"])
-            .unwrap();
-    }
-    cluster.wait_for("P=1 S=2 T=3, secured", FORM, |c| {
-        c.steady_with(1, P) && c.steady_with(2, S) && c.steady_with(3, T)
-    });
+    form_secured(&mut cluster, &dir.0, &keys_dir, true);
     // It cannot read the (protected) heartbeats, so it cannot name the controller: it sees a
     // writer at the Primary's strength.
     cluster.wait_for("the unsecured servo follows the Primary at 30", FORM, |c| {
@@ -132,16 +122,7 @@ fn an_unsecured_participant_cannot_forge_heartbeats_or_commands() {
         .fleet
         .start_other("servo-open", &["servo", "--json", "--any-writer"])
         .unwrap();
-    for id in 1..=3u8 {
-        let config = secured_config(&dir.0, &format!("c{id}"), &keys_dir.join(format!("c{id}")));
-        cluster
-            .fleet
-            .start_controller_configured(id, &config, &["--json-events"])
-            .unwrap();
-    }
-    cluster.wait_for("P=1 S=2 T=3, secured", FORM, |c| {
-        c.steady_with(1, P) && c.steady_with(2, S) && c.steady_with(3, T)
-    });
+    form_secured(&mut cluster, &dir.0, &keys_dir, false);
     cluster.wait_for("the secured servo follows C1", FORM, |c| {
         c.servo_commander() == Some(1)
     });
@@ -257,12 +238,16 @@ fn an_unsecured_participant_cannot_forge_heartbeats_or_commands() {
     });
 }
 
-/// Three secured controllers on `domain` with their configurations in `dir` and keystores
-/// in `keys_dir`, formed P=1 S=2 T=3.
-fn secured_formation(tag: &str, domain: u16, dir: &Path, keys_dir: &Path) -> Cluster {
-    let mut cluster = Cluster::new(tag, domain, "");
+/// Starts secured controllers 1-3 in `cluster`, their configurations in `dir` and keystores
+/// in `keys_dir` (the device topics open with `open_devices`), and waits for P=1 S=2 T=3.
+fn form_secured(cluster: &mut Cluster, dir: &Path, keys_dir: &Path, open_devices: bool) {
     for id in 1..=3u8 {
-        let config = secured_config(dir, &format!("c{id}"), &keys_dir.join(format!("c{id}")));
+        let (name, keystore) = (format!("c{id}"), keys_dir.join(format!("c{id}")));
+        let config = if open_devices {
+            open_devices_config(dir, &name, &keystore)
+        } else {
+            secured_config(dir, &name, &keystore)
+        };
         cluster
             .fleet
             .start_controller_configured(id, &config, &["--json-events"])
@@ -271,7 +256,6 @@ fn secured_formation(tag: &str, domain: u16, dir: &Path, keys_dir: &Path) -> Clu
     cluster.wait_for("P=1 S=2 T=3, secured", FORM, |c| {
         c.steady_with(1, P) && c.steady_with(2, S) && c.steady_with(3, T)
     });
-    cluster
 }
 
 #[test]
@@ -279,7 +263,8 @@ fn forged_votes_incumbents_and_garbage_do_not_reach_secured_controllers() {
     const DOMAIN: u16 = 143;
     let dir = tempdir::Dir::new("sec-votes");
     let keys_dir = keystores(&dir.0);
-    let mut cluster = secured_formation("sec-votes", DOMAIN, &dir.0, &keys_dir);
+    let mut cluster = Cluster::new("sec-votes", DOMAIN, "");
+    form_secured(&mut cluster, &dir.0, &keys_dir, false);
     // The control: an unsecured participant that hears what the forgers write (and nothing
     // from the secured controllers, whose discovery it cannot join).
     let witness = forger(DOMAIN);
