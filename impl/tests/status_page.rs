@@ -362,6 +362,15 @@ fn led(dom: &str, controller: u8, led: u8) -> Option<String> {
     dom[at..].split('"').next().map(str::to_string)
 }
 
+/// A fact the page shows on a controller's card in a dumped DOM (`None`: no such card or fact).
+fn card_field(dom: &str, controller: u8, field: &str) -> Option<String> {
+    let card = format!("data-controller=\"{controller}\" data-alive=");
+    let card_at = dom.find(&card)?;
+    let tag = format!("data-field=\"{field}\">");
+    let at = card_at + dom[card_at..].find(&tag)? + tag.len();
+    dom[at..].split('<').next().map(str::to_string)
+}
+
 /// A Chromium kept open on a page; its tabs' titles read through the DevTools HTTP endpoint.
 struct OpenPage {
     browser: Child,
@@ -485,6 +494,18 @@ fn chromium_shows_the_leds_and_follows_a_kill_of_the_primary() {
                 "C{id} LED{n}\n{dom}"
             );
         }
+    }
+    // Each card's incarnation is the controller's, to the last digit (they are 64 bits).
+    let (_, body) = get(port, "/status.json").expect("status.json answers");
+    let status: Value = serde_json::from_str(&body).expect("status.json is JSON");
+    for controller in status["controllers"].as_array().expect("controllers") {
+        let id = controller["id"].as_u64().expect("an id") as u8;
+        let incarnation = controller["incarnation"].as_u64().expect("an incarnation");
+        assert_eq!(
+            card_field(&dom, id, "incarnation"),
+            Some(incarnation.to_string()),
+            "C{id}'s incarnation on the page"
+        );
     }
     if let Ok(dir) = std::env::var("RL_STATUS_SCREENSHOT_DIR") {
         screenshot(&browser, &url, &format!("{dir}/status-page.png"));

@@ -67,6 +67,9 @@ pub struct LiveView {
     pub recent_commander_changes: Vec<CommanderChange>,
     /// Heartbeats taken in per controller since the status process started.
     pub heartbeats_seen: BTreeMap<ControllerId, u64>,
+    /// Each controller's incarnation as decimal text: it is 64 bits and a JavaScript number
+    /// holds 53, so the page would show two incarnations that differ in the low bits as one.
+    pub incarnations: BTreeMap<ControllerId, String>,
     /// Unix milliseconds of this view.
     pub now_ms: u64,
 }
@@ -185,6 +188,11 @@ impl Watch {
             commander_changes: self.commander_changes,
             recent_commander_changes: self.recent.iter().cloned().collect(),
             heartbeats_seen: self.heartbeats_seen.clone(),
+            incarnations: view
+                .controllers
+                .iter()
+                .map(|c| (c.report.id, c.report.incarnation.to_string()))
+                .collect(),
             now_ms: unix_ms,
         }
     }

@@ -164,3 +164,19 @@ fn answers_by_path() {
     assert_eq!(get("/nope").status, 404);
     assert_eq!(get("/../etc/passwd").status, 404);
 }
+
+#[test]
+fn incarnations_reach_the_page_exactly() {
+    // Two incarnations 1 apart above 2^53: as JavaScript numbers they would be one.
+    let mut board = Board::default();
+    let mut first = hb(1, Some(Role::Primary), &[1, 2]);
+    first.incarnation = 117_671_640_260_879_741;
+    let mut second = hb(2, Some(Role::Secondary), &[1, 2]);
+    second.incarnation = 117_671_640_260_879_742;
+    board.heartbeat(first, 0);
+    board.heartbeat(second, 0);
+    let live = Watch::default().live(&board.view(10, 500), 1_000);
+    let json = serde_json::to_value(&live).expect("a live view serializes");
+    assert_eq!(json["incarnations"]["1"], "117671640260879741");
+    assert_eq!(json["incarnations"]["2"], "117671640260879742");
+}
