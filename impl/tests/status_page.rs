@@ -4,16 +4,21 @@
 //! Chromium shows the LEDs and sees the page follow a `kill -9` of the Primary.
 //!
 //! The Chromium and Prometheus tests need outside tools (Debian's `chromium`, Python's
-//! `prometheus_client`; `.ci/run` installs both), so they are ignored by default.
+//! `prometheus_client`; `.ci/run` installs both), so they are ignored by default. Chromium's
+//! side (finding it, reading a page, screenshots) is in `status_page/chromium.rs`.
 
 mod support;
 
+mod status_page {
+    pub mod chromium;
+}
+
 use rl::core::Role;
 use serde_json::Value;
+use status_page::chromium::{card_field, chromium, dump_dom, led, screenshot, OpenPage};
 use std::io::{Read, Write};
 use std::net::TcpStream;
-use std::path::PathBuf;
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 use support::Cluster;
 
@@ -317,160 +322,6 @@ fn metrics_parse_with_the_prometheus_client() {
     cluster.pump(Duration::from_millis(10));
 }
 
-/// Chromium on PATH (Debian's `chromium`, or `chromium-browser` elsewhere).
-fn chromium() -> Option<PathBuf> {
-    let path = std::env::var_os("PATH")?;
-    std::env::split_paths(&path)
-        .flat_map(|dir| [dir.join("chromium"), dir.join("chromium-browser")])
-        .find(|candidate| candidate.is_file())
-}
-
-const HEADLESS: &[&str] = &[
-    "--headless",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-quic",
-    "--no-first-run",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-];
-
-/// A fresh profile directory for one Chromium run.
-fn profile(tag: &str) -> support::tempdir::Dir {
-    support::tempdir::Dir::new(&format!("chromium-{tag}"))
-}
-
-/// The page's DOM after its script ran for a while (in Chromium's virtual time).
-fn dump_dom(browser: &PathBuf, url: &str) -> String {
-    let dir = profile("dom");
-    let output = Command::new(browser)
-        .args(HEADLESS)
-        .args(["--virtual-time-budget=2000", "--dump-dom"])
-        .arg(format!("--user-data-dir={}", dir.0.display()))
-        .arg(url)
-        .stderr(Stdio::null())
-        .output()
-        .expect("chromium runs");
-    String::from_utf8_lossy(&output.stdout).into_owned()
-}
-
-/// The colour an LED shows in a dumped DOM (`None`: no such LED).
-fn led(dom: &str, controller: u8, led: u8) -> Option<String> {
-    let tag_start = format!("data-controller=\"{controller}\" data-led=\"{led}\" data-colour=\"");
-    let at = dom.find(&tag_start)? + tag_start.len();
-    dom[at..].split('"').next().map(str::to_string)
-}
-
-/// A fact the page shows on a controller's card in a dumped DOM (`None`: no such card or fact).
-fn card_field(dom: &str, controller: u8, field: &str) -> Option<String> {
-    let card = format!("data-controller=\"{controller}\" data-alive=");
-    let card_at = dom.find(&card)?;
-    let tag = format!("data-field=\"{field}\">");
-    let at = card_at + dom[card_at..].find(&tag)? + tag.len();
-    dom[at..].split('<').next().map(str::to_string)
-}
-
-/// A Chromium kept open on a page; its tabs' titles read through the DevTools HTTP endpoint.
-struct OpenPage {
-    browser: Child,
-    debug_port: u16,
-    _profile: support::tempdir::Dir,
-}
-
-impl OpenPage {
-    fn open(browser: &PathBuf, url: &str) -> OpenPage {
-        let dir = profile("live");
-        let debug_port = free_port();
-        let child = Command::new(browser)
-            .args(HEADLESS)
-            .arg(format!("--remote-debugging-port={debug_port}"))
-            .arg("--remote-allow-origins=*")
-            .arg(format!("--user-data-dir={}", dir.0.display()))
-            .arg(url)
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("chromium runs");
-        OpenPage {
-            browser: child,
-            debug_port,
-            _profile: dir,
-        }
-    }
-
-    /// The LED colours the open page shows now, read from its live DOM through the DevTools
-    /// protocol (`Runtime.evaluate` over the tab's WebSocket): (controller, LED) -> colour.
-    fn leds(&self) -> Option<std::collections::BTreeMap<(u8, u8), String>> {
-        let (_, body) = get(self.debug_port, "/json/list")?;
-        let tabs: Value = serde_json::from_str(&body).ok()?;
-        let socket_url = tabs.as_array()?.iter().find(|t| t["type"] == "page")?
-            ["webSocketDebuggerUrl"]
-            .as_str()?
-            .to_string();
-        // Chromium names the host the request named; the port is the debugging port.
-        let path = &socket_url[socket_url.find("/devtools/")?..];
-        let socket_url = format!("ws://127.0.0.1:{}{path}", self.debug_port);
-        let (mut socket, _) = match tungstenite::connect(socket_url.as_str()) {
-            Ok(connected) => connected,
-            Err(error) => {
-                eprintln!("DevTools WebSocket {socket_url}: {error}");
-                return None;
-            }
-        };
-        let expression = "JSON.stringify([...document.querySelectorAll('[data-led]')].map(\
-            e => [e.dataset.controller, e.dataset.led, e.dataset.colour]))";
-        let request = serde_json::json!({
-            "id": 1,
-            "method": "Runtime.evaluate",
-            "params": {"expression": expression, "returnByValue": true}
-        });
-        socket
-            .send(tungstenite::Message::text(request.to_string()))
-            .ok()?;
-        loop {
-            let reply = socket.read().ok()?;
-            let Ok(text) = reply.to_text() else { continue };
-            let reply: Value = serde_json::from_str(text).ok()?;
-            if reply["id"] != 1 {
-                continue;
-            }
-            let list: Vec<(String, String, String)> =
-                serde_json::from_str(reply["result"]["result"]["value"].as_str()?).ok()?;
-            let _ = socket.close(None);
-            return Some(
-                list.into_iter()
-                    .filter_map(|(c, n, colour)| Some(((c.parse().ok()?, n.parse().ok()?), colour)))
-                    .collect(),
-            );
-        }
-    }
-
-    /// The title of the page's tab now, if the browser answers.
-    fn title(&self) -> Option<String> {
-        let (_, body) = get(self.debug_port, "/json/list")?;
-        let tabs: Value = serde_json::from_str(&body).ok()?;
-        tabs.as_array()?
-            .iter()
-            .filter(|t| t["type"] == "page")
-            .find_map(|t| {
-                t["title"]
-                    .as_str()
-                    .filter(|t| t.starts_with("RL:"))
-                    .map(str::to_string)
-            })
-    }
-}
-
-impl Drop for OpenPage {
-    fn drop(&mut self) {
-        let _ = self.browser.kill();
-        let _ = self.browser.wait();
-        // Chromium's helper processes outlive the browser briefly and write to the profile.
-        std::thread::sleep(Duration::from_millis(300));
-    }
-}
-
 #[test]
 #[ignore = "needs chromium (apt install chromium)"]
 fn chromium_shows_the_leds_and_follows_a_kill_of_the_primary() {
@@ -482,38 +333,14 @@ fn chromium_shows_the_leds_and_follows_a_kill_of_the_primary() {
         .find(|id| cluster.role_of(*id) == Some(Role::Primary))
         .expect("a Primary");
 
-    // Every controller's LEDs: green on its own role and on LED4, off elsewhere.
     let dom = dump_dom(&browser, &url);
-    for id in 1..=3u8 {
-        let rank = cluster.role_of(id).expect("a role").rank() as u8 + 1;
-        for n in 1..=4u8 {
-            let expected = if n == rank || n == 4 { "green" } else { "off" };
-            assert_eq!(
-                led(&dom, id, n).as_deref(),
-                Some(expected),
-                "C{id} LED{n}\n{dom}"
-            );
-        }
-    }
-    // Each card's incarnation is the controller's, to the last digit (they are 64 bits).
-    let (_, body) = get(port, "/status.json").expect("status.json answers");
-    let status: Value = serde_json::from_str(&body).expect("status.json is JSON");
-    for controller in status["controllers"].as_array().expect("controllers") {
-        let id = controller["id"].as_u64().expect("an id") as u8;
-        let incarnation = controller["incarnation"].as_u64().expect("an incarnation");
-        assert_eq!(
-            card_field(&dom, id, "incarnation"),
-            Some(incarnation.to_string()),
-            "C{id}'s incarnation on the page"
-        );
-    }
+    assert_page_shows_the_formation(&dom, &cluster, port);
     if let Ok(dir) = std::env::var("RL_STATUS_SCREENSHOT_DIR") {
         screenshot(&browser, &url, &format!("{dir}/status-page.png"));
     }
 
     // An open page follows the kill without a reload.
     let page = OpenPage::open(&browser, &url);
-    let lost = format!("C{primary} LOST");
     let deadline = Instant::now() + Duration::from_secs(15);
     let formed = |t: &String| {
         ["primary", "secondary", "tertiary"]
@@ -528,44 +355,7 @@ fn chromium_shows_the_leds_and_follows_a_kill_of_the_primary() {
         );
         std::thread::sleep(Duration::from_millis(50));
     }
-    cluster.fleet.kill(primary).expect("kill -9");
-    let killed = Instant::now();
-    let mut title = page.title();
-    while !title.as_ref().is_some_and(|t| t.contains(&lost)) {
-        assert!(
-            killed.elapsed() < Duration::from_secs(2),
-            "the page did not show C{primary} lost within 2 s of the kill: {title:?}"
-        );
-        std::thread::sleep(Duration::from_millis(20));
-        title = page.title();
-    }
-    let latency = killed.elapsed();
-    eprintln!(
-        "the open page showed the kill after {} ms: {title:?}",
-        latency.as_millis()
-    );
-    // Its LEDs, read from the live DOM: the killed controller's unknown, a survivor's red for
-    // the failed unit, within 2 s of the kill.
-    let leds_follow = |leds: &std::collections::BTreeMap<(u8, u8), String>| {
-        let unknown = (1..=4).all(|n| leds.get(&(primary, n)).is_some_and(|c| c == "unknown"));
-        let red = (1..=3u8)
-            .filter(|id| *id != primary)
-            .any(|id| (1..=3).any(|n| leds.get(&(id, n)).is_some_and(|c| c == "red")));
-        unknown && red
-    };
-    let mut leds = page.leds();
-    while !leds.as_ref().is_some_and(leds_follow) {
-        assert!(
-            killed.elapsed() < Duration::from_secs(2),
-            "the open page's LEDs did not follow the kill of C{primary} within 2 s: {leds:?}"
-        );
-        std::thread::sleep(Duration::from_millis(20));
-        leds = page.leds();
-    }
-    eprintln!(
-        "the open page's LEDs showed the kill after {} ms",
-        killed.elapsed().as_millis()
-    );
+    let killed = open_page_follows_a_kill(&page, &mut cluster, primary);
 
     // The LEDs: the killed controller's are unknown, a survivor shows the failed unit red.
     let deadline = Instant::now() + Duration::from_secs(5);
@@ -594,22 +384,73 @@ fn chromium_shows_the_leds_and_follows_a_kill_of_the_primary() {
     cluster.pump(Duration::from_millis(10));
 }
 
-/// A screenshot of the page (for the documentation: `RL_STATUS_SCREENSHOT_DIR=docs/img`).
-fn screenshot(browser: &PathBuf, url: &str, path: &str) {
-    let dir = profile("shot");
-    let status = Command::new(browser)
-        .args(HEADLESS)
-        .args([
-            "--virtual-time-budget=2000",
-            "--hide-scrollbars",
-            "--window-size=1200,800",
-        ])
-        .arg(format!("--screenshot={path}"))
-        .arg(format!("--user-data-dir={}", dir.0.display()))
-        .arg(url)
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-        .expect("chromium runs");
-    assert!(status.success(), "chromium --screenshot failed");
+/// Every controller's LEDs in `dom`: green on its own role and on LED4, off elsewhere; each
+/// card's incarnation the controller's, to the last digit (they are 64 bits).
+fn assert_page_shows_the_formation(dom: &str, cluster: &Cluster, port: u16) {
+    for id in 1..=3u8 {
+        let rank = cluster.role_of(id).expect("a role").rank() as u8 + 1;
+        for n in 1..=4u8 {
+            let expected = if n == rank || n == 4 { "green" } else { "off" };
+            assert_eq!(
+                led(dom, id, n).as_deref(),
+                Some(expected),
+                "C{id} LED{n}\n{dom}"
+            );
+        }
+    }
+    let (_, body) = get(port, "/status.json").expect("status.json answers");
+    let status: Value = serde_json::from_str(&body).expect("status.json is JSON");
+    for controller in status["controllers"].as_array().expect("controllers") {
+        let id = controller["id"].as_u64().expect("an id") as u8;
+        let incarnation = controller["incarnation"].as_u64().expect("an incarnation");
+        assert_eq!(
+            card_field(dom, id, "incarnation"),
+            Some(incarnation.to_string()),
+            "C{id}'s incarnation on the page"
+        );
+    }
+}
+
+/// Kills `primary` and waits for the open `page` to follow: its title names it lost and its
+/// LEDs, read from the live DOM, show the killed controller's unknown and a survivor's red
+/// for the failed unit, each within 2 s. Returns when the kill was sent.
+fn open_page_follows_a_kill(page: &OpenPage, cluster: &mut Cluster, primary: u8) -> Instant {
+    let lost = format!("C{primary} LOST");
+    cluster.fleet.kill(primary).expect("kill -9");
+    let killed = Instant::now();
+    let mut title = page.title();
+    while !title.as_ref().is_some_and(|t| t.contains(&lost)) {
+        assert!(
+            killed.elapsed() < Duration::from_secs(2),
+            "the page did not show C{primary} lost within 2 s of the kill: {title:?}"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+        title = page.title();
+    }
+    let latency = killed.elapsed();
+    eprintln!(
+        "the open page showed the kill after {} ms: {title:?}",
+        latency.as_millis()
+    );
+    let leds_follow = |leds: &std::collections::BTreeMap<(u8, u8), String>| {
+        let unknown = (1..=4).all(|n| leds.get(&(primary, n)).is_some_and(|c| c == "unknown"));
+        let red = (1..=3u8)
+            .filter(|id| *id != primary)
+            .any(|id| (1..=3).any(|n| leds.get(&(id, n)).is_some_and(|c| c == "red")));
+        unknown && red
+    };
+    let mut leds = page.leds();
+    while !leds.as_ref().is_some_and(leds_follow) {
+        assert!(
+            killed.elapsed() < Duration::from_secs(2),
+            "the open page's LEDs did not follow the kill of C{primary} within 2 s: {leds:?}"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+        leds = page.leds();
+    }
+    eprintln!(
+        "the open page's LEDs showed the kill after {} ms",
+        killed.elapsed().as_millis()
+    );
+    killed
 }
