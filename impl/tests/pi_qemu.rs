@@ -20,6 +20,7 @@ use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
 mod missing;
+mod support;
 use missing::Missing;
 
 const DOMAIN: u16 = 180;
@@ -276,21 +277,6 @@ fn the_emulated_pi_binary_takes_the_primary_role_among_two_native_controllers(
     Ok(())
 }
 
-/// `rl keys` (the native binary), which must succeed.
-#[cfg(feature = "security")]
-fn keys(args: &[&str]) {
-    let output = std::process::Command::new(env!("CARGO_BIN_EXE_rl"))
-        .arg("keys")
-        .args(args)
-        .output()
-        .unwrap();
-    assert!(
-        output.status.success(),
-        "rl keys {args:?}: {}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-}
-
 #[cfg(feature = "security")]
 #[test]
 #[ignore = "needs the Pi binary (RL_AARCH64_BIN, impl/scripts/pi-build) and qemu-aarch64-static \
@@ -299,13 +285,7 @@ fn the_emulated_pi_binary_takes_the_primary_role_secured() -> Result<(), Missing
     let (binary, qemu) = (binary()?, qemu()?);
     let mut formation = Formation::new(&binary, &qemu, SECURED_DOMAIN);
     let dir = formation._dir.0.clone();
-    let keys_dir = dir.join("keys");
-    let keys_text = keys_dir.to_str().unwrap();
-    keys(&["init", "--dir", keys_text]);
-    for id in ["1", "2", "3"] {
-        keys(&["add", "--dir", keys_text, "--id", id]);
-    }
-    keys(&["add", "--dir", keys_text, "--app", "servo"]);
+    let keys_dir = support::keys::keystores(&dir);
     // Secured discovery takes about 2 s natively and longer emulated: a 10 s window lets the
     // three form at once.
     let config = |name: &str| {

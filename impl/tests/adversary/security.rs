@@ -11,6 +11,7 @@ use crate::adversary::forged::{
     keep_forging, outputs_since, reversed_vote_of_c2,
 };
 use crate::adversary::fragments::{c1_survives, four_gb_attack, warned_once_per_writer};
+use crate::support::keys::{keys, keystores};
 use crate::support::{tempdir, Cluster, RL};
 use rl::core::{Phase, Role};
 use rl::procs::{parse_servo_event, ServoEvent};
@@ -22,29 +23,6 @@ const FORM: Duration = Duration::from_secs(20);
 const P: Option<Role> = Some(Role::Primary);
 const S: Option<Role> = Some(Role::Secondary);
 const T: Option<Role> = Some(Role::Tertiary);
-
-/// Runs `rl keys <args>`, which must succeed.
-fn keys(args: &[&str]) {
-    let output = Command::new(RL).arg("keys").args(args).output().unwrap();
-    assert!(
-        output.status.success(),
-        "rl keys {args:?}: {}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-}
-
-/// A CA in `dir` and keystores for controllers 1-3 and the application `servo`.
-fn keystores(dir: &Path) -> PathBuf {
-    let keys_dir = dir.join("keys");
-    let text = keys_dir.to_str().unwrap();
-    keys(&["init", "--dir", text]);
-    for id in ["1", "2", "3"] {
-        keys(&["add", "--dir", text, "--id", id]);
-    }
-    keys(&["add", "--dir", text, "--app", "servo"]);
-    keys(&["add", "--dir", text, "--app", "status"]);
-    keys_dir
-}
 
 /// The same with the device topics left open (`open_device_topics`).
 fn open_devices_config(dir: &Path, name: &str, keystore: &Path) -> PathBuf {

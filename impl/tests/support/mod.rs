@@ -4,6 +4,7 @@
 #![allow(dead_code)]
 
 pub mod actuators;
+pub mod keys;
 
 use rl::core::{Phase, Role, Status};
 use rl::event::EventLine;
