@@ -8,7 +8,8 @@
 //! `traces/index.json`; each test has its own DDS domain (190-197 and 220, in that table; 199
 //! the broken replay; 221-224 the mutation checks) and the tests take turns (they are timed on
 //! the wall clock, and this machine has 2 cores). The `rl` binary with the `fault-injection`
-//! and `mutation` features is built once into `target/fault-injection`; the recordings are
+//! and `mutation` features is the workspace build's (`target/release/rl`, `--all-features`);
+//! the recordings are
 //! kept in `target/tmp/dds-replay/`.
 //!
 //! The mutation checks: a suite that cannot fail proves nothing. Each curated family that one

@@ -15,7 +15,7 @@
 //! The lab runs need root (namespaces, links, nftables) and nft and libfaketime installed, as
 //! `lab` itself does: they are ignored by default and CI runs them (as root, the tools
 //! installed) with the other ignored tests. Each run takes about 30 s; the `rl` with the
-//! `mutation` feature is the DDS replay's (`target/fault-injection`, built once).
+//! `mutation` feature is the workspace build's (`target/release/rl`, `--all-features`).
 
 use conformance::dds_replay::fault_injection_rl;
 use conformance::lab::mutation::NAMES;
@@ -38,7 +38,7 @@ fn out_dir() -> PathBuf {
 /// `lab run kill-primary --rl <mutation build> [--mutation NAME]`; its output and result.json.
 fn lab_run(mutation: Option<&str>) -> (Output, Value) {
     let _one = ONE_RUN_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
-    let rl = fault_injection_rl().expect("rl with the mutation feature builds");
+    let rl = fault_injection_rl().unwrap_or_else(|e| panic!("{e}"));
     let mut command = Command::new(env!("CARGO_BIN_EXE_lab"));
     command
         .args(["run", SCENARIO, "--rl"])

@@ -4,7 +4,7 @@
 //! names the field), 75 a controller that voted itself FAILED and left to be restarted
 //! (`timing.failed_exit_delay_ms`; the systemd unit restarts on it).
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 
 /// RL, a model-checked Redundancy Layer for three-way voting controllers over DDS.
@@ -17,7 +17,7 @@ use std::process::ExitCode;
 ///
 /// Try it on one machine:  rl demo
 #[derive(Parser)]
-#[command(name = "rl", version, propagate_version = true)]
+#[command(name = "rl", propagate_version = true)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -55,8 +55,35 @@ enum Command {
     },
 }
 
+/// `rl --version`: the version, then the optional features this binary was built with, so a
+/// test build (`fault-injection`, `mutation`) is told from a shipped one at a glance, and the
+/// conformance suite checks the binary it runs can do what it asks of it.
+fn version_text() -> String {
+    let features: Vec<&str> = [
+        ("fault-injection", cfg!(feature = "fault-injection")),
+        ("mutation", cfg!(feature = "mutation")),
+        ("security", cfg!(feature = "security")),
+    ]
+    .into_iter()
+    .filter_map(|(name, on)| on.then_some(name))
+    .collect();
+    let features = if features.is_empty() {
+        "none".to_string()
+    } else {
+        features.join(", ")
+    };
+    format!("{} (features: {features})", env!("CARGO_PKG_VERSION"))
+}
+
+fn parse() -> Result<Cli, clap::Error> {
+    // Once per process: clap takes the version as a 'static string.
+    let version: &'static str = Box::leak(version_text().into_boxed_str());
+    let matches = Cli::command().version(version).try_get_matches()?;
+    Cli::from_arg_matches(&matches)
+}
+
 fn main() -> ExitCode {
-    let cli = match Cli::try_parse() {
+    let cli = match parse() {
         Ok(cli) => cli,
         Err(error) => {
             // clap prints help/version to stdout with success, misuse to stderr with code 2.

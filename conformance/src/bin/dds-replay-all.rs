@@ -8,7 +8,8 @@
 //!
 //! A command rather than a test: too long for every test run, and CI runs the ignored tests
 //! too. Domain 199, one trace after the other; the `rl` binary with the `fault-injection` and
-//! `mutation` features is built once into `target/fault-injection`, the recordings are kept
+//! `mutation` features is the one beside this program (`target/release/rl`; build it with
+//! `--all-features`), the recordings are kept
 //! in `target/tmp/dds-replay-all/NNNN/`. Exit 0: every replayed trace conforms; 1: some did
 //! not; 2: the arguments, the trace set, the configuration or the `rl` build could not be had.
 

@@ -34,7 +34,7 @@ use std::process::ExitCode;
 ///   lab run cut-primary
 ///   lab run net-b-down
 ///   lab run random --seed 17
-///   lab run kill-primary --mutation failback --rl target/fault-injection/release/rl
+///   lab run kill-primary --mutation failback   (rl built with --features mutation)
 ///   lab matrix --ci
 ///   lab soak --minutes 30
 #[derive(Parser)]
@@ -71,8 +71,9 @@ enum Command {
         seed: u64,
         /// Run the controllers with a deliberately broken voting rule (RL_MUTATION=NAME, set
         /// for the controllers only), to see the lab catch it: the run must FAIL. Needs an rl
-        /// built with the `mutation` feature (--rl; e.g. target/fault-injection/release/rl,
-        /// which the DDS replay builds); with any other rl the run stops with an error.
+        /// built with the `mutation` feature (the workspace's test build, --all-features, or
+        /// cargo build --release -p rl --features mutation); with any other rl the run stops
+        /// with an error.
         #[arg(long, value_name = "NAME", value_parser = PossibleValuesParser::new(lab::mutation::NAMES))]
         mutation: Option<String>,
     },

@@ -1,4 +1,4 @@
-//! What can go wrong in a DDS-level replay: the setup (configuration, building `rl`, the
+//! What can go wrong in a DDS-level replay: the setup (configuration, the `rl` to run, the
 //! recording directory), a run that does not conform ([`Problem`], with the run's context in
 //! a [`Failure`]), and a recording trace validation rejects.
 
@@ -9,23 +9,30 @@ use std::path::PathBuf;
 use std::process::ExitStatus;
 use std::time::Duration;
 
-/// Why `rl` with the replay's features could not be had. Cloneable: it is built once per
-/// process and every replay gets the same answer.
+/// Why the `rl` the replay runs could not be had. Cloneable: it is looked up once per process
+/// and every replay gets the same answer.
 #[derive(Clone, Debug, thiserror::Error)]
-pub enum BuildError {
-    /// Cargo itself could not be started.
-    #[error("could not run {cargo}: {message}")]
-    Cargo { cargo: String, message: String },
-    /// The build failed; `tail` is the end of cargo's output.
-    #[error("{command} failed ({status}):\n{tail}")]
-    Failed {
-        command: String,
-        status: String,
-        tail: String,
-    },
-    /// Cargo reported success but left no binary.
-    #[error("cargo succeeded but {} is missing", path.display())]
+pub enum BinaryError {
+    /// This program's own path is unknown, so the `rl` beside it cannot be found.
+    #[error("the path of this program is unknown ({0}), so the rl beside it cannot be found")]
+    NoExe(String),
+    /// No `rl` beside this program.
+    #[error("{} is missing: build it with {}", path.display(), super::binary::BUILD_COMMAND)]
     Missing { path: PathBuf },
+    /// The `rl` found could not be run.
+    #[error("{} --version could not run: {message}", path.display())]
+    Unrunnable { path: PathBuf, message: String },
+    /// The `rl` found lacks a feature the replay needs.
+    #[error(
+        "{} ({version}) lacks the feature(s) {missing}: build it with {}",
+        path.display(),
+        super::binary::BUILD_COMMAND
+    )]
+    Features {
+        path: PathBuf,
+        version: String,
+        missing: String,
+    },
 }
 
 /// Why a replay did not conform, or could not be run.
@@ -35,9 +42,9 @@ pub enum ReplayError {
     /// room for the observations.
     #[error("the replay configuration: {0}")]
     Config(String),
-    /// `rl` with the `fault-injection` and `mutation` features could not be built.
+    /// No `rl` with the `fault-injection` and `mutation` features beside this program.
     #[error(transparent)]
-    Build(#[from] BuildError),
+    Binary(#[from] BinaryError),
     /// The recording directory could not be prepared or written.
     #[error("{what} {}: {source}", path.display())]
     RecordDir {

@@ -28,8 +28,8 @@
 //! with fresh processes, up to [`ATTEMPTS`] times. Any other difference is a failure
 //! ([`ReplayError::Diverged`]), reported with the run's context.
 //!
-//! Modules: [`plan`] (a trace's plan, pure), [`checks`] (its timing assumptions, checked
-//! against the model), [`curated`] (which traces), [`config`] (the `rl.toml` and the
+//! Modules: [`plan`](mod@plan) (a trace's plan, pure), [`checks`] (its timing assumptions, checked
+//! against the model), [`curated`](mod@curated) (which traces), [`config`] (the `rl.toml` and the
 //! timing), [`binary`] (building `rl`), [`processes`] (the children), [`lives`] (a
 //! controller process's record and observation), [`servo`] (the actuator's owner),
 //! [`drops`] (injected losses against logged drops), [`run`] (one attempt's steps),
@@ -54,7 +54,7 @@ pub use config::{
     START_OFFSET_MS,
 };
 pub use curated::{curated, select, shows, Curated, Need, Scope, SelectError, Selected, CURATED};
-pub use error::{BuildError, Diverged, Failure, Problem, ReplayError};
+pub use error::{BinaryError, Diverged, Failure, Problem, ReplayError};
 pub use plan::{plan, replay_timing, Mode, Plan, PlanError, RoundPlan};
 
 use crate::record::{round_of, Recording};

@@ -53,7 +53,7 @@ pub enum LabError {
     },
     /// `--mutation NAME`, and controllers formed without saying they run it: their `rl` was
     /// built without the `mutation` feature, which ignores `RL_MUTATION`.
-    #[error("the rl at {} does not run the mutation {name:?} ({silent} never announced it): --mutation needs an rl built with the `mutation` feature (cargo build --release -p rl --features mutation, or the DDS replay's target/fault-injection/release/rl)", rl.display())]
+    #[error("the rl at {} does not run the mutation {name:?} ({silent} never announced it): --mutation needs an rl built with the `mutation` feature (cargo build --release -p rl --features mutation, or the workspace's test build with --all-features)", rl.display())]
     MutationIgnored {
         name: String,
         rl: PathBuf,
