@@ -10,6 +10,7 @@
 //! - [`protocol`]: the rules, action by action;
 //! - [`properties`]: what must always hold and what must sometimes happen;
 //! - [`search`]: our own breadth-first search for shortest counterexamples and traces;
+//! - [`simulate`]: seeded random walks, one seed reproducing one walk on any machine;
 //! - [`traces`]: the committed trace set the conformance suite replays;
 //! - [`render`]: readable states, steps and sequence diagrams.
 //!

@@ -5,12 +5,12 @@
 //! This module holds the actions (which are enabled, what each does); the rules they apply
 //! are split by what they decide:
 //!
-//! - [`round`]: the end of a round, one controller at a time ([`round_step`]): heartbeats
+//! - `round`: the end of a round, one controller at a time ([`round_step`]): heartbeats
 //!   heard and missed, the initialization window, re-votes and the round-boundary decisions;
-//! - [`vote`]: what a controller votes for ([`compute_vote`]) and how votes are published
+//! - `vote`: what a controller votes for ([`compute_vote`]) and how votes are published
 //!   and delivered;
-//! - [`agreement`]: who counts (the electorate), when a result is agreed, and adopting it;
-//! - [`minority`]: marking minority voters FAILED and failing oneself;
+//! - `agreement`: who counts (the electorate), when a result is agreed, and adopting it;
+//! - `minority`: marking minority voters FAILED and failing oneself;
 //! - [`actuator`]: which controller's commands the actuator follows, at DDS-writer granularity.
 
 pub mod actuator;

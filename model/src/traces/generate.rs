@@ -5,7 +5,9 @@
 //! the trace shows (a property, a transition class, a walk's seed), prefixed by the scope's
 //! name outside the configured scope, so names are deterministic, stable and unique.
 
-use super::{abstract_state, file_name, HeaderLine, IndexEntry, StepLine, TraceSet, FORMAT};
+use super::{
+    abstract_state, file_name, HeaderLine, IndexEntry, ScopeVerdict, StepLine, TraceSet, FORMAT,
+};
 use crate::properties::PropertyInfo;
 use crate::search::{self, classes, Path, Stage, TransitionClass};
 use crate::simulate;
@@ -74,6 +76,7 @@ pub fn generate(scopes: &[TraceScope], mut progress: impl FnMut(usize, usize)) -
         reachable: BTreeSet::new(),
         covered: BTreeSet::new(),
         unique_states: 0,
+        scopes: Vec::new(),
     };
     let mut index = Vec::new();
     for scope in scopes {
@@ -143,7 +146,30 @@ fn generate_scope(
         set.reachable.extend(explored.reachable_coverage_classes());
     }
     set.unique_states += explored.unique_states;
+    set.scopes.push(verdict(scope, &explored));
     write_chosen(scope, &chosen, set, index);
+}
+
+/// What the search of `scope` showed of each property.
+fn verdict(scope: &TraceScope, explored: &search::Explored) -> ScopeVerdict {
+    let config = &scope.model.config;
+    let mut verdict = ScopeVerdict {
+        name: scope.name.clone(),
+        unique_states: explored.unique_states,
+        violated: Vec::new(),
+        unwitnessed: Vec::new(),
+    };
+    for info in crate::properties::catalogue() {
+        let found = explored.discovery(info.name).is_some();
+        match info.expectation {
+            Expectation::Always if found => verdict.violated.push(info.name),
+            Expectation::Sometimes if !found && info.applies(config) => {
+                verdict.unwitnessed.push(info.name)
+            }
+            _ => {}
+        }
+    }
+    verdict
 }
 
 /// A property's shortest discovery: a witness, or a counterexample.

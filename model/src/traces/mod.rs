@@ -233,6 +233,29 @@ pub struct TraceSet {
     pub reachable: BTreeSet<CoverageClass>,
     pub covered: BTreeSet<CoverageClass>,
     pub unique_states: usize,
+    /// What each exhaustively searched scope showed of the properties, in generation order:
+    /// the search that makes the traces is also the one that checks the scope, so no scope is
+    /// explored twice to check it.
+    pub scopes: Vec<ScopeVerdict>,
+}
+
+/// One scope's exhaustive search, as the trace set's generation saw it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ScopeVerdict {
+    /// The scope's name (`""` for the configured scope, `link-failure`, `paper-f3`, ...).
+    pub name: String,
+    pub unique_states: usize,
+    /// The `always` properties it violates (expected only of the paper variant's scopes).
+    pub violated: Vec<&'static str>,
+    /// The `sometimes` properties that apply to its configuration and were never witnessed.
+    pub unwitnessed: Vec<&'static str>,
+}
+
+impl ScopeVerdict {
+    /// Every property as expected: nothing violated, every applicable witness found.
+    pub fn holds(&self) -> bool {
+        self.violated.is_empty() && self.unwitnessed.is_empty()
+    }
 }
 
 impl TraceSet {
