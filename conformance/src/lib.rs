@@ -8,10 +8,13 @@
 //! - [`abstraction`]: the one abstraction function from implementation state to model state
 //!   (the only code that knows both crates' types);
 //! - [`trace`]: reading the trace files and their index;
-//! - [`replay`]: the core-level replay: real `rl::core::Core`s on a simulated clock and
-//!   network, one model action at a time, with a readable diff on a mismatch;
-//! - [`transcript`]: the readable per-trace transcripts kept as golden snapshots;
-//! - [`coverage`]: which (action kind x phase) pairs the replayed traces exercised;
+//! - [`diff`]: the readable difference between the model's state and an observed one, one
+//!   format for every check, so a mismatch reads the same everywhere;
+//! - [`core_replay`]: the core-level replay: real `rl::core::Core`s on a simulated clock and
+//!   network, one model action at a time, with a readable diff on a mismatch; its
+//!   [`transcript`](core_replay::transcript) module writes the readable per-trace transcripts
+//!   kept as golden snapshots, and its [`coverage`](core_replay::coverage) module counts which
+//!   (action kind x stage) pairs the replayed traces exercised;
 //! - [`record`]: recorded runs (the controllers' JSON events) and what each controller
 //!   reported at every round boundary;
 //! - [`validate`]: trace validation, the other direction: a recorded run checked to be a

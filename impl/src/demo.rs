@@ -36,7 +36,7 @@ pub struct DemoArgs {
     /// Configuration file passed to every child.
     #[arg(long, value_name = "PATH")]
     pub config: Option<PathBuf>,
-    /// Write every child's output to DIR/<name>.log (controllers' JSON events included).
+    /// Write every child's output to `DIR/<name>.log` (controllers' JSON events included).
     #[arg(long, value_name = "DIR")]
     pub record: Option<PathBuf>,
     /// Serve the live status page (`rl status --serve`) here; `off` for none.

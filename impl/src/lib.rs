@@ -8,17 +8,34 @@
 //!
 //! - [`core`]: the protocol as a state machine, `step(input, now) -> commands`; no I/O, clock
 //!   or threads. It follows the model in `model/` rule for rule (docs/protocol.md).
-//! - [`wire`], [`dds`]: the DDS topics, their QoS and sample types.
+//! - [`wire`], [`dds`]: the DDS sample types, and the participant, topics and QoS they
+//!   travel with.
 //! - [`arbiter`]: exclusive ownership with DDS semantics on the reading side (RustDDS readers
 //!   do not enforce it).
-//! - [`controller`]: runs the core over DDS; [`api`] is what an application sees of it;
+//! - [`identity`]: each controller id bound to the DDS participant it speaks from, so a forged
+//!   heartbeat is not believed and a duplicate id is alarmed.
+//! - [`controller`]: `rl controller`, the tracker run through the RL API; [`api`] is what an
+//!   application sees of RL; [`runtime`] is the voting thread that runs the core over DDS;
 //!   [`event`] is the JSON event line it prints with `--json-events`.
+//! - [`round_clock`]: the voting loop's clock, which follows the Primary's round phase so the
+//!   controllers share round boundaries whatever their wall clocks say.
+//! - [`stall`]: a voting loop that stood still for a peer deadline restarts as a new
+//!   incarnation, so it cannot take the actuator back.
+//! - [`network_monitor`]: the Network Alarm Participant, the core's network monitor run over
+//!   one DDS participant per network.
 //! - [`tracker`]: the paper's application (pan/tilt from the camera's circle).
-//! - [`leds`], [`config`], [`sim`], [`status`], [`demo`], [`bench`]: status LEDs, configuration,
-//!   camera and actuator simulators, the live status view, the demo and the benchmarks.
+//! - [`leds`], [`console`]: the status LEDs and the console line, both pure functions of what
+//!   a controller knows.
+//! - [`config`]: the configuration (`rl.toml`), every field with the paper's default.
+//! - [`sim`]: the camera (`rl shapes`) and actuator (`rl servo`) simulators, and the ball and
+//!   gimbal the simulated camera sees.
+//! - [`status`], [`status_page`]: `rl status`, the live status table, and its page over HTTP.
+//! - [`demo`], [`bench`](mod@bench), [`procs`]: the demo, the benchmarks, and the child
+//!   processes they start and kill.
 //! - [`service`], [`logging`]: running under systemd (readiness, watchdog, journald);
 //!   [`failed_exit`]: a controller that votes itself FAILED leaves, to be restarted.
 //! - [`security`]: DDS Security keystores (`rl keys`) and their start-up check.
+//! - [`error`]: the top-level error, what a command reports and its exit code.
 //!
 //! docs/architecture.md draws the layout and the RL API on one page.
 

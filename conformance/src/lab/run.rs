@@ -158,7 +158,7 @@ pub fn run(scenario: &Scenario, seed: u64, setup: &Setup, out: &Path) -> Result<
     Ok(outcome)
 }
 
-/// Trace validation in a thread, given up after [`VALIDATION_TIMEOUT`].
+/// Trace validation in a thread, given up after `VALIDATION_TIMEOUT`.
 pub fn validate_with_timeout(dir: PathBuf) -> Verdict {
     let (sender, receiver) = std::sync::mpsc::channel();
     std::thread::spawn(move || {

@@ -130,7 +130,7 @@ fn combine(slots: Vec<Vec<Vec<Controller>>>) -> Vec<Branch> {
 }
 
 /// Every state controller `id` (as `candidate`) can end round in, with the others as in
-/// `reps`: one per subset of `senders` whose heartbeat to it is lost (bit i = senders[i]),
+/// `reps`: one per subset of `senders` whose heartbeat to it is lost (bit `i` = `senders[i]`),
 /// through the model's own per-controller round step (`model::protocol::round_step`, the step
 /// its `Tick` runs for every controller). Due initialization windows expire right after the
 /// round ends.

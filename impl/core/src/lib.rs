@@ -36,11 +36,14 @@
 //! ```
 //!
 //! Modules: [`types`] (the vocabulary, shared with the model by meaning, never by code),
-//! [`state`] (what one controller knows), `rules` (the model's rules, one function each),
-//! [`report`] (the self-report sent as heartbeat and shown as status), [`io`] (inputs,
-//! timers, commands), [`config`], and `mutation` (deliberately broken rules, feature
-//! `mutation` only). [`network`] is the network alarm participant, a second pure state
-//! machine of the same shape that watches both networks between the like controllers.
+//! [`state`] (what one controller knows), [`report`] (the self-report sent as heartbeat and
+//! shown as status), [`io`] (inputs, timers, commands), [`config`] (its own id and its timing
+//! in rounds), and `mutation` (deliberately broken rules, feature `mutation` only).
+//! [`network`] is the network alarm participant, a second pure state machine of the same
+//! shape that watches both networks between the like controllers. Private to the crate:
+//! `rules` (the model's rules, one function each), `epochs` (which of two agreed results wins
+//! a merge), `strength` (the command strength a role earns, and when to move there) and
+//! `invariants` (the state's invariants, asserted in debug builds after every step).
 
 #![deny(missing_docs)]
 
