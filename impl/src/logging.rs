@@ -31,6 +31,26 @@ pub const RUSTDDS_NOISE: &[(&str, &str)] = &[
         "rustdds::rtps::dp_event_loop",
         "Participant was updated, but DB does not have it",
     ),
+    // At WARN for every datagram over 1500 bytes RustDDS sends (an alarm raised or cleared
+    // goes out with the discovery data beside it in one message of about 1.8 kB): the
+    // datagram is sent all the same, the IP layer fragments it, and a reliable reader has a
+    // lost one repaired. Nothing for an operator to act on, once per alarm on the console.
+    (
+        "rustdds::network::udp_sender",
+        "send_to_locator: Message size",
+    ),
+    (
+        "rustdds::network::udp_sender",
+        "try_send_to_locator: Message size",
+    ),
+    (
+        "rustdds::network::udp_sender",
+        "send_to_multicast_locator_via: Message size",
+    ),
+    (
+        "rustdds::network::udp_sender",
+        "try_send_to_multicast_locator_via: Message size",
+    ),
 ];
 
 /// Installs the global subscriber once; later calls do nothing.
@@ -211,6 +231,10 @@ mod tests {
             log::error!(target: noisy, "Participant was updated, but DB does not have it. Strange.");
             log::error!(target: noisy, "Cannot send to socket: broken");
             log::info!(target: "rustdds::discovery", "participant cleanup - deleting proxy");
+            let sender = "rustdds::network::udp_sender";
+            log::warn!(target: sender, "send_to_locator: Message size = 1808");
+            log::warn!(target: sender, "send_to_multicast_locator_via: Message size = 1808");
+            log::error!(target: sender, "send_to_locator: send failed: refused");
             tracing::warn!("C1: heartbeat not sent: no route");
             tracing::info!("C1 steady primary (30)");
         }
@@ -222,7 +246,13 @@ mod tests {
         let shown = console_output(DEFAULT_FILTER, DropNoise::On);
         assert!(!shown.contains("DB does not have it"), "{shown}");
         assert!(!shown.contains("participant cleanup"), "{shown}");
+        assert!(!shown.contains("Message size"), "{shown}");
         assert!(shown.contains("ERROR Cannot send to socket"), "{shown}");
+        // The same module's real failures still show.
+        assert!(
+            shown.contains("ERROR send_to_locator: send failed"),
+            "{shown}"
+        );
         assert!(shown.contains("WARN C1: heartbeat not sent"), "{shown}");
         assert!(shown.contains("INFO C1 steady primary"), "{shown}");
     }
@@ -231,6 +261,10 @@ mod tests {
     fn an_operator_filter_shows_rustdds_as_it_logs() {
         let shown = console_output("info", DropNoise::Off);
         assert!(shown.contains("ERROR Participant was updated"), "{shown}");
+        assert!(
+            shown.contains("WARN send_to_locator: Message size = 1808"),
+            "{shown}"
+        );
         assert!(shown.contains("participant cleanup"), "{shown}");
     }
 }

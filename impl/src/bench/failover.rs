@@ -39,6 +39,30 @@ pub enum KillFailure {
     SwitchedPastTheSecondary,
     /// The restarted controller and the others were not all steady within the timeout.
     NotRejoined,
+    /// The servo's owner changed more than once for the one kill (a blip or a failback).
+    MoreThanOneOwnerChange,
+    /// The command gap was over [`GAP_OVER_DEADLINE_MAX_PERCENT`] % of the deadline.
+    GapOverDeadline,
+}
+
+/// The most a kill's command gap may be, in percent of the command deadline (1.15 ×): the
+/// deadline, then the next writer's first sample within one re-publish period (a tenth of the
+/// deadline), plus scheduling (docs/performance.md, "Why the command gap is the deadline").
+/// In integers: 1.15 × 100 is a hair under 115 in floating point.
+pub const GAP_OVER_DEADLINE_MAX_PERCENT: u64 = 115;
+
+/// What a kill that did switch broke of RL's promise to the actuator: one owner change per
+/// fault, within [`GAP_OVER_DEADLINE_MAX_PERCENT`] % of the deadline.
+fn broken_promise(sample: &KillSample, deadline_ms: u64) -> Option<KillFailure> {
+    if sample.owner_changes > 1 {
+        return Some(KillFailure::MoreThanOneOwnerChange);
+    }
+    match sample.gap_ms {
+        Some(gap_ms) if gap_ms * 100 > GAP_OVER_DEADLINE_MAX_PERCENT * deadline_ms => {
+            Some(KillFailure::GapOverDeadline)
+        }
+        _ => None,
+    }
 }
 
 /// One kill and what it measured.
@@ -187,7 +211,10 @@ pub fn failover(
     let mut samples = Vec::new();
     for kill in 1..=kills {
         let phase_ms = phases.below(period_ms);
-        let sample = kill_once(setup, &mut fleet, &mut watch, kill, phase_ms)?;
+        let mut sample = kill_once(setup, &mut fleet, &mut watch, kill, phase_ms)?;
+        sample.failure = sample
+            .failure
+            .or_else(|| broken_promise(&sample, deadline_ms));
         eprintln!(
             "deadline {deadline_ms} ms, kill {kill}/{kills}: C{} killed {} ms into the round, gap {} ms ({GAP_READER}), promotion {} ms, steady {} ms, owner changes {}{}{}",
             sample.killed.map_or("-".into(), |id| id.to_string()),
@@ -422,6 +449,31 @@ mod tests {
         assert_eq!(result.tracking_error_px.max, 30.0);
         assert_eq!(result.frames_unseen, 1);
         assert_eq!(result.tracking_error_after_kill_max_px.max, 20.0);
+    }
+
+    #[test]
+    fn a_kill_that_moves_the_actuator_twice_or_late_is_a_failed_kill() {
+        let switched = |gap_ms: u64, owner_changes: u32| KillSample {
+            owner_changes,
+            ..sample(Some(gap_ms), None)
+        };
+        // Measured figures: 110 ms at a 100 ms deadline is within 1.15 x; 116 ms is not.
+        assert_eq!(broken_promise(&switched(110, 1), 100), None);
+        assert_eq!(broken_promise(&switched(115, 1), 100), None);
+        assert_eq!(
+            broken_promise(&switched(116, 1), 100),
+            Some(KillFailure::GapOverDeadline)
+        );
+        assert_eq!(broken_promise(&switched(23, 1), 20), None);
+        assert_eq!(
+            broken_promise(&switched(24, 1), 20),
+            Some(KillFailure::GapOverDeadline)
+        );
+        // A blip: the servo followed the Tertiary for a moment, then the new Primary.
+        assert_eq!(
+            broken_promise(&switched(104, 2), 100),
+            Some(KillFailure::MoreThanOneOwnerChange)
+        );
     }
 
     #[test]
