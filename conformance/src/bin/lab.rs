@@ -20,14 +20,14 @@ use std::process::ExitCode;
 /// scenarios (net-b-down, c2-transceiver-a-down, c2-both-links-down, both-networks-down; not
 /// in matrix --ci) are also judged on the controllers' network alarms: raised within 1000 ms
 /// of the fault, cleared within 1500 ms of the heal, no other. Controllers get --network-a
-/// and --network-b (their addresses on A and B) when the rl takes them; without, the network
-/// alarm checks are skipped with a note. A run leaves its recording, result.json and
+/// and --network-b (their addresses on A and B) when the rl takes them; a judge that cannot
+/// run (an rl without them, no Connext connector) is an error unless --lenient skips it. A run leaves its recording, result.json and
 /// timeline in OUT/NAME-seedN/ and its picture in
 /// OUT/NAME-seedN.svg; a failing run prints the command that replays it.
 ///
 /// Needs root, iproute2 (ip, tc), nftables and faketime (apt-get install nftables faketime);
-/// the Connext judge needs `pip install rticonnextdds-connector==1.2.4` (skipped with a
-/// warning when missing). Build rl first: cargo build --release -p rl.
+/// the Connext judge needs `pip install rticonnextdds-connector==1.2.4` (without it: exit 2,
+/// or skipped with a warning under --lenient). Build rl first: cargo build --release -p rl.
 ///
 /// Examples:
 ///   lab list
@@ -52,6 +52,11 @@ struct Cli {
     /// else, so any domain will do).
     #[arg(long, global = true, value_name = "D", default_value_t = 53)]
     domain: u16,
+    /// Go on when a judge cannot run (no Connext connector, an rl without network alarm
+    /// participants): that judge is skipped with a warning. Without it such a run is an
+    /// error (exit 2), so a missing judge never passes for a judge that said yes.
+    #[arg(long, global = true)]
+    lenient: bool,
 }
 
 #[derive(Subcommand)]
@@ -190,7 +195,17 @@ fn setup(cli: &Cli) -> Result<Setup, LabError> {
     }
     let connext = host::connext_available();
     if !connext {
-        eprintln!("lab: python3 cannot import rticonnextdds_connector: the Connext judge is skipped (pip install {})", host::CONNEXT_PACKAGE);
+        let fix = format!(
+            "python3 cannot import rticonnextdds_connector (pip install {})",
+            host::CONNEXT_PACKAGE
+        );
+        if !cli.lenient {
+            return Err(LabError::MissingJudge {
+                judge: "the Connext judge".into(),
+                fix,
+            });
+        }
+        eprintln!("lab: {fix}: the Connext judge is skipped (--lenient)");
     }
     let mutation = match &cli.command {
         Command::Run { mutation, .. } => mutation.clone(),
@@ -200,6 +215,7 @@ fn setup(cli: &Cli) -> Result<Setup, LabError> {
         rl,
         domain: cli.domain,
         connext,
+        lenient: cli.lenient,
         mutation,
     })
 }

@@ -17,6 +17,9 @@ pub enum LabError {
         package: &'static str,
         why: &'static str,
     },
+    /// A judge cannot run, and `--lenient` was not given to go on without it.
+    #[error("{judge} cannot run: {fix}; a run with a judge missing is refused (--lenient skips it with a warning)")]
+    MissingJudge { judge: String, fix: String },
     /// A system command exited non-zero or could not start.
     #[error("`{command}` failed: {message}")]
     Command { command: String, message: String },

@@ -234,7 +234,8 @@ pub fn panics(observed: &Observations) -> Vec<String> {
         .collect()
 }
 
-/// The judges' measurements of a run.
+/// The judges' measurements of a run; `connext_judged`: the Connext reader ran (`--lenient`
+/// lets a run go without it), so its silence is a gap like the servo's.
 pub fn measure(
     observed: &Observations,
     lives: &[Life],
@@ -242,6 +243,7 @@ pub fn measure(
     judged_from_ms: f64,
     end_ms: f64,
     period_ms: f64,
+    connext_judged: bool,
 ) -> Metrics {
     let name = |p: &str, at: f64| observed.owner_name(p, at, lives);
     // What the actuators saw while the processes were being stopped is not judged.
@@ -257,7 +259,7 @@ pub fn measure(
         until_end(&observed.connext),
     );
     let servo_owners = owner_spans(&servo, name);
-    let connext_owners = (!connext.is_empty()).then(|| owner_spans(&connext, name));
+    let connext_owners = connext_judged.then(|| owner_spans(&connext, name));
     let intervals: Vec<Vec<(f64, f64)>> = lives
         .iter()
         .map(|l| top_strength_intervals(observed, l, end_ms))
@@ -284,8 +286,8 @@ pub fn measure(
     Metrics {
         judged_from_ms,
         changes_per_fault: changes_per_fault(faults, &servo_owners, connext_owners.as_deref()),
-        servo_gap: largest_gap(&servo, judged_from_ms),
-        connext_gap: largest_gap(&connext, judged_from_ms),
+        servo_gap: Some(largest_gap(&servo, judged_from_ms, end_ms)),
+        connext_gap: connext_judged.then(|| largest_gap(&connext, judged_from_ms, end_ms)),
         two_at_top_ms: overlap_ms(&intervals, judged_from_ms),
         settle_rounds: settle_rounds(observed, lives, healed_ms, period_ms),
         final_roles,

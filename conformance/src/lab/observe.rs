@@ -181,16 +181,29 @@ pub fn owner_spans(
     spans.into_iter().map(|(span, _)| span).collect()
 }
 
-/// The largest gap between consecutive samples from `from_ms` on (lab clock), measured on
-/// the samples' own clock; with when it ended.
-pub fn largest_gap(samples: &[ActuatorSample], from_ms: f64) -> Option<(f64, f64)> {
-    samples
+/// The largest time without a sample in the judged window `from_ms..to_ms` (lab clock), with
+/// when it ended: from the window's start to the first sample, between consecutive samples
+/// (measured on the samples' own clock), and from the last sample to the window's end. A
+/// reader that received nothing in the window went the whole window without a command; one
+/// that stopped receiving went from its last sample to the end.
+pub fn largest_gap(samples: &[ActuatorSample], from_ms: f64, to_ms: f64) -> (f64, f64) {
+    let judged: Vec<&ActuatorSample> = samples
         .iter()
-        .filter(|s| s.at_ms >= from_ms)
-        .collect::<Vec<_>>()
+        .filter(|s| s.at_ms >= from_ms && s.at_ms <= to_ms)
+        .collect();
+    let (Some(first), Some(last)) = (judged.first(), judged.last()) else {
+        return (to_ms - from_ms, to_ms);
+    };
+    let head = (first.at_ms - from_ms, first.at_ms);
+    let tail = (to_ms - last.at_ms, to_ms);
+    judged
         .windows(2)
         .map(|w| (w[1].own_ms - w[0].own_ms, w[1].at_ms))
-        .max_by(|a, b| a.0.total_cmp(&b.0))
+        .chain([head, tail])
+        .fold(
+            head,
+            |largest, gap| if gap.0 > largest.0 { gap } else { largest },
+        )
 }
 
 #[cfg(test)]
@@ -227,7 +240,19 @@ mod tests {
             sample(600.0, "b"),
             sample(810.0, "b"),
         ];
-        assert_eq!(largest_gap(&samples, 0.0), Some((500.0, 500.0)));
-        assert_eq!(largest_gap(&samples, 400.0), Some((210.0, 810.0)));
+        assert_eq!(largest_gap(&samples, 0.0, 820.0), (500.0, 500.0));
+        assert_eq!(largest_gap(&samples, 400.0, 820.0), (210.0, 810.0));
+        // From the window's start to the first sample in it.
+        assert_eq!(largest_gap(&samples, 250.0, 820.0), (250.0, 500.0));
+    }
+
+    #[test]
+    fn a_reader_that_stops_or_hears_nothing_has_a_gap_to_the_end() {
+        let samples = [sample(0.0, "a"), sample(10.0, "a"), sample(20.0, "a")];
+        // Silent from 20 ms to the end of the run at 3 s.
+        assert_eq!(largest_gap(&samples, 0.0, 3_000.0), (2_980.0, 3_000.0));
+        // Nothing at all in the window: the whole window.
+        assert_eq!(largest_gap(&[], 1_000.0, 3_000.0), (2_000.0, 3_000.0));
+        assert_eq!(largest_gap(&samples, 100.0, 3_000.0), (2_000.0, 3_000.0));
     }
 }

@@ -79,6 +79,15 @@ fn output_name(name: &str, seed: u64, mutation: Option<&str>) -> String {
 /// Runs `scenario` (seed `seed`) and writes its output under `out`.
 pub fn run(scenario: &Scenario, seed: u64, setup: &Setup, out: &Path) -> Result<Outcome, LabError> {
     let mut session = Session::start(setup)?;
+    if scenario.network.is_some() && !session.procs.two_networks && !setup.lenient {
+        return Err(LabError::MissingJudge {
+            judge: "the network alarm judge".into(),
+            fix: format!(
+                "{} has no --network-a (no network alarm participants)",
+                setup.rl.display()
+            ),
+        });
+    }
     let broken = setup
         .mutation
         .as_ref()
@@ -104,6 +113,7 @@ pub fn run(scenario: &Scenario, seed: u64, setup: &Setup, out: &Path) -> Result<
         session.judged_from_ms,
         end_ms,
         period_ms,
+        setup.connext,
     );
     metrics.dead = dead;
     let name = output_name(&scenario.name, seed, setup.mutation.as_deref());
@@ -121,7 +131,7 @@ pub fn run(scenario: &Scenario, seed: u64, setup: &Setup, out: &Path) -> Result<
         let monitored = session.procs.two_networks;
         if !monitored {
             eprintln!(
-                "lab: {} has no --network-a (no network alarm participants): the network alarm checks are skipped, controller alarms and roles still judged",
+                "lab: {} has no --network-a (no network alarm participants): the network alarm checks are skipped (--lenient), controller alarms and roles still judged",
                 setup.rl.display()
             );
         }

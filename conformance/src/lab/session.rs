@@ -25,6 +25,9 @@ pub struct Setup {
     pub domain: u16,
     /// Start the Connext reader as a second actuator judge.
     pub connext: bool,
+    /// Go on, with a warning, when a judge cannot run (`--lenient`); otherwise that is an
+    /// error.
+    pub lenient: bool,
     /// The deliberately broken rule the controllers run (`RL_MUTATION`; a `mutation` build of
     /// `rl` only): `super::mutation`.
     pub mutation: Option<String>,

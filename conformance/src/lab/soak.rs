@@ -100,6 +100,7 @@ pub fn soak(minutes: u64, seed: u64, setup: &Setup, out: &Path) -> Result<Vec<St
             cycle_from_ms,
             session.clock.now_ms(),
             period_ms,
+            setup.connext,
         );
         metrics.dead = session.dead();
         for failure in judge::failures(&metrics, &schedule.expected, Ok(())) {
