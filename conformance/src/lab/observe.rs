@@ -253,6 +253,6 @@ mod tests {
         assert_eq!(largest_gap(&samples, 0.0, 3_000.0), (2_980.0, 3_000.0));
         // Nothing at all in the window: the whole window.
         assert_eq!(largest_gap(&[], 1_000.0, 3_000.0), (2_000.0, 3_000.0));
-        assert_eq!(largest_gap(&samples, 100.0, 3_000.0), (2_000.0, 3_000.0));
+        assert_eq!(largest_gap(&samples, 100.0, 3_000.0), (2_900.0, 3_000.0));
     }
 }
