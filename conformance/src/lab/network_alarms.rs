@@ -15,8 +15,8 @@
 //! each raise and clear latency per controller for the outcome and docs/faults.md.
 //!
 //! An `rl` without network monitoring (no `--network-a` option) prints no network lines: the
-//! network alarm checks are then skipped with a note, the controller alarm and role checks
-//! still run. Every check is a pure function of the recorded lines, so the tests
+//! lab refuses such a run unless `--lenient`, and then the network alarm checks are skipped
+//! with a note, the controller alarm and role checks still run. Every check is a pure function of the recorded lines, so the tests
 //! (`network_alarms/tests.rs`) feed it literal lines and show that each check can fail.
 
 use super::judge::FaultRecord;
