@@ -3,9 +3,9 @@
 //! (the configured one, the persistent link failure, the returns) are checked and pinned by
 //! the one search that generates the traces (`tests/traces.rs`).
 
-use model::properties::catalogue;
+use model::traces::ScopeVerdict;
 use model::{search, Config, Mutation, RlModel};
-use stateright::{Checker, Expectation, HasDiscoveries, Model};
+use stateright::{Checker, HasDiscoveries, Model};
 use std::collections::BTreeSet;
 
 /// Three founders and the given late joiners and fault budgets.
@@ -55,18 +55,7 @@ fn failures(config: Config) -> Vec<&'static str> {
         !explored.truncated,
         "the configuration must be small enough to finish"
     );
-    catalogue()
-        .into_iter()
-        .filter(|info| {
-            let found = explored.discovery(info.name).is_some();
-            match info.expectation {
-                Expectation::Always => found,
-                Expectation::Sometimes => !found && info.applies(&config),
-                Expectation::Eventually => false,
-            }
-        })
-        .map(|info| info.name)
-        .collect()
+    ScopeVerdict::of("", &config, &explored).failed()
 }
 
 #[test]

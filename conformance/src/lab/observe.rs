@@ -199,7 +199,7 @@ pub fn largest_gap(samples: &[ActuatorSample], from_ms: f64, to_ms: f64) -> (f64
     judged
         .windows(2)
         .map(|w| (w[1].own_ms - w[0].own_ms, w[1].at_ms))
-        .chain([head, tail])
+        .chain([tail])
         .fold(
             head,
             |largest, gap| if gap.0 > largest.0 { gap } else { largest },

@@ -146,30 +146,9 @@ fn generate_scope(
         set.reachable.extend(explored.reachable_coverage_classes());
     }
     set.unique_states += explored.unique_states;
-    set.scopes.push(verdict(scope, &explored));
+    set.scopes
+        .push(ScopeVerdict::of(&scope.name, &model.config, &explored));
     write_chosen(scope, &chosen, set, index);
-}
-
-/// What the search of `scope` showed of each property.
-fn verdict(scope: &TraceScope, explored: &search::Explored) -> ScopeVerdict {
-    let config = &scope.model.config;
-    let mut verdict = ScopeVerdict {
-        name: scope.name.clone(),
-        unique_states: explored.unique_states,
-        violated: Vec::new(),
-        unwitnessed: Vec::new(),
-    };
-    for info in crate::properties::catalogue() {
-        let found = explored.discovery(info.name).is_some();
-        match info.expectation {
-            Expectation::Always if found => verdict.violated.push(info.name),
-            Expectation::Sometimes if !found && info.applies(config) => {
-                verdict.unwitnessed.push(info.name)
-            }
-            _ => {}
-        }
-    }
-    verdict
 }
 
 /// A property's shortest discovery: a witness, or a counterexample.

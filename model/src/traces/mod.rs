@@ -252,6 +252,37 @@ pub struct ScopeVerdict {
 }
 
 impl ScopeVerdict {
+    /// What an exhaustive search of the scope `name` (configuration `config`) showed of each
+    /// property of the catalogue.
+    pub fn of(name: &str, config: &Config, explored: &crate::search::Explored) -> ScopeVerdict {
+        let mut verdict = ScopeVerdict {
+            name: name.to_string(),
+            unique_states: explored.unique_states,
+            violated: Vec::new(),
+            unwitnessed: Vec::new(),
+        };
+        for info in crate::properties::catalogue() {
+            let found = explored.discovery(info.name).is_some();
+            match info.expectation {
+                stateright::Expectation::Always if found => verdict.violated.push(info.name),
+                stateright::Expectation::Sometimes if !found && info.applies(config) => {
+                    verdict.unwitnessed.push(info.name)
+                }
+                _ => {}
+            }
+        }
+        verdict
+    }
+
+    /// The properties not as expected: the violated ones, then the unwitnessed ones.
+    pub fn failed(&self) -> Vec<&'static str> {
+        self.violated
+            .iter()
+            .chain(&self.unwitnessed)
+            .copied()
+            .collect()
+    }
+
     /// Every property as expected: nothing violated, every applicable witness found.
     pub fn holds(&self) -> bool {
         self.violated.is_empty() && self.unwitnessed.is_empty()
