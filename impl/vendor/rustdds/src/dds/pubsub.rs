@@ -556,6 +556,12 @@ impl InnerPublisher {
       backlog_limit,
       max_retain,
     );
+    if writer_qos.is_reliable()
+      && matches!(writer_qos.history(), Some(policy::History::KeepLast { .. }))
+      && guid.entity_id.entity_kind == EntityKind::WRITER_NO_KEY_USER_DEFINED
+    {
+      send_buffer.replace_unacknowledged_beyond_depth();
+    }
     // Doorbell: enqueue this writer's entity id and wake the participant poll.
     let doorbell = Doorbell::new(guid.entity_id, self.writer_ready.clone());
 

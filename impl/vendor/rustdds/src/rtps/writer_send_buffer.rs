@@ -69,6 +69,14 @@ struct Inner {
   // Does NOT apply to reliable / opted-in writers, which are bounded by the
   // send window / unsent-backlog and must retain samples for repair.
   max_retain: usize,
+  // A reliable KeepLast writer of a topic without key (one instance): the
+  // History depth bounds what it keeps, acknowledged or not (DDS 1.4 2.2.3.18:
+  // KEEP_LAST keeps "the latest values of the instance and discard[s] the
+  // older ones"), so its HEARTBEATs announce a replaced sample as gone and a
+  // reader that lost it delivers the newer ones at once instead of waiting for
+  // a repair of data the writer's History would not keep. Keyed topics keep
+  // the upstream behaviour: the buffer does not know each sample's instance.
+  replaces_unacknowledged: bool,
 
   // Wakers of async producers / ack-waiters parked because the window was full
   // or acknowledgements were still pending. Drained (woken) on any advance.
@@ -130,6 +138,7 @@ impl WriterSendBuffer {
           backlog_limit: backlog_limit.max(1),
           sent_frontier: SequenceNumber::new(0),
           max_retain: max_retain.max(1),
+          replaces_unacknowledged: false,
           wakers: Vec::new(),
         }),
         progress: Condvar::new(),
@@ -140,6 +149,13 @@ impl WriterSendBuffer {
         topic_name,
       }),
     }
+  }
+
+  /// Keep at most `max_retain` samples, replacing the oldest even if a reader
+  /// has not acknowledged it: for a reliable KeepLast writer of a topic
+  /// without key (see `Inner::replaces_unacknowledged`).
+  pub fn replace_unacknowledged_beyond_depth(&self) {
+    self.shared.inner.lock().unwrap().replaces_unacknowledged = true;
   }
 
   // --- predicates (must be called while holding the lock) ---
@@ -290,6 +306,7 @@ impl WriterSendBuffer {
     // Built-in (discovery) writers are always exempt to never lose discovery data.
     let trim_keep_last = !shared.is_builtin
       && (!may_block
+        || inner.replaces_unacknowledged
         || (shared.reliable_writer && shared.volatile && !inner.reliable_readers_present));
     if trim_keep_last {
       while inner.changes.len() > inner.max_retain {
@@ -662,5 +679,34 @@ mod tests {
       assert!(admit_now(&buf, WriteOptions::default()));
     }
     assert_eq!(buf.retained_len(), max_retain + 10);
+  }
+
+  // A reliable KeepLast(1) writer of a topic without key, whose matched reader
+  // lost a sample: the sample is replaced by the next write, acknowledged or
+  // not, so the writer's HEARTBEAT (first = the newest sample) tells the reader
+  // at once that the lost one will not come, instead of the reader holding the
+  // newer samples back until a repair of data the writer's History would not
+  // keep (an exclusive-ownership reader then missed its deadline and switched
+  // to a weaker writer under packet loss).
+  #[test]
+  fn reliable_keep_last_writer_without_key_replaces_unacknowledged_samples() {
+    let buf = WriterSendBuffer::new(
+      GUID::GUID_UNKNOWN,
+      "t".to_string(),
+      /* reliable_writer */ true,
+      /* is_builtin */ false,
+      /* volatile */ true,
+      /* window_limit */ 1000,
+      /* backlog_limit */ 1000,
+      /* max_retain: KeepLast depth */ 1,
+    );
+    buf.replace_unacknowledged_beyond_depth();
+    // A reliable reader is matched and has acknowledged nothing.
+    buf.set_acked_frontier(Some(SequenceNumber::new(1)));
+    for _ in 0..5 {
+      assert!(admit_now(&buf, WriteOptions::default()));
+    }
+    assert_eq!(buf.retained_len(), 1);
+    assert_eq!(buf.first_change_sequence_number(), SequenceNumber::new(5));
   }
 }
