@@ -44,6 +44,9 @@ pub enum LabError {
     /// `lab run NAME` with a name `lab list` does not show.
     #[error("no scenario named {name:?} (`lab list` shows them)")]
     UnknownScenario { name: String },
+    /// A scenario without expectations of its own (`super::expect::for_scenario`).
+    #[error(transparent)]
+    NoExpectations(#[from] super::expect::UnknownScenario),
     /// The system did not form before faults were due (P, S, T steady, the actuator following).
     #[error("no formation within {waited_s} s: {detail}")]
     NoFormation { waited_s: u64, detail: String },

@@ -4,7 +4,7 @@
 //! (Trace validation against the model is `super::validation`.) Each judge is a pure function
 //! of the observations, so tests drive them with literal timelines.
 
-use super::expect::Expected;
+use super::expect::{Expected, OwnerChanges, SETTLE_ROUNDS};
 use super::observe::{largest_gap, owner_spans, ActuatorSample, Observations, OwnerSpan};
 use super::procs::Life;
 use rl::core::{Phase, Status};
@@ -23,12 +23,17 @@ pub struct FaultRecord {
     pub healed_ms: Option<f64>,
 }
 
-/// The owner changes a fault caused: those from its application until the next fault's.
-#[derive(Clone, Debug, Serialize)]
+/// The owner changes a fault caused (see [`changes_per_fault`]), with when each happened.
+#[derive(Clone, Debug, Default, Serialize)]
 pub struct FaultChanges {
     pub fault: String,
+    pub healed_ms: Option<f64>,
+    /// How many at each reader (`None`: the Connext reader did not run).
     pub servo: usize,
     pub connext: Option<usize>,
+    /// When each happened (lab ms).
+    pub servo_at_ms: Vec<f64>,
+    pub connext_at_ms: Option<Vec<f64>>,
 }
 
 /// Everything the judges measured.
@@ -44,6 +49,10 @@ pub struct Metrics {
     pub two_at_top_ms: f64,
     /// Rounds from the last heal until settled for good; `None`: never settled.
     pub settle_rounds: Option<u64>,
+    /// When the controllers settled for good (lab ms).
+    pub settled_ms: Option<f64>,
+    /// How long every fault held at once (from the last application to the first heal).
+    pub all_faults_held_ms: f64,
     /// Roles of the live controllers at the end, `C1#2=primary`.
     pub final_roles: Vec<String>,
     pub dead: Vec<String>,
@@ -65,13 +74,13 @@ pub fn changes_per_fault(
         .collect();
     moments.sort_by(|a, b| a.0.total_cmp(&b.0));
     let blame = |spans: &[OwnerSpan]| {
-        let mut counts = vec![0; faults.len()];
+        let mut times: Vec<Vec<f64>> = vec![Vec::new(); faults.len()];
         for span in spans.iter().skip(1) {
             if let Some((_, i)) = moments.iter().rev().find(|(at, _)| *at <= span.from_ms) {
-                counts[*i] += 1;
+                times[*i].push(span.from_ms);
             }
         }
-        counts
+        times
     };
     let servo = blame(servo);
     let connext = connext.map(blame);
@@ -80,10 +89,27 @@ pub fn changes_per_fault(
         .enumerate()
         .map(|(i, fault)| FaultChanges {
             fault: fault.label.clone(),
-            servo: servo[i],
-            connext: connext.as_ref().map(|c| c[i]),
+            healed_ms: fault.healed_ms,
+            servo: servo[i].len(),
+            connext: connext.as_ref().map(|c| c[i].len()),
+            servo_at_ms: servo[i].clone(),
+            connext_at_ms: connext.as_ref().map(|c| c[i].clone()),
         })
         .collect()
+}
+
+/// How long every one of `faults` held at once: from the last application to the first heal
+/// (0 when they never all held together).
+pub fn all_held_ms(faults: &[FaultRecord], end_ms: f64) -> f64 {
+    if faults.is_empty() {
+        return 0.0;
+    }
+    let last_applied = faults.iter().map(|f| f.applied_ms).fold(f64::MIN, f64::max);
+    let first_healed = faults
+        .iter()
+        .map(|f| f.healed_ms.unwrap_or(end_ms))
+        .fold(f64::MAX, f64::min);
+    (first_healed - last_applied).max(0.0)
 }
 
 /// The strength an event says its controller commands with now, if it says: `output` and
@@ -197,13 +223,13 @@ fn settled(statuses: &BTreeMap<String, Status>, live: &[&Life]) -> bool {
     })
 }
 
-/// Rounds from `healed_ms` until the live lives settled for good (`None`: not by the end).
-pub fn settle_rounds(
-    observed: &Observations,
-    lives: &[Life],
-    healed_ms: f64,
-    period_ms: f64,
-) -> Option<u64> {
+/// Rounds from `healed_ms` until `settled_ms`, begun rounds counted whole.
+pub fn rounds_between(healed_ms: f64, settled_ms: f64, period_ms: f64) -> u64 {
+    ((settled_ms - healed_ms) / period_ms).ceil().max(0.0) as u64
+}
+
+/// When, from `healed_ms` on, the live lives settled for good (`None`: not by the end).
+pub fn settled_since(observed: &Observations, lives: &[Life], healed_ms: f64) -> Option<f64> {
     let live: Vec<&Life> = lives.iter().filter(|l| l.ended_ms.is_none()).collect();
     let mut statuses: BTreeMap<String, Status> = BTreeMap::new();
     let mut events: Vec<_> = observed.controller.iter().collect();
@@ -220,8 +246,7 @@ pub fn settle_rounds(
         }
         was_settled = now;
     }
-    let since = settled_since.filter(|_| was_settled)?;
-    Some(((since - healed_ms) / period_ms).ceil().max(0.0) as u64)
+    settled_since.filter(|_| was_settled)
 }
 
 /// Panics in stderr, `C2#2: thread 'main' panicked at ...`.
@@ -268,6 +293,7 @@ pub fn measure(
         .iter()
         .filter_map(|f| f.healed_ms)
         .fold(judged_from_ms, f64::max);
+    let settled_ms = settled_since(observed, lives, healed_ms);
     let final_roles = lives
         .iter()
         .filter(|l| l.ended_ms.is_none())
@@ -289,7 +315,9 @@ pub fn measure(
         servo_gap: Some(largest_gap(&servo, judged_from_ms, end_ms)),
         connext_gap: connext_judged.then(|| largest_gap(&connext, judged_from_ms, end_ms)),
         two_at_top_ms: overlap_ms(&intervals, judged_from_ms),
-        settle_rounds: settle_rounds(observed, lives, healed_ms, period_ms),
+        settle_rounds: settled_ms.map(|at| rounds_between(healed_ms, at, period_ms)),
+        settled_ms,
+        all_faults_held_ms: all_held_ms(faults, end_ms),
         final_roles,
         servo_owners,
         connext_owners,
@@ -300,33 +328,8 @@ pub fn measure(
 
 /// The judges' verdict: every expectation `metrics` misses, in words (empty: pass).
 pub fn failures(metrics: &Metrics, expected: &Expected, accepted: Result<(), &str>) -> Vec<String> {
-    let mut failed = Vec::new();
-    for change in &metrics.changes_per_fault {
-        let most = change.servo.max(change.connext.unwrap_or(0));
-        if let Some(limit) = expected
-            .owner_changes_per_fault
-            .filter(|limit| most > *limit)
-        {
-            failed.push(format!(
-                "{}: {} owner changes at rl servo, {} at Connext (expected at most {limit})",
-                change.fault,
-                change.servo,
-                change.connext.map_or("-".into(), |c| c.to_string()),
-            ));
-        }
-    }
-    for (judge, gap) in [
-        ("rl servo", metrics.servo_gap),
-        ("Connext", metrics.connext_gap),
-    ] {
-        if let Some((gap_ms, at_ms)) = gap.filter(|(g, _)| *g > expected.largest_gap_ms) {
-            failed.push(format!(
-                "a command gap of {gap_ms:.0} ms at {judge}, ending at {:.1} s (expected at most {:.0} ms)",
-                at_ms / 1000.0,
-                expected.largest_gap_ms
-            ));
-        }
-    }
+    let mut failed = owner_change_failures(metrics, expected);
+    failed.extend(gap_failures(metrics, expected));
     // Controller events carry whole milliseconds: an overlap below one is their resolution.
     if metrics.two_at_top_ms > expected.two_at_top_ms + EVENT_RESOLUTION_MS {
         failed.push(format!(
@@ -335,14 +338,13 @@ pub fn failures(metrics: &Metrics, expected: &Expected, accepted: Result<(), &st
         ));
     }
     match metrics.settle_rounds {
-        Some(rounds) if rounds <= expected.settle_rounds => {}
+        Some(rounds) if rounds <= SETTLE_ROUNDS => {}
         Some(rounds) => failed.push(format!(
-            "settled {rounds} rounds after the last heal (expected at most {})",
-            expected.settle_rounds
+            "settled {rounds} rounds after the last heal (expected at most {SETTLE_ROUNDS})"
         )),
         None => failed.push("never settled after the last heal".into()),
     }
-    if let (Err(why), true) = (accepted, expected.model_accepts) {
+    if let Err(why) = accepted {
         failed.push(format!("the model rejects the recorded events: {why}"));
     }
     failed.extend(
@@ -355,71 +357,76 @@ pub fn failures(metrics: &Metrics, expected: &Expected, accepted: Result<(), &st
     failed
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn span(from_ms: f64, owner: &str) -> OwnerSpan {
-        OwnerSpan {
-            from_ms,
-            to_ms: from_ms + 50.0,
-            owner: owner.into(),
+/// Each fault's owner changes at each reader against that fault's own bound.
+fn owner_change_failures(metrics: &Metrics, expected: &Expected) -> Vec<String> {
+    let recorded = &metrics.changes_per_fault;
+    if recorded.len() != expected.faults.len() {
+        // Changes that cannot be paired with their fault's bound are not judged by another's.
+        return vec![format!(
+            "{} faults recorded where the schedule has {}: their owner changes cannot be judged",
+            recorded.len(),
+            expected.faults.len()
+        )];
+    }
+    let mut failed = Vec::new();
+    for (change, bound) in recorded.iter().zip(&expected.faults) {
+        let connext = change.connext.map_or("-".into(), |c| c.to_string());
+        match bound.owner_changes {
+            OwnerChanges::AtMost(limit) => {
+                if change.servo.max(change.connext.unwrap_or(0)) > limit {
+                    failed.push(format!(
+                        "{}: {} owner changes at rl servo, {connext} at Connext (expected at most {limit})",
+                        change.fault, change.servo,
+                    ));
+                }
+            }
+            OwnerChanges::OnlyWhileMerging => {
+                let outside = |times: &[f64]| {
+                    times
+                        .iter()
+                        .filter(|at| {
+                            change.healed_ms.is_none_or(|healed| **at < healed)
+                                || metrics.settled_ms.is_some_and(|settled| **at > settled)
+                        })
+                        .count()
+                };
+                let servo = outside(&change.servo_at_ms);
+                let connext = change.connext_at_ms.as_deref().map_or(0, outside);
+                if servo + connext > 0 {
+                    failed.push(format!(
+                        "{}: {servo} owner changes at rl servo, {connext} at Connext while it held or after the controllers settled (expected none outside the merge after its heal)",
+                        change.fault,
+                    ));
+                }
+            }
         }
     }
-
-    #[test]
-    fn each_owner_change_counts_for_the_latest_fault() {
-        let spans = [
-            span(0.0, "C1"),
-            span(1100.0, "C2"),
-            span(5200.0, "C1"),
-            span(9000.0, "C3"),
-        ];
-        let faults = [
-            FaultRecord {
-                label: "cut".into(),
-                applied_ms: 1000.0,
-                healed_ms: Some(4000.0),
-            },
-            FaultRecord {
-                label: "kill".into(),
-                applied_ms: 8000.0,
-                healed_ms: Some(9500.0),
-            },
-        ];
-        let counted = changes_per_fault(&faults, &spans, None);
-        assert_eq!((counted[0].servo, counted[1].servo), (2, 1));
-    }
-
-    #[test]
-    fn a_change_after_a_heal_counts_for_the_healed_fault() {
-        let spans = [span(0.0, "C1"), span(4000.0, "C2"), span(10100.0, "C3")];
-        let faults = [
-            FaultRecord {
-                label: "clock".into(),
-                applied_ms: 1000.0,
-                healed_ms: Some(10000.0),
-            },
-            FaultRecord {
-                label: "kill".into(),
-                applied_ms: 3000.0,
-                healed_ms: Some(5000.0),
-            },
-        ];
-        let counted = changes_per_fault(&faults, &spans, Some(&spans));
-        assert_eq!((counted[0].servo, counted[1].servo), (1, 1));
-        assert_eq!(counted[0].connext, Some(1));
-    }
-
-    #[test]
-    fn overlap_counts_only_two_or_more_at_once() {
-        let intervals = vec![
-            vec![(0.0, 100.0)],
-            vec![(50.0, 300.0)],
-            vec![(250.0, 400.0)],
-        ];
-        assert_eq!(overlap_ms(&intervals, 0.0), 100.0);
-        assert_eq!(overlap_ms(&intervals, 280.0), 20.0);
-        assert_eq!(overlap_ms(&[vec![(0.0, 100.0)]], 0.0), 0.0);
-    }
+    failed
 }
+
+/// The largest gap at each reader against that reader's bound; both grow by the time every
+/// fault held at once where the schedule silences the actuator so.
+fn gap_failures(metrics: &Metrics, expected: &Expected) -> Vec<String> {
+    let silent_ms = if expected.silent_while_all_hold {
+        metrics.all_faults_held_ms
+    } else {
+        0.0
+    };
+    let mut failed = Vec::new();
+    for (judge, gap, bound) in [
+        ("rl servo", metrics.servo_gap, expected.servo_gap_ms),
+        ("Connext", metrics.connext_gap, expected.connext_gap_ms),
+    ] {
+        let bound = bound + silent_ms;
+        if let Some((gap_ms, at_ms)) = gap.filter(|(g, _)| *g > bound) {
+            failed.push(format!(
+                "a command gap of {gap_ms:.0} ms at {judge}, ending at {:.1} s (expected at most {bound:.0} ms)",
+                at_ms / 1000.0,
+            ));
+        }
+    }
+    failed
+}
+
+#[cfg(test)]
+mod tests;

@@ -78,6 +78,7 @@ fn output_name(name: &str, seed: u64, mutation: Option<&str>) -> String {
 
 /// Runs `scenario` (seed `seed`) and writes its output under `out`.
 pub fn run(scenario: &Scenario, seed: u64, setup: &Setup, out: &Path) -> Result<Outcome, LabError> {
+    let expected = scenario.expected()?;
     let mut session = Session::start(setup)?;
     if scenario.network.is_some() && !session.procs.two_networks && !setup.lenient {
         return Err(LabError::MissingJudge {
@@ -124,7 +125,7 @@ pub fn run(scenario: &Scenario, seed: u64, setup: &Setup, out: &Path) -> Result<
     let validation = validate_with_timeout(events);
     let mut failures = judge::failures(
         &metrics,
-        &scenario.expected,
+        &expected,
         validation.as_ref().map(|_| ()).map_err(String::as_str),
     );
     let network = scenario.network.as_ref().map(|expected| {

@@ -3,7 +3,7 @@
 //! `at_ms` after judging starts (the system formed, both actuators following the Primary) and
 //! heals it `lasts_ms` later; after the last heal a fault-free liveness phase must settle.
 
-use super::expect::{self, Expected};
+use super::expect::{self, Expected, UnknownScenario};
 use super::faults::{Direction, Fault, Target};
 use super::lan::Net;
 use super::network_alarms::{self, NapExpected};
@@ -25,7 +25,6 @@ pub struct Scenario {
     pub steps: Vec<Step>,
     /// Part of `matrix --ci` (the short subset CI runs).
     pub in_ci: bool,
-    pub expected: Expected,
     /// What the network alarm judge expects (`None`: not judged).
     pub network: Option<NapExpected>,
 }
@@ -38,6 +37,17 @@ impl Scenario {
             .map(|s| s.at_ms + s.lasts_ms)
             .max()
             .unwrap_or(0)
+    }
+
+    /// The schedule's faults, in order.
+    pub fn faults(&self) -> Vec<Fault> {
+        self.steps.iter().map(|s| s.fault.clone()).collect()
+    }
+
+    /// What its judges accept (`super::expect`); a scenario without its own expectations is
+    /// refused.
+    pub fn expected(&self) -> Result<Expected, UnknownScenario> {
+        expect::for_scenario(&self.name, &self.faults())
     }
 }
 
@@ -55,7 +65,6 @@ fn one(name: &str, about: &str, in_ci: bool, fault: Fault, lasts_s: f64) -> Scen
         about: about.into(),
         steps: vec![step(2.0, fault, lasts_s)],
         in_ci,
-        expected: expect::for_scenario(name),
         network: network_alarms::for_scenario(name),
     }
 }
@@ -92,7 +101,6 @@ fn clock_fault(name: &str, about: String, fault: Fault, in_ci: bool) -> Scenario
             step(10.0, Fault::Kill(p), 2.0),
         ],
         in_ci,
-        expected: expect::for_scenario(name),
         network: network_alarms::for_scenario(name),
     }
 }
@@ -232,7 +240,6 @@ fn net_scenarios() -> Vec<Scenario> {
             .map(|f| step(2.0, f, NET_FAULT_S))
             .collect(),
         in_ci: false,
-        expected: expect::for_scenario(name),
         network: network_alarms::for_scenario(name),
     };
     vec![
@@ -355,7 +362,6 @@ pub fn random(seed: u64) -> Scenario {
     Scenario {
         name: "random".into(),
         about: format!("seed {seed}: {}", describe(&steps)),
-        expected: expect::for_faults(steps.iter().map(|s| &s.fault)),
         steps,
         in_ci: false,
         network: None,

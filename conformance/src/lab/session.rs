@@ -34,7 +34,7 @@ pub struct Setup {
 }
 
 /// The Connext reader's command deadline: the paper's reader QoS, as the actuator tests use.
-const CONNEXT_DEADLINE_MS: &str = "200";
+pub const CONNEXT_DEADLINE_MS: u64 = 200;
 /// Formation, including the Connext reader's start (Python, Connext, discovery).
 const FORMATION_TIMEOUT: Duration = Duration::from_secs(60);
 
@@ -82,13 +82,14 @@ impl Session {
                 env!("CARGO_MANIFEST_DIR"),
                 "/../impl/tests/interop/connext_reader.py"
             );
+            let deadline_ms = CONNEXT_DEADLINE_MS.to_string();
             let args = [
                 script,
                 &domain,
                 "--duration",
                 "1000000",
                 "--deadline-ms",
-                CONNEXT_DEADLINE_MS,
+                &deadline_ms,
             ];
             procs.start_helper("connext", Node::Actuator, Some("python3"), &args)?;
         }

@@ -10,6 +10,7 @@
 //! controller keeps one process for the whole soak, so its growth is measurable.
 
 use super::error::LabError;
+use super::expect;
 use super::faults::Fault;
 use super::judge;
 use super::lan::CONTROLLER_IDS;
@@ -85,6 +86,8 @@ pub fn soak(minutes: u64, seed: u64, setup: &Setup, out: &Path) -> Result<Vec<St
                 Fault::Kill(_) | Fault::ClockOffset(..) | Fault::ClockRate(..)
             )
         });
+        // From the steps kept: each fault is judged on its own bound, in schedule order.
+        let expected = expect::for_faults(schedule.steps.iter().map(|s| &s.fault));
         let cycle_from_ms = session.clock.now_ms();
         let first_fault = session.faults.len();
         session.play(&schedule.steps)?;
@@ -103,7 +106,7 @@ pub fn soak(minutes: u64, seed: u64, setup: &Setup, out: &Path) -> Result<Vec<St
             setup.connext,
         );
         metrics.dead = session.dead();
-        for failure in judge::failures(&metrics, &schedule.expected, Ok(())) {
+        for failure in judge::failures(&metrics, &expected, Ok(())) {
             let failure = format!(
                 "cycle {cycle} (seed {}): {failure}",
                 seed.wrapping_add(cycle)
