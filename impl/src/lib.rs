@@ -54,6 +54,7 @@ pub mod failed_exit;
 pub mod identity;
 pub mod leds;
 pub mod logging;
+pub mod malloc;
 pub mod network_monitor;
 pub mod procs;
 pub mod round_clock;

@@ -83,6 +83,7 @@ fn parse() -> Result<Cli, clap::Error> {
 }
 
 fn main() -> ExitCode {
+    let one_arena = rl::malloc::limit_arenas();
     let cli = match parse() {
         Ok(cli) => cli,
         Err(error) => {
@@ -97,6 +98,9 @@ fn main() -> ExitCode {
         }
     };
     rl::logging::init();
+    if !one_arena {
+        tracing::warn!("glibc refused mallopt(M_ARENA_MAX, 1): memory use may be higher");
+    }
     let result = match cli.command {
         Command::Controller(args) => rl::controller::run(args),
         Command::Shapes(args) => rl::sim::shapes::run(args),
