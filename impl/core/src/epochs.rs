@@ -40,6 +40,14 @@ pub(crate) fn hears_majority(c: &ControllerState) -> bool {
     c.members().len() * 2 > quorum_base_size(c)
 }
 
+/// F15: the members of its last backed result that it no longer hears are more than half of
+/// that result: they could back a result (and elect a Primary) of their own.
+pub(crate) fn lost_could_outvote(c: &ControllerState) -> bool {
+    let heard: BTreeSet<ControllerId> = c.members().iter().map(|holder| holder.id).collect();
+    let lost = c.quorum_base.difference(&heard).count();
+    lost * 2 > c.quorum_base.len()
+}
+
 fn members_of(agreed: Assignment) -> BTreeSet<ControllerId> {
     agreed.holders().map(|holder| holder.id).collect()
 }

@@ -3,12 +3,12 @@
 //! DDS exclusive ownership hands the actuator to the strongest writer a reader knows, and
 //! equal strengths go by GUID, an order no controller chooses. So a strength is a claim on the
 //! actuator, moved with care: a Primary whose predecessor still claims Primary holds the
-//! Secondary strength (finding F8), a provisional Primary commands at 15 (F11), and a raise
+//! Secondary strength (finding F8), a provisional Primary commands at 15 (F11) unless no side it lost could outrank it (F15), and a raise
 //! waits until every role above reports an established strength above the new one (F13), so a
 //! tie can never hand the actuator to a lower role. Lowering is at once. The model's rules of
 //! the same names are in `model/src/protocol/agreement.rs`.
 
-use crate::epochs::hears_majority;
+use crate::epochs::{hears_majority, lost_could_outvote};
 use crate::state::ControllerState;
 use crate::types::{Phase, Role, PROVISIONAL_PRIMARY_STRENGTH};
 
@@ -27,8 +27,12 @@ pub(crate) fn entitled_strength(c: &ControllerState) -> Option<u8> {
         // Newly provisional, the majority side elects its Primary in this round: dropping
         // before it raises would hand the actuator to a standby first. While it hears a
         // majority (a healed cut, a result not yet confirmed) it keeps its strength until the
-        // merge or the confirmation is agreed.
-        if c.output.is_some() && (c.provisional_rounds == 0 || hears_majority(c)) {
+        // merge or the confirmation is agreed. A Primary at full strength whose lost peers
+        // cannot form a majority of the last backed result keeps it (F15): no side can elect
+        // a Primary above it, and dropping would only hand the actuator to a standby that may
+        // still hear it (a link down one way). A promoted standby has no such claim and drops.
+        let unoutranked = c.output == Some(Role::Primary.strength()) && !lost_could_outvote(c);
+        if c.output.is_some() && (c.provisional_rounds == 0 || hears_majority(c) || unoutranked) {
             return c.output;
         }
         return Some(PROVISIONAL_PRIMARY_STRENGTH);
