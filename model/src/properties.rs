@@ -175,9 +175,14 @@ pub fn settled(state: &State) -> Option<Assignment> {
 }
 
 /// The strength a settled controller commands at: its role's, or for a provisional result
-/// (F11) 15 for its Primary and nothing for its standbys.
+/// (F11) 15 for its Primary and nothing for its standbys; a Primary that no side it lost can
+/// outrank keeps its full strength (F15).
 fn full_strength(c: &crate::Controller) -> Option<u8> {
+    let primary = Role::Primary.strength();
     match (c.provisional, c.role) {
+        (true, Some(Role::Primary)) if c.output == Some(primary) && !c.lost_could_outvote() => {
+            Some(primary)
+        }
         (true, Some(Role::Primary)) => Some(crate::types::PROVISIONAL_PRIMARY_STRENGTH),
         (true, _) => None,
         (false, role) => role.map(Role::strength),

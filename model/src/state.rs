@@ -338,6 +338,14 @@ impl Controller {
         &mut self.peers[usize::from(id - 1)]
     }
 
+    /// F15: the members of its last backed result that it no longer hears are more than half
+    /// of that result: they could back a result (and elect a Primary) of their own.
+    pub fn lost_could_outvote(&self) -> bool {
+        let heard = self.members().fold(0u8, |mask, id| mask | 1 << (id - 1));
+        let lost = self.quorum_base & !heard;
+        lost.count_ones() * 2 > self.quorum_base.count_ones()
+    }
+
     /// Peers believed alive and not marked FAILED, with itself: its membership view.
     pub fn members(&self) -> impl Iterator<Item = Id> + '_ {
         let own = self.id;
