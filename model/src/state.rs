@@ -381,8 +381,15 @@ pub struct History {
     pub revoted_after_loss: bool,
     pub pauses: u8,
     pub isolations: u8,
-    /// Crashes, pauses, isolations and lost heartbeats: each may move the actuator once.
+    /// Fault episodes begun: crashes, pauses, cuts and link failures (a link failure is one
+    /// episode however many heartbeats it loses, see `links_down`). Each may move the
+    /// actuator once.
     pub faults: u8,
+    /// Bits `link_bit(a, b) | link_bit(b, a)` for each link between two controllers whose
+    /// heartbeat, either way, was lost in the last round: a loss on it now continues that
+    /// link's failure (one episode, from the link going down to a round it carries its
+    /// heartbeats again) rather than begin another.
+    pub links_down: u16,
     /// Owner changes at the actuator (saturates one above `faults`).
     pub owner_changes: u8,
     /// Bit `id - 1` for each controller the actuator changed to since the last settled state.
