@@ -33,6 +33,8 @@ impl PropertyInfo {
             // A provisional Primary beside another result: a founder alone, formed while a
             // lost heartbeat hid the others.
             "a provisional Primary owns the actuator" => 1,
+            // Declared lost, then one round past the hold every newly provisional Primary has.
+            "a Primary no lost side can outrank keeps its strength" => config.dead_after_rounds + 1,
             _ => 0,
         }
     }
@@ -153,6 +155,9 @@ pub fn catalogue() -> Vec<PropertyInfo> {
         p("a provisional Primary owns the actuator", Sometimes,
           "the actuator follows a Primary commanding at the provisional strength while another controller holds another result",
           provisional_primary_owns),
+        p("a Primary no lost side can outrank keeps its strength", Sometimes,
+          "a provisional Primary still commands at 30 a round after losing peers that are no majority of its backed result (F15), beside a live one",
+          unoutranked_primary_holds),
     ]
 }
 
@@ -400,4 +405,19 @@ fn provisional_primary_owns(_: &RlModel, s: &State) -> bool {
         && s.up().any(|c| {
             c.id != owner.id && c.is_active() && c.agreed.is_some() && c.agreed != owner.agreed
         })
+}
+
+/// F15: past the hold of its first provisional round, a Primary that lost no majority of its
+/// backed result still commands at full strength while another controller runs (a link down,
+/// not a lone survivor).
+fn unoutranked_primary_holds(_: &RlModel, s: &State) -> bool {
+    s.up().any(|c| {
+        c.provisional
+            && c.provisional_rounds >= 1
+            && c.role == Some(Role::Primary)
+            && c.output == Some(Role::Primary.strength())
+            // Still apart: it does not hear a majority of its backed result.
+            && c.members().count() * 2 <= c.quorum_base.count_ones() as usize
+            && s.up().any(|other| other.id != c.id)
+    })
 }

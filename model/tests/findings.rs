@@ -242,8 +242,12 @@ fn f15_a_primary_that_drops_for_a_one_way_loss_hands_the_actuator_to_its_seconda
         ..scope(0, 0, 0, 3)
     };
     assert_eq!(counterexamples(&three_losses), none());
-    let found = counterexamples(&reverting(&three_losses, &[Fix::HoldUnoutranked]));
+    let reverted = reverting(&three_losses, &[Fix::HoldUnoutranked]);
+    let found = counterexamples(&reverted);
     assert_eq!(found, BTreeMap::from([("one owner change per fault", 15)]));
+    let explored = search::explore(&RlModel::new(reverted), 5_000_000, |_, _| {});
+    let witness = "a Primary no lost side can outrank keeps its strength";
+    assert!(explored.discovery(witness).is_none());
 }
 
 #[test]
