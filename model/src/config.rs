@@ -126,6 +126,34 @@ impl Config {
         }
     }
 
+    /// Scopes searched only for the (action kind x stage) pairs they reach: the denominator
+    /// of the transition coverage is taken beyond the scopes the traces are cut from, so
+    /// pairs no trace exercises show. A returning controller that also crashes and restarts
+    /// (a cut one heals while down or initializing), and a link failure that outlasts the
+    /// minority grace with a loss and a restart to spare (a FAILED controller loses a
+    /// heartbeat, restarts), at a one-round dead-man deadline to keep the search small
+    /// (shorter timers change how many rounds pass, not which events can happen).
+    pub fn coverage_scopes() -> Vec<(&'static str, Config)> {
+        let returns_and_restart = Config {
+            max_crashes: 1,
+            max_restarts: 1,
+            ..Config::returns()
+        };
+        let short = Config {
+            dead_after_rounds: 1,
+            ..Config::link_failure()
+        };
+        let failed_and_restart = Config {
+            max_lost_heartbeats: short.losses_to_fail_minority() + 1,
+            max_restarts: 1,
+            ..short
+        };
+        vec![
+            ("coverage-returns-restart", returns_and_restart),
+            ("coverage-failed-restart", failed_and_restart),
+        ]
+    }
+
     /// The paper-variant scopes of docs/findings.md, without network faults, each with the
     /// finding whose counterexample it shows (F2, F3, F4).
     pub fn paper_findings() -> Vec<(Fix, Config)> {

@@ -2,8 +2,8 @@
 //! the deliberately broken rules of the mutation tests.
 //!
 //! Every rule fix of docs/findings.md is one [`Fix`] and one boolean of [`Rules`], numbered as
-//! there (F1..F8, F10..F14). The default variant carries every fix, `--variant v1` leaves out the
-//! ones of protocol v2 (F11..F14), `--variant paper` reverts them
+//! there (F1..F8, F10..F15). The default variant carries every fix, `--variant v1` leaves out the
+//! ones of protocol v2 (F11..F15), `--variant paper` reverts them
 //! all, and `--revert fN` reverts exactly one, so each finding's counterexample can be shown to
 //! come back without its fix (model/tests/findings.rs). F9 states what loss can and cannot be
 //! protected against; it is not a rule, so it has no switch.
@@ -17,7 +17,8 @@ pub enum Variant {
     /// The corrected algorithm that RL implements: every fix of docs/findings.md.
     Default,
     /// Protocol v1: fixes F1..F10 without those of protocol v2 (F11 epochs, F12 self-fencing,
-    /// F13 ordered raises, F14 joiners adopt agreed results); the checker shows failback after
+    /// F13 ordered raises, F14 joiners adopt agreed results, F15 a Primary no side can outrank
+    /// keeps its strength); the checker shows failback after
     /// a pause and a tie blip.
     V1,
     /// The paper's rules read literally: every fix reverted; the checker finds
@@ -111,10 +112,17 @@ pub enum Fix {
     #[serde(rename = "f14")]
     #[value(name = "f14")]
     JoinAgreedResult,
+    /// F15: a Primary whose result turns provisional keeps its strength unless the
+    /// controllers it no longer hears could form a majority of the last backed result (and
+    /// so elect a Primary of their own); reverted, it drops to the provisional strength a
+    /// round later whatever it lost, and a Secondary that still hears it takes the actuator.
+    #[serde(rename = "f15")]
+    #[value(name = "f15")]
+    HoldUnoutranked,
 }
 
 impl Fix {
-    pub const ALL: [Fix; 13] = [
+    pub const ALL: [Fix; 14] = [
         Fix::LateJoinByHeartbeat,
         Fix::KeepStandbyOrder,
         Fix::IncarnationAware,
@@ -128,6 +136,7 @@ impl Fix {
         Fix::SelfFence,
         Fix::OrderedRaise,
         Fix::JoinAgreedResult,
+        Fix::HoldUnoutranked,
     ];
 
     /// The finding's number in docs/findings.md.
@@ -146,6 +155,7 @@ impl Fix {
             Fix::SelfFence => 12,
             Fix::OrderedRaise => 13,
             Fix::JoinAgreedResult => 14,
+            Fix::HoldUnoutranked => 15,
         }
     }
 
@@ -202,6 +212,9 @@ pub struct Rules {
     pub f13_ordered_raise: bool,
     /// F14: a joiner adopts only a result an incumbent has agreed.
     pub f14_join_agreed: bool,
+    /// F15: a Primary turned provisional keeps its strength while no side it lost could
+    /// elect a backed Primary.
+    pub f15_hold_unoutranked: bool,
 }
 
 impl Rules {
@@ -223,6 +236,7 @@ impl Rules {
             f12_self_fence: v2,
             f13_ordered_raise: v2,
             f14_join_agreed: v2,
+            f15_hold_unoutranked: v2,
         }
     }
 
@@ -242,6 +256,7 @@ impl Rules {
             Fix::SelfFence => &mut self.f12_self_fence,
             Fix::OrderedRaise => &mut self.f13_ordered_raise,
             Fix::JoinAgreedResult => &mut self.f14_join_agreed,
+            Fix::HoldUnoutranked => &mut self.f15_hold_unoutranked,
         }
     }
 

@@ -24,6 +24,17 @@ impl PropertyInfo {
         match self.name {
             "re-vote after heartbeat loss" => config.dead_after_rounds,
             "minority voter FAILED" => config.losses_to_fail_minority(),
+            // A cut splits the system without a lost heartbeat; otherwise a live peer is
+            // declared lost after the dead-man deadline.
+            "a two-sided split" if config.max_isolations >= 1 => 0,
+            "a two-sided split" => config.dead_after_rounds,
+            // Two founders that miss each other through the initialization window form apart.
+            "a split at formation" => config.window_rounds,
+            // A provisional Primary beside another result: a founder alone, formed while a
+            // lost heartbeat hid the others.
+            "a provisional Primary owns the actuator" => 1,
+            // Declared lost, then one round past the hold every newly provisional Primary has.
+            "a Primary no lost side can outrank keeps its strength" => config.dead_after_rounds + 1,
             _ => 0,
         }
     }
@@ -73,7 +84,7 @@ pub fn catalogue() -> Vec<PropertyInfo> {
           "a controller publishes commands only with a role, never above its role's strength, once a Primary exists",
           output_needs_role),
         p("one owner change per fault", Always,
-          "the actuator changes owner at most once per fault (crash, pause, cut, lost heartbeat): no failback, no blip",
+          "the actuator changes owner at most once per fault episode (a crash, a pause, a cut, a link failure however many heartbeats it loses), to or from a provisional Primary too: no failback, no blip",
           one_change_per_fault),
         p("owner changes only to the next Primary", Always,
           "every owner change between two settled states goes to the Primary that settles (or back to the owner before)",
@@ -135,6 +146,18 @@ pub fn catalogue() -> Vec<PropertyInfo> {
         p("restarted controller takes the lowest role", Sometimes,
           "a restarted controller settles in the lowest held role, below two others",
           restart_lowest_role),
+        p("a two-sided split", Sometimes,
+          "two live controllers are each the steady Primary of a different result (the partition the exemptions above excuse)",
+          two_sided_split),
+        p("a split at formation", Sometimes,
+          "a two-sided split before any backed result (the formation split \"one owner change per fault\" excuses)",
+          split_at_formation),
+        p("a provisional Primary owns the actuator", Sometimes,
+          "the actuator follows a Primary commanding at the provisional strength while another controller holds another result",
+          provisional_primary_owns),
+        p("a Primary no lost side can outrank keeps its strength", Sometimes,
+          "a provisional Primary still commands at 30 a round after losing peers that are no majority of its backed result (F15), beside a live one",
+          unoutranked_primary_holds),
     ]
 }
 
@@ -175,9 +198,14 @@ pub fn settled(state: &State) -> Option<Assignment> {
 }
 
 /// The strength a settled controller commands at: its role's, or for a provisional result
-/// (F11) 15 for its Primary and nothing for its standbys.
+/// (F11) 15 for its Primary and nothing for its standbys; a Primary that no side it lost can
+/// outrank keeps its full strength (F15).
 fn full_strength(c: &crate::Controller) -> Option<u8> {
+    let primary = Role::Primary.strength();
     match (c.provisional, c.role) {
+        (true, Some(Role::Primary)) if c.output == Some(primary) && !c.lost_could_outvote() => {
+            Some(primary)
+        }
         (true, Some(Role::Primary)) => Some(crate::types::PROVISIONAL_PRIMARY_STRENGTH),
         (true, _) => None,
         (false, role) => role.map(Role::strength),
@@ -212,6 +240,9 @@ fn single_owner(model: &RlModel, s: &State) -> bool {
             <= 1
 }
 
+/// Owner changes against fault episodes (`History::faults`); only the GUID order between two
+/// systems formed apart before any backed result is not counted (`actuator::change_owner`,
+/// backed by the witness "a split at formation").
 fn one_change_per_fault(_: &RlModel, s: &State) -> bool {
     s.history.owner_changes <= s.history.faults
 }
@@ -345,5 +376,48 @@ fn restart_lowest_role(_: &RlModel, s: &State) -> bool {
         agreed.len() >= 2
             && s.up()
                 .any(|c| c.incarnation > 0 && c.role.is_some_and(|r| r.rank() + 1 == agreed.len()))
+    })
+}
+
+/// Two live controllers each the steady Primary of its own result: the two sides of a split.
+fn two_sided_split(_: &RlModel, s: &State) -> bool {
+    let primaries: Vec<_> = s
+        .up()
+        .filter(|c| c.phase == Phase::Steady && c.role == Some(Role::Primary))
+        .collect();
+    primaries
+        .iter()
+        .enumerate()
+        .any(|(i, a)| primaries[i + 1..].iter().any(|b| a.agreed != b.agreed))
+}
+
+fn split_at_formation(model: &RlModel, s: &State) -> bool {
+    !s.history.formed && two_sided_split(model, s)
+}
+
+fn provisional_primary_owns(_: &RlModel, s: &State) -> bool {
+    let Some(owner) = s.actuator_owner().map(|id| s.controller(id)) else {
+        return false;
+    };
+    owner.provisional
+        && owner.role == Some(Role::Primary)
+        && owner.visible_strength() == Some(crate::types::PROVISIONAL_PRIMARY_STRENGTH)
+        && s.up().any(|c| {
+            c.id != owner.id && c.is_active() && c.agreed.is_some() && c.agreed != owner.agreed
+        })
+}
+
+/// F15: past the hold of its first provisional round, a Primary that lost no majority of its
+/// backed result still commands at full strength while another controller runs (a link down,
+/// not a lone survivor).
+fn unoutranked_primary_holds(_: &RlModel, s: &State) -> bool {
+    s.up().any(|c| {
+        c.provisional
+            && c.provisional_rounds >= 1
+            && c.role == Some(Role::Primary)
+            && c.output == Some(Role::Primary.strength())
+            // Still apart: it does not hear a majority of its backed result.
+            && c.members().count() * 2 <= c.quorum_base.count_ones() as usize
+            && s.up().any(|other| other.id != c.id)
     })
 }

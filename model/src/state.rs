@@ -338,6 +338,14 @@ impl Controller {
         &mut self.peers[usize::from(id - 1)]
     }
 
+    /// F15: the members of its last backed result that it no longer hears are more than half
+    /// of that result: they could back a result (and elect a Primary) of their own.
+    pub fn lost_could_outvote(&self) -> bool {
+        let heard = self.members().fold(0u8, |mask, id| mask | 1 << (id - 1));
+        let lost = self.quorum_base & !heard;
+        lost.count_ones() * 2 > self.quorum_base.count_ones()
+    }
+
     /// Peers believed alive and not marked FAILED, with itself: its membership view.
     pub fn members(&self) -> impl Iterator<Item = Id> + '_ {
         let own = self.id;
@@ -373,8 +381,15 @@ pub struct History {
     pub revoted_after_loss: bool,
     pub pauses: u8,
     pub isolations: u8,
-    /// Crashes, pauses, isolations and lost heartbeats: each may move the actuator once.
+    /// Fault episodes begun: crashes, pauses, cuts and link failures (a link failure is one
+    /// episode however many heartbeats it loses, see `links_down`). Each may move the
+    /// actuator once.
     pub faults: u8,
+    /// Bits `link_bit(a, b) | link_bit(b, a)` for each link between two controllers whose
+    /// heartbeat, either way, was lost in the last round: a loss on it now continues that
+    /// link's failure (one episode, from the link going down to a round it carries its
+    /// heartbeats again) rather than begin another.
+    pub links_down: u16,
     /// Owner changes at the actuator (saturates one above `faults`).
     pub owner_changes: u8,
     /// Bit `id - 1` for each controller the actuator changed to since the last settled state.

@@ -50,7 +50,7 @@ fn our_search_agrees_with_statrights_state_count() {
 /// Runs our exhaustive search; returns the names of the failed properties.
 fn failures(config: Config) -> Vec<&'static str> {
     let model = RlModel::new(config.clone());
-    let explored = search::explore(&model, 5_000_000, |_, _| {});
+    let explored = search::explore(&model, 10_000_000, |_, _| {});
     assert!(
         !explored.truncated,
         "the configuration must be small enough to finish"

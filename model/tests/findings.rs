@@ -78,7 +78,7 @@ fn the_paper_variant_reverts_every_fix_and_each_fix_has_its_own_switch() {
         }
     }
     let numbers: Vec<u8> = Fix::ALL.iter().map(|fix| fix.number()).collect();
-    assert_eq!(numbers, [1, 2, 3, 4, 5, 6, 7, 8, 10, 11, 12, 13, 14]);
+    assert_eq!(numbers, [1, 2, 3, 4, 5, 6, 7, 8, 10, 11, 12, 13, 14, 15]);
 }
 
 #[test]
@@ -230,6 +230,24 @@ fn f10_a_minority_marked_at_once_fails_a_healthy_primary() {
         Some(&5),
         "{found:?}"
     );
+}
+
+#[test]
+fn f15_a_primary_that_drops_for_a_one_way_loss_hands_the_actuator_to_its_secondary() {
+    // Two founders; C2's heartbeats to C1 are lost for three rounds (one link failure): C1
+    // turns provisional and, without F15, drops to 15 under its Secondary's 20, then takes
+    // the actuator back when the link heals. Protocol v2's rules (F11-F14 in).
+    let three_losses = Config {
+        variant: Variant::Default,
+        ..scope(0, 0, 0, 3)
+    };
+    assert_eq!(counterexamples(&three_losses), none());
+    let reverted = reverting(&three_losses, &[Fix::HoldUnoutranked]);
+    let found = counterexamples(&reverted);
+    assert_eq!(found, BTreeMap::from([("one owner change per fault", 15)]));
+    let explored = search::explore(&RlModel::new(reverted), 5_000_000, |_, _| {});
+    let witness = "a Primary no lost side can outrank keeps its strength";
+    assert!(explored.discovery(witness).is_none());
 }
 
 #[test]

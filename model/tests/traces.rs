@@ -1,7 +1,7 @@
 //! The committed trace set is what the model generates now, and generation is deterministic.
 //!
-//! Generating the set explores the configured scope, the persistent link failure and the
-//! returns exhaustively; that one search per scope is also where those scopes are checked and
+//! Generating the set explores the configured scope, the persistent link failure, the returns
+//! and the coverage scopes exhaustively; that one search per scope is also where those scopes are checked and
 //! their state counts pinned (CI explores each scope once: `check` in CI is the configured
 //! scope's headline run).
 
@@ -29,27 +29,55 @@ fn committed_traces_match_the_model() {
         differences.is_empty(),
         "traces differ from the model; run `cargo run -p model -- traces --out traces`: {differences:?}"
     );
-    assert!(set.coverage_percent() >= 95.0, "{}", set.coverage_report());
+    // The reachable pairs include the coverage scopes', which no trace is cut from: the pairs
+    // the traces miss are these, and any change of them is reviewed here.
+    let missed: Vec<String> = set
+        .reachable
+        .difference(&set.covered)
+        .map(|&(kind, stage)| traces::coverage_class_name(kind, stage))
+        .collect();
+    assert_eq!(
+        missed,
+        [
+            "lose_heartbeat@failed",
+            "restart@failed",
+            "heal@down",
+            "heal@initializing"
+        ],
+        "{}",
+        set.coverage_report()
+    );
 
     // Every property as expected in each scope the traces are cut from, and each scope's
     // size pinned: any change of these numbers is a change of the specification's behaviour,
     // review it. (Our search counts as stateright's checker does: checker.rs.)
+    // The coverage scopes only widen the reachable set (their timers are shortened), so only
+    // their size is pinned.
     let pinned = [
-        ("", 4_988_076),
-        ("link-failure", 4_104_785),
-        ("returns", 41_599),
+        ("", 4_834_508, true),
+        ("link-failure", 5_486_240, true),
+        ("returns", 41_621, true),
+        ("coverage-returns-restart", 2_443_347, false),
+        ("coverage-failed-restart", 4_453_494, false),
     ];
-    for (name, unique_states) in pinned {
+    for (name, unique_states, checked) in pinned {
         let scope = set
             .scopes
             .iter()
             .find(|scope| scope.name == name)
             .unwrap_or_else(|| panic!("no scope {name:?} in the trace set"));
-        assert!(scope.holds(), "{scope:?}");
+        assert!(!checked || scope.holds(), "{scope:?}");
         assert_eq!(scope.unique_states, unique_states, "scope {name:?}");
     }
-    // The persistent link failure is the scope in which a minority voter is marked FAILED.
-    for finding in ["minority voter FAILED", "re-vote after heartbeat loss"] {
+    // The persistent link failure is the scope in which a minority voter is marked FAILED, and
+    // in which the exemptions' situations are witnessed (`holds` above: "a split at formation"
+    // too, whose shortest witness is the two-sided split's trace).
+    for finding in [
+        "minority voter FAILED",
+        "re-vote after heartbeat loss",
+        "a two-sided split",
+        "a provisional Primary owns the actuator",
+    ] {
         assert!(
             index.contains(&format!("\"purpose\": \"witness: {finding}\"")),
             "no witness trace of {finding}"

@@ -90,22 +90,18 @@ pub(super) fn change_owner(next: &mut State, to: Id) {
     if next.owner == Some(to) {
         return;
     }
-    if let Some(from) = next.owner {
-        // Between sides without a majority (a provisional Primary on either end: a founder
-        // alone and a joiner whose discovery was cut) the GUID order decides until they
-        // merge (F9): such changes are not the protocol's to count.
-        let provisional = next.controller(to).provisional || next.controller(from).provisional;
+    if next.owner.is_some() {
         let history = &mut next.history;
         // Before the first backed result a loss can split the founders into two systems that
         // each form (F9); the GUID order moves the actuator between their Primaries until
         // they merge, and no rule can know which side the actuator should stay with.
         let formation_split = history.partition_open && !history.formed;
-        if !provisional && !formation_split {
+        if !formation_split {
             history.owner_changes = (history.owner_changes + 1).min(history.faults + 1);
         }
         // In a partition a side that believes itself alone steps down and a standby may
         // take the actuator until the sides merge (F11).
-        if !history.partition_open && !provisional {
+        if !history.partition_open {
             history.change_targets |= 1 << (to - 1);
         }
     }

@@ -279,7 +279,14 @@ pub(super) fn entitled_strength(config: &Config, c: &Controller) -> Option<u8> {
         // before it raises would hand the actuator to a standby first. While it hears a
         // majority (a healed cut, a result not yet confirmed) it keeps its strength until
         // the merge or the confirmation is agreed.
-        if c.output.is_some() && (c.provisional_rounds == 0 || hears_majority(c)) {
+        // F15: a Primary at full strength whose lost peers cannot form a majority of the
+        // last backed result keeps it: no side can elect a Primary above it, and dropping
+        // would only hand the actuator to a standby that may still hear it (a link down one
+        // way). A promoted standby has no such claim and drops.
+        let unoutranked = rules.f15_hold_unoutranked
+            && c.output == Some(Role::Primary.strength())
+            && !c.lost_could_outvote();
+        if c.output.is_some() && (c.provisional_rounds == 0 || hears_majority(c) || unoutranked) {
             return c.output;
         }
         return Some(PROVISIONAL_PRIMARY_STRENGTH);

@@ -181,9 +181,14 @@ pub fn next_state(config: &Config, state: &State, action: Action) -> Option<Stat
     let mut next = state.clone();
     match action {
         Action::LoseHeartbeat { from, to } => {
+            let link = link_bit(from, to) | link_bit(to, from);
+            if (state.lost_links | state.history.links_down) & link == 0 {
+                // The link goes down: a new fault episode (losses on it in this round, either
+                // way, or in the rounds right after, continue the same one).
+                next.history.faults += 1;
+            }
             next.lost_links |= link_bit(from, to);
             next.history.losses += 1;
-            next.history.faults += 1;
             next.history.quiet_rounds = 0;
             // Before the first settled state there is no agreed system to protect: a loss
             // can split the founders into two groups that each agree (F9).
@@ -322,6 +327,8 @@ fn forget_links(state: &mut State, id: Id) {
         let mask = !(link_bit(id, other) | link_bit(other, id));
         state.lost_links &= mask;
         state.overdue_votes &= mask;
+        // A new life's lost heartbeat is a new link failure.
+        state.history.links_down &= mask;
     }
 }
 

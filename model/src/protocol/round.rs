@@ -32,8 +32,21 @@ pub(super) fn tick(config: &Config, before: &State, next: &mut State) {
     for &id in &ids {
         round_step(config, before, next, id);
     }
+    // A link stays down while it loses a heartbeat, either way, every round; a round that
+    // carries its heartbeats ends its failure.
+    next.history.links_down = both_ways(before.lost_links);
     next.lost_links = 0;
     next.history.quiet_rounds = (next.history.quiet_rounds + 1).min(config.settle_within_rounds);
+}
+
+/// Each link of `links` in both directions.
+fn both_ways(links: u16) -> u16 {
+    let width = crate::types::MAX_CONTROLLERS;
+    (0..width * width)
+        .filter(|bit| links & (1 << bit) != 0)
+        .fold(links, |all, bit| {
+            all | 1 << ((bit % width) * width + bit / width)
+        })
 }
 
 /// One controller's end of a round: what controller `id` does when the round ends.
