@@ -206,14 +206,18 @@ fn write_outputs(dir: &Path, outcome: &Outcome, session: &Session) -> Result<(),
 
 /// Faults and owner changes at both actuators in time order (seconds on the lab clock).
 pub fn timeline(outcome: &Outcome) -> String {
+    timeline_of(&outcome.faults, &outcome.metrics)
+}
+
+/// [`timeline`] of any judged stretch: a run, or one soak cycle.
+pub fn timeline_of(faults: &[FaultRecord], m: &Metrics) -> String {
     let mut entries: Vec<(f64, String)> = Vec::new();
-    for fault in &outcome.faults {
+    for fault in faults {
         entries.push((fault.applied_ms, format!("fault     {}", fault.label)));
         if let Some(healed) = fault.healed_ms {
             entries.push((healed, format!("heal      {}", fault.label)));
         }
     }
-    let m = &outcome.metrics;
     entries.push((m.judged_from_ms, "lab       judging starts".into()));
     for (judge, spans) in [
         ("rl servo", Some(&m.servo_owners)),

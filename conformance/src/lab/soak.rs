@@ -2,7 +2,8 @@
 //! seeded random schedule, then a fault-free liveness phase that must settle), with each
 //! controller's resident memory and open file descriptors sampled every minute. It fails on
 //! any cycle's judge failure, on trace validation of the whole recording (left in
-//! `OUT/soak-seedN/events/` with the samples in `resources.json`), or when a
+//! `OUT/soak-seedN/events/` with the samples in `resources.json`, and each failed cycle's
+//! failures, timeline and measurements in `failed-cycles/cycle-K.txt`), or when a
 //! controller's memory or descriptors grow faster than the thresholds below (least-squares
 //! slope over its samples, the first minute left out as warm-up).
 //!
@@ -76,6 +77,8 @@ pub fn soak(minutes: u64, seed: u64, setup: &Setup, out: &Path) -> Result<Vec<St
     let mut samples: BTreeMap<u8, Vec<Sample>> = BTreeMap::new();
     let mut last_sample: Option<Instant> = None;
     let mut failures = Vec::new();
+    // Each failed cycle's timeline, written beside the recording at the end.
+    let mut failed_cycles: Vec<(u64, String)> = Vec::new();
     let period_ms = rl::config::Config::default().timing.heartbeat_period_ms as f64;
     let mut cycle = 0u64;
     while started.elapsed() < total {
@@ -106,7 +109,19 @@ pub fn soak(minutes: u64, seed: u64, setup: &Setup, out: &Path) -> Result<Vec<St
             setup.connext,
         );
         metrics.dead = session.dead();
-        for failure in judge::failures(&metrics, &expected, Ok(())) {
+        let cycle_failures = judge::failures(&metrics, &expected, Ok(()));
+        if !cycle_failures.is_empty() {
+            let measured = serde_json::to_string_pretty(&metrics).unwrap_or_default();
+            failed_cycles.push((
+                cycle,
+                format!(
+                    "{}\n{}\n{measured}\n",
+                    cycle_failures.join("\n"),
+                    run::timeline_of(faults, &metrics)
+                ),
+            ));
+        }
+        for failure in cycle_failures {
             let failure = format!(
                 "cycle {cycle} (seed {}): {failure}",
                 seed.wrapping_add(cycle)
@@ -130,6 +145,15 @@ pub fn soak(minutes: u64, seed: u64, setup: &Setup, out: &Path) -> Result<Vec<St
     validation::write_recording(&dir.join("events"), &session.observed, &lives)?;
     if let Err(why) = run::validate_with_timeout(dir.join("events")) {
         failures.push(format!("the model rejects the recorded events: {why}"));
+    }
+    for (failed, text) in &failed_cycles {
+        let path = dir
+            .join("failed-cycles")
+            .join(format!("cycle-{failed}.txt"));
+        if let Some(parent) = path.parent() {
+            std::fs::create_dir_all(parent).map_err(|e| LabError::output(parent, e))?;
+        }
+        std::fs::write(&path, text).map_err(|e| LabError::output(&path, e))?;
     }
     let path = dir.join("resources.json");
     let text = serde_json::to_string_pretty(&samples).unwrap_or_default();
