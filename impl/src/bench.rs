@@ -177,9 +177,21 @@ impl Setup {
     }
 
     fn start_controller(&self, fleet: &mut Fleet, id: ControllerId) -> Result<(), BenchError> {
+        self.start_controller_with(fleet, id, &[])
+    }
+
+    /// Starts controller `id` with `extra` arguments after `--json-events`.
+    fn start_controller_with(
+        &self,
+        fleet: &mut Fleet,
+        id: ControllerId,
+        extra: &[&str],
+    ) -> Result<(), BenchError> {
+        let mut args = vec!["--json-events"];
+        args.extend_from_slice(extra);
         match self.configured(fleet, &format!("c{id}"))? {
-            Some(config) => fleet.start_controller_configured(id, &config, &["--json-events"]),
-            None => fleet.start_controller_with(id, &["--json-events"]),
+            Some(config) => fleet.start_controller_configured(id, &config, &args),
+            None => fleet.start_controller_with(id, &args),
         }
         .map(|_| ())
         .map_err(BenchError::spawn)

@@ -89,7 +89,7 @@ pub fn write_report(out: &mut impl Write, result: &BenchResult) -> std::io::Resu
     )?;
     writeln!(
         out,
-        "controller resources over {} s: max RSS {} kB, CPU {:.2}% of one core",
+        "controller resources over {} s (network monitor on): max RSS {} kB, CPU {:.2}% of one core",
         result.resources.seconds,
         result.resources.rss_kb_max,
         result.resources.cpu_percent_of_one_core

@@ -1,9 +1,14 @@
 //! Resources: RSS and CPU of one controller at 4 Hz heartbeats and 30 Hz commands (the
-//! camera simulator at 30 Hz), read from `/proc`.
+//! camera simulator at 30 Hz), read from `/proc`, with its network monitor on as deployed
+//! (both networks on loopback: the monitor's two DDS participants cost the same there).
 
 use super::{BenchError, Setup};
 use serde::Serialize;
 use std::time::{Duration, Instant};
+
+/// Network A and B both on loopback (by address and by interface name, which RL takes as two
+/// networks): the network monitor runs its two participants.
+const NETWORK_MONITOR_ON_LOOPBACK: &[&str] = &["--network-a", "127.0.0.1", "--network-b", "lo"];
 
 /// The controller measured.
 const MEASURED: crate::core::ControllerId = 1;
@@ -59,7 +64,7 @@ pub fn resources(setup: &Setup, seconds: u64) -> Result<ResourceResult, BenchErr
     let (mut fleet, mut watch) = setup.fleet(&config);
     setup.start_app(&mut fleet, "camera", &["shapes", "--rate-hz", "30"])?;
     for id in 1..=3 {
-        setup.start_controller(&mut fleet, id)?;
+        setup.start_controller_with(&mut fleet, id, NETWORK_MONITOR_ON_LOOPBACK)?;
     }
     if !watch.wait(Duration::from_secs(20), super::watch::Watch::formed) {
         return Err(BenchError::NoFormation {
