@@ -47,7 +47,8 @@ pub struct Metrics {
     pub servo_gap: Option<(f64, f64)>,
     pub connext_gap: Option<(f64, f64)>,
     pub two_at_top_ms: f64,
-    /// Rounds from the last heal until settled for good; `None`: never settled.
+    /// Rounds from the last heal or later process start ([`quiet_from_ms`]) until settled for
+    /// good; `None`: never settled.
     pub settle_rounds: Option<u64>,
     /// When the controllers settled for good (lab ms).
     pub settled_ms: Option<f64>,
@@ -223,6 +224,18 @@ fn settled(statuses: &BTreeMap<String, Status>, live: &[&Life]) -> bool {
     })
 }
 
+/// Where the fault-free rounds the settle bound counts begin: the last heal, or a controller
+/// process started after it (a restart after voting itself FAILED, as systemd does), whichever
+/// came last. The model counts them so: its `Restart` and `Join` reset the fault-free rounds
+/// as its faults do (`model::protocol`, `history.quiet_rounds`).
+pub fn quiet_from_ms(faults: &[FaultRecord], lives: &[Life], judged_from_ms: f64) -> f64 {
+    let last_heal = faults
+        .iter()
+        .filter_map(|f| f.healed_ms)
+        .fold(judged_from_ms, f64::max);
+    lives.iter().map(|l| l.started_ms).fold(last_heal, f64::max)
+}
+
 /// Rounds from `healed_ms` until `settled_ms`, begun rounds counted whole.
 pub fn rounds_between(healed_ms: f64, settled_ms: f64, period_ms: f64) -> u64 {
     ((settled_ms - healed_ms) / period_ms).ceil().max(0.0) as u64
@@ -289,10 +302,7 @@ pub fn measure(
         .iter()
         .map(|l| top_strength_intervals(observed, l, end_ms))
         .collect();
-    let healed_ms = faults
-        .iter()
-        .filter_map(|f| f.healed_ms)
-        .fold(judged_from_ms, f64::max);
+    let healed_ms = quiet_from_ms(faults, lives, judged_from_ms);
     let settled_ms = settled_since(observed, lives, healed_ms);
     let final_roles = lives
         .iter()
@@ -340,9 +350,9 @@ pub fn failures(metrics: &Metrics, expected: &Expected, accepted: Result<(), &st
     match metrics.settle_rounds {
         Some(rounds) if rounds <= SETTLE_ROUNDS => {}
         Some(rounds) => failed.push(format!(
-            "settled {rounds} rounds after the last heal (expected at most {SETTLE_ROUNDS})"
+            "settled {rounds} rounds after the last heal or restart (expected at most {SETTLE_ROUNDS})"
         )),
-        None => failed.push("never settled after the last heal".into()),
+        None => failed.push("never settled after the last heal or restart".into()),
     }
     if let Err(why) = accepted {
         failed.push(format!("the model rejects the recorded events: {why}"));

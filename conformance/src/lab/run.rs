@@ -254,7 +254,7 @@ pub fn summary(outcome: &Outcome) -> String {
         gap(m.servo_gap),
         gap(m.connext_gap),
         m.two_at_top_ms,
-        m.settle_rounds.map_or("never".into(), |r| format!("{r} rounds after the last heal (model's bound {SETTLE_ROUNDS})")),
+        m.settle_rounds.map_or("never".into(), |r| format!("{r} rounds after the last heal or restart (model's bound {SETTLE_ROUNDS})")),
         match &outcome.validation {
             Ok(_) => "accepted".to_string(),
             Err(why) => format!("rejected or unchecked: {}", why.lines().next().unwrap_or("")),
