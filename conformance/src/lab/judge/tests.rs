@@ -154,13 +154,18 @@ fn a_lone_controller_without_a_writer_may_leave_a_longer_gap() {
     );
 }
 
-#[test]
-fn both_nets_down_allow_the_time_both_were_down_and_no_more() {
+/// What `both-networks-down` (net A, then net B) expects.
+fn both_networks_down() -> Expected {
     let faults = [
         Fault::NetworkDown(crate::lab::lan::Net::A),
         Fault::NetworkDown(crate::lab::lan::Net::B),
     ];
-    let expected = expect::for_scenario("both-networks-down", &faults).expect("a named scenario");
+    expect::for_scenario("both-networks-down", &faults).expect("a named scenario")
+}
+
+#[test]
+fn both_nets_down_allow_the_time_both_were_down_and_no_more() {
+    let expected = both_networks_down();
     let run = |servo: f64, connext: f64| Metrics {
         changes_per_fault: vec![
             changed("net A down", 10_000.0, &[], &[]),
@@ -182,11 +187,7 @@ fn both_nets_down_allow_the_time_both_were_down_and_no_more() {
 
 #[test]
 fn both_nets_down_judges_owner_changes_outside_the_merge() {
-    let faults = [
-        Fault::NetworkDown(crate::lab::lan::Net::A),
-        Fault::NetworkDown(crate::lab::lan::Net::B),
-    ];
-    let expected = expect::for_scenario("both-networks-down", &faults).expect("a named scenario");
+    let expected = both_networks_down();
     let run = |servo: &[f64]| Metrics {
         changes_per_fault: vec![
             changed("net A down", 10_000.0, &[], &[]),
