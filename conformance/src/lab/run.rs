@@ -223,7 +223,13 @@ pub fn timeline_of(faults: &[FaultRecord], m: &Metrics) -> String {
         ("rl servo", Some(&m.servo_owners)),
         ("connext", m.connext_owners.as_ref()),
     ] {
-        for span in spans.into_iter().flatten() {
+        // An owner that ended before judging began is not this stretch's (a soak cycle's
+        // timeline would otherwise start with every earlier cycle's owners).
+        for span in spans
+            .into_iter()
+            .flatten()
+            .filter(|span| span.to_ms >= m.judged_from_ms)
+        {
             entries.push((span.from_ms, format!("{judge:<9} owner {}", span.owner)));
         }
     }
