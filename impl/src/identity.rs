@@ -196,6 +196,18 @@ impl Identities {
             .map(|(id, _)| *id)
     }
 
+    /// The id bound to `participant`, however long it has been silent: whom its writers speak
+    /// for until another participant takes the id. The actuator's trust uses this, not
+    /// [`Identities::controller_of`]: two heartbeats lost on a lossy link must not make it
+    /// refuse the Primary's commands, which arrive every republish period and whose liveness
+    /// the command deadline judges.
+    pub fn speaks_for(&self, participant: ParticipantKey) -> Option<ControllerId> {
+        self.bound
+            .iter()
+            .find(|(_, b)| b.participant == participant)
+            .map(|(id, _)| *id)
+    }
+
     /// The incarnation last heard for `id` from its bound participant.
     pub fn incarnation(&self, id: ControllerId) -> Option<Incarnation> {
         self.bound.get(&id).map(|b| b.incarnation)
@@ -321,6 +333,22 @@ mod tests {
             Admission::Accepted,
             "after the deadline anyone may take the id"
         );
+    }
+
+    #[test]
+    fn a_silent_participant_speaks_for_its_id_until_another_takes_it() {
+        let mut book = Identities::new(DEADLINE_MS);
+        book.heartbeat(1, 10, participant(1), 0);
+        assert_eq!(book.controller_of(participant(1), 10_000), None);
+        assert_eq!(
+            book.speaks_for(participant(1)),
+            Some(1),
+            "silence alone keeps the id"
+        );
+        book.heartbeat(1, 11, participant(9), 10_000);
+        assert_eq!(book.speaks_for(participant(1)), None, "the restart took it");
+        assert_eq!(book.speaks_for(participant(9)), Some(1));
+        assert_eq!(book.speaks_for(participant(4)), None, "never heard");
     }
 
     #[test]

@@ -78,7 +78,7 @@ impl CommandFeed {
         let mut newest = None;
         for (strength, command) in batch {
             let writer = command.writer;
-            if self.trust.admit(writer, strength, now_ms).is_err() {
+            if self.trust.admit(writer, strength).is_err() {
                 continue;
             }
             if self.arbiter.offer(writer, strength, now_ms).accepted {

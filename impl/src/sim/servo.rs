@@ -333,7 +333,7 @@ impl Servo {
     fn offer(&mut self, command: Received<ServoControl>, strength: i32) -> Result<bool, Error> {
         let now = self.now_ms();
         let writer = command.writer;
-        if let Err(refusal) = self.trust.admit(writer, strength, now) {
+        if let Err(refusal) = self.trust.admit(writer, strength) {
             if self.trust.first_warning(writer) {
                 tracing::warn!(
                     writer = %guid_hex(writer),
