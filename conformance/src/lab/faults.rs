@@ -311,20 +311,12 @@ pub fn heal(applied: Applied, lan: &Lan, procs: &mut Procs) -> Result<(), LabErr
     match applied.fault {
         Fault::Kill(_) => procs.start_controller(id),
         Fault::Pause(_) => procs.pause(id, false),
+        // Restarted onto the true clock at once; the recording takes each life's clock error
+        // off its events (`procs::Life::round_clock_correction_ms`).
         Fault::ClockOffset(..) | Fault::ClockRate(..) => {
-            let fast = matches!(applied.fault, Fault::ClockRate(..));
             procs.clock_offsets_s.remove(&id);
             procs.clock_rates.remove(&id);
             procs.stop(id);
-            if fast {
-                // Everyone followed the fast clock's rounds while it was Primary, so the
-                // recording's round clock ran ahead of the true clock the new life starts on:
-                // a period's pause keeps the new life's first lines after the old one's last
-                // (about 100 ms ahead after 10 s at 1%).
-                std::thread::sleep(std::time::Duration::from_millis(
-                    rl::config::Config::default().timing.heartbeat_period_ms,
-                ));
-            }
             procs.start_controller(id)
         }
         Fault::RateLimit(..) => {

@@ -57,7 +57,7 @@ pub fn participant_of(guid_hex: &str) -> String {
 }
 
 impl Observations {
-    /// Takes in one line; `lives` gives a controller life's clock offset.
+    /// Takes in one line; `lives` gives a controller life's clock error.
     pub fn ingest(&mut self, line: Line, clock: &LabClock, lives: &[Life]) {
         if let Some(source) = line.source.strip_suffix('!') {
             self.stderr.push((source.to_string(), line.text));
@@ -67,13 +67,13 @@ impl Observations {
             "servo" => self.ingest_servo(&line),
             "connext" => self.ingest_connext(&line, clock),
             source if source.starts_with('C') => {
-                let offset_ms = lives
-                    .iter()
-                    .find(|l| l.label() == source)
-                    .map_or(0.0, |l| l.round_clock_offset_ms() as f64);
                 let Some(event) = EventLine::parse(&line.text) else {
                     return;
                 };
+                let offset_ms = lives
+                    .iter()
+                    .find(|l| l.label() == source)
+                    .map_or(0.0, |l| l.round_clock_correction_ms(event.t_ms) as f64);
                 if let Some(nap) = network_alarms::nap_event(&event.event) {
                     self.network.push(NapRecord {
                         life: source.to_string(),

@@ -38,7 +38,11 @@ pub struct Life {
     pub pid: u32,
     /// Its wall clock's offset (seconds): the clock-offset fault.
     pub clock_offset_s: f64,
+    /// Its clocks' rate (1.0: true; 1.01: 1% fast): the clock-drift fault.
+    pub clock_rate: f64,
     pub started_ms: f64,
+    /// When it started, on the true wall clock (Unix ms): where a fast clock starts gaining.
+    pub started_wall_ms: f64,
     /// When it was killed, stopped or exited (lab ms).
     pub ended_ms: Option<f64>,
     /// SIGSTOP .. SIGCONT intervals (lab ms).
@@ -48,14 +52,26 @@ pub struct Life {
 }
 
 impl Life {
-    /// What the lab takes off this life's event times: its clock offset to the nearest whole
-    /// heartbeat period. Controllers follow the Primary's round phase (`rl::round_clock`), so
-    /// the rest of an offset is absorbed by the controllers themselves, and taking off the
-    /// whole periods puts every life on the system's shared round clock (the model's rounds).
-    pub fn round_clock_offset_ms(&self) -> i64 {
+    /// What the lab takes off an event this life stamped at `t_ms` (its own wall clock, Unix
+    /// ms): its clock's error at that moment (the offset, plus what a fast clock has gained
+    /// since the process started) to the nearest whole heartbeat period. Controllers follow the
+    /// Primary's round phase (`rl::round_clock`), so the rest of an error is absorbed by the
+    /// controllers themselves, and taking off the whole periods puts every life on the
+    /// system's shared round clock (the model's rounds). A fast clock's correction grows with
+    /// its error, so a restart onto the true clock continues the old life's rounds instead of
+    /// starting in rounds the old life had already stamped.
+    pub fn round_clock_correction_ms(&self, t_ms: u64) -> i64 {
         let period_ms = rl::config::Config::default().timing.heartbeat_period_ms as f64;
         let offset_ms = self.clock_offset_s * 1000.0;
-        ((offset_ms / period_ms).round() * period_ms) as i64
+        // libfaketime's clock: started + offset + (true - started) x rate; solved for its
+        // error (clock - true) at the clock's reading `t_ms`.
+        let run_on_own_clock_ms = (t_ms as f64 - self.started_wall_ms - offset_ms).max(0.0);
+        let gained_ms = if self.clock_rate > 0.0 {
+            run_on_own_clock_ms * (self.clock_rate - 1.0) / self.clock_rate
+        } else {
+            0.0
+        };
+        (((offset_ms + gained_ms) / period_ms).round() * period_ms) as i64
     }
 
     /// `C2`, or `C2#3` for its third process.
@@ -224,7 +240,9 @@ impl Procs {
             number,
             pid: child.id(),
             clock_offset_s: offset_s,
+            clock_rate: rate,
             started_ms: self.clock.now_ms(),
+            started_wall_ms: super::clock::wall_ms(),
             ended_ms: None,
             paused: Vec::new(),
             exit: None,
@@ -440,4 +458,52 @@ fn spawn_reader(
             }
         }
     });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A Unix time in ms (2026).
+    const STARTED: u64 = 1_795_000_000_000;
+
+    fn life(clock_offset_s: f64, clock_rate: f64) -> Life {
+        Life {
+            id: 3,
+            number: 1,
+            pid: 0,
+            clock_offset_s,
+            clock_rate,
+            started_ms: 0.0,
+            started_wall_ms: STARTED as f64,
+            ended_ms: None,
+            paused: Vec::new(),
+            exit: None,
+        }
+    }
+
+    #[test]
+    fn an_offset_clock_is_taken_back_by_whole_periods() {
+        let late = life(-3600.0, 1.0);
+        assert_eq!(
+            late.round_clock_correction_ms(STARTED - 3_600_000),
+            -3_600_000
+        );
+        // 0.1 s ahead: less than half a period, absorbed by following the Primary's phase.
+        assert_eq!(life(0.1, 1.0).round_clock_correction_ms(STARTED + 100), 0);
+        assert_eq!(life(0.2, 1.0).round_clock_correction_ms(STARTED + 200), 250);
+    }
+
+    #[test]
+    fn a_fast_clock_is_taken_back_by_what_it_has_gained() {
+        let fast = life(0.0, 1.01);
+        // 10 s of true time read 10.1 s on its clock: 100 ms gained, under half a period.
+        assert_eq!(fast.round_clock_correction_ms(STARTED + 10_100), 0);
+        // 16 s: 160 ms gained, nearer one period than none.
+        assert_eq!(fast.round_clock_correction_ms(STARTED + 16_160), 250);
+        assert_eq!(
+            life(0.0, 1.0).round_clock_correction_ms(STARTED + 16_160),
+            0
+        );
+    }
 }

@@ -1,8 +1,8 @@
 //! The recorded controller events of a run checked against the model, by the same trace
 //! validation `validate-run` does (`crate::validate`). Each life's events are written to
 //! `events/C1.log`, `events/C1#2.log`, ... in the run's directory, with `t_ms` taken back by
-//! whole periods of a life's clock offset, onto the rounds the controllers share (the model's
-//! rounds; `Life::round_clock_offset_ms`), so
+//! whole periods of a life's clock error (an offset, or what a fast clock has gained), onto the rounds the controllers share (the model's
+//! rounds; `Life::round_clock_correction_ms`), so
 //! `cargo run --release -p conformance --bin validate-run -- DIR/events` repeats the check.
 
 use super::error::LabError;
@@ -26,14 +26,15 @@ pub fn write_recording(
     for life in lives {
         let path = dir.join(format!("{}.log", life.label()));
         let mut file = std::fs::File::create(&path).map_err(|e| LabError::output(&path, e))?;
-        let offset_ms = life.round_clock_offset_ms();
         for event in observed
             .controller
             .iter()
             .filter(|e| e.life == life.label())
         {
             let mut line = event.line.clone();
-            line.t_ms = line.t_ms.saturating_add_signed(-offset_ms);
+            line.t_ms = line
+                .t_ms
+                .saturating_add_signed(-life.round_clock_correction_ms(line.t_ms));
             writeln!(file, "{}", line.to_json()).map_err(|e| LabError::output(&path, e))?;
         }
     }
