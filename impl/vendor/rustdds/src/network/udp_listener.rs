@@ -4,7 +4,7 @@ use std::{
   net::{IpAddr, Ipv4Addr, SocketAddr},
 };
 
-use log::{debug, error, info, trace, warn};
+use log::{debug, error, info, warn};
 use socket2::{Domain, Protocol, SockAddr, Socket, Type};
 use bytes::{Bytes, BytesMut};
 
@@ -14,7 +14,6 @@ use crate::{
     get_local_multicast_locators, get_local_unicast_locators_filtered,
   },
   rtps::transmit::InterfaceSelector,
-  serialization::padding_needed_for_alignment_4,
   structure::locator::Locator,
 };
 
@@ -40,8 +39,6 @@ impl PacketOrigin {
 }
 
 const MAX_MESSAGE_SIZE: usize = 64 * 1024; // This is max we can get from UDP.
-const MESSAGE_BUFFER_ALLOCATION_CHUNK: usize = 256 * 1024; // must be >= MAX_MESSAGE_SIZE
-static_assertions::const_assert!(MESSAGE_BUFFER_ALLOCATION_CHUNK > MAX_MESSAGE_SIZE);
 
 /// Listens to messages coming to specified host port combination.
 /// Only messages from added listen addressed are read when get_all_messages is
@@ -193,7 +190,7 @@ impl UDPListener {
 
     Ok(Self {
       socket: mio_socket,
-      receive_buffer: BytesMut::with_capacity(MESSAGE_BUFFER_ALLOCATION_CHUNK),
+      receive_buffer: BytesMut::with_capacity(MAX_MESSAGE_SIZE),
       multicast_group: None,
       has_multicast_join: false,
       ifindex_map: build_ifindex_to_interface_map(),
@@ -258,7 +255,7 @@ impl UDPListener {
 
     Ok(Self {
       socket: mio_socket,
-      receive_buffer: BytesMut::with_capacity(MESSAGE_BUFFER_ALLOCATION_CHUNK),
+      receive_buffer: BytesMut::with_capacity(MAX_MESSAGE_SIZE),
       multicast_group: Some(multicast_group),
       has_multicast_join: joined_multicast,
       ifindex_map: build_ifindex_to_interface_map(),
@@ -323,67 +320,37 @@ impl UDPListener {
       if messages.len() >= max_messages {
         return messages;
       }
-      // Loop invariant. Note that capacity() may be large, but .len() == 0.
-      assert_eq!(self.receive_buffer.len(), 0);
-
-      // Ensure that receive buffer has enough capacity for a message
+      // The receive buffer is one datagram's room, reused for every datagram.
       if self.receive_buffer.capacity() < MAX_MESSAGE_SIZE {
-        self.receive_buffer = BytesMut::with_capacity(MESSAGE_BUFFER_ALLOCATION_CHUNK);
-        debug!("ensure_receive_buffer_capacity - reallocated receive_buffer");
+        self.receive_buffer = BytesMut::with_capacity(MAX_MESSAGE_SIZE);
       }
       unsafe {
-        // This is safe, because we just checked that there is enough capacity,
-        // or allocated more.
+        // This is safe, because we just checked that there is enough capacity.
         // We do not read undefined data, because the recv()
-        // will overwrite this space and truncate the rest away.
+        // will overwrite this space and we copy out only what it wrote.
         self.receive_buffer.set_len(MAX_MESSAGE_SIZE);
       }
-      trace!(
-        "ensure_receive_buffer_capacity - {} bytes left",
-        self.receive_buffer.capacity()
-      );
-      let (nbytes, origin) = match self.recv_one() {
-        Ok(Some(received)) => received,
-        Ok(None) => {
+      let received = self.recv_one();
+      let message = match &received {
+        Ok(Some((nbytes, _))) => Some(Bytes::copy_from_slice(&self.receive_buffer[..*nbytes])),
+        _ => None,
+      };
+      self.receive_buffer.clear();
+      match (received, message) {
+        // Each datagram gets an allocation of its own size: a sample kept in a
+        // reader's history then holds its own bytes only. Carving datagrams out of
+        // shared 256 KiB chunks made one small long-lived sample (a durable vote, a
+        // discovered participant's data) keep its whole chunk alive.
+        (Ok(Some((_, origin))), Some(message)) => messages.push((message, origin)),
+        (Ok(_), _) => {
           // WouldBlock: nothing (more) to read.
-          self.receive_buffer.clear();
           return messages;
         }
-        Err(e) => {
-          self.receive_buffer.clear();
+        (Err(e), _) => {
           warn!("socket recv() error: {e:?}");
           return messages;
         }
-      };
-      // Something was received.
-      // The buffer length is still MAX_MESSAGE_SIZE, set before the receive so
-      // the kernel had room to write into. Shrink it back to the number of bytes
-      // actually received, so that the padding + split below only consume this
-      // datagram's worth of the chunk. Without this, every datagram (however
-      // small) would carve off a full MAX_MESSAGE_SIZE slot, wasting the chunk
-      // and defeating the packing this alignment logic assumes.
-      unsafe {
-        // Safe: recv_one wrote `nbytes` valid bytes at the front of the buffer,
-        // and nbytes <= MAX_MESSAGE_SIZE == the current len.
-        self.receive_buffer.set_len(nbytes);
       }
-
-      // Now, append some extra data to align the buffer end, so the next piece will
-      // be aligned also. This assumes that the initial buffer was aligned to begin
-      // with. This is because RTPS data is optimized to align to 4-byte boundaries.
-      let pad = padding_needed_for_alignment_4(self.receive_buffer.len());
-      if pad != 0 {
-        self
-          .receive_buffer
-          .extend_from_slice(&[0xCC, 0xCC, 0xCC, 0xCC][..pad]);
-        // Funny value 0xCC encourages a fast crash in case these bytes
-        // are ever accessed, as they should not.
-      }
-
-      // Now split away the used portion.
-      let mut message = self.receive_buffer.split_to(self.receive_buffer.len());
-      message.truncate(nbytes); // discard (hide) padding
-      messages.push((Bytes::from(message), origin)); // freeze bytes and push
     } // loop
 
     // unreachable!(); // But why does this cause a warning? (rustc 1.66.0)
@@ -504,6 +471,34 @@ mod tests {
 
   use super::*;
   use crate::network::udp_sender::*;
+
+  #[test]
+  fn each_received_datagram_owns_just_its_bytes() {
+    // A small sample kept in a reader's history must not keep a large receive
+    // buffer alive: each datagram is its own allocation, of its own size.
+    let mut listener = UDPListener::new_unicast("127.0.0.1", 10011).unwrap();
+    let sender = UDPSender::new_with_random_port().expect("failed to create UDPSender");
+    let addrs = vec![SocketAddr::new("127.0.0.1".parse().unwrap(), 10011)];
+    for size in [5, 100, 1400] {
+      sender.send_to_all(&vec![7u8; size], &addrs);
+    }
+    let mut messages = Vec::new();
+    for _ in 0..20 {
+      messages.extend(listener.messages_bounded(usize::MAX));
+      if messages.len() == 3 {
+        break;
+      }
+      thread::sleep(time::Duration::from_millis(50));
+    }
+    assert_eq!(messages.len(), 3);
+    for ((message, _origin), size) in messages.into_iter().zip([5, 100, 1400]) {
+      assert_eq!(message.len(), size);
+      let owned = message
+        .try_into_mut()
+        .expect("the datagram shares its allocation with the listener's buffer");
+      assert_eq!(owned.capacity(), size, "the datagram's allocation is larger than it");
+    }
+  }
 
   #[test]
   fn udpl_single_address() {
