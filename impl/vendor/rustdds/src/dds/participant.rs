@@ -85,6 +85,8 @@ pub struct DomainParticipantBuilder {
   socket_receive_buffer_size: usize,
   socket_send_buffer_size: usize,
 
+  status_channel_capacity: usize, // participant status events kept until read
+
   #[cfg(feature = "security")]
   security_plugins: Option<SecurityPlugins>,
   #[cfg(feature = "security")]
@@ -101,6 +103,7 @@ impl DomainParticipantBuilder {
       max_sample_size: Self::DEFAULT_MAX_SAMPLE_SIZE,
       socket_receive_buffer_size: Self::DEFAULT_SOCKET_RECEIVE_BUFFER_SIZE,
       socket_send_buffer_size: Self::DEFAULT_SOCKET_SEND_BUFFER_SIZE,
+      status_channel_capacity: Self::DEFAULT_STATUS_CHANNEL_CAPACITY,
       #[cfg(feature = "security")]
       security_plugins: None,
       #[cfg(feature = "security")]
@@ -163,6 +166,21 @@ impl DomainParticipantBuilder {
     self.max_sample_size = bytes;
     self
   }
+
+  /// How many participant status events (discovery of participants, readers
+  /// and writers, lost participants, ...) wait to be read at most (default
+  /// [`Self::DEFAULT_STATUS_CHANNEL_CAPACITY`]); later ones are dropped until
+  /// some are read. The queue is allocated at its full size when the
+  /// participant is built (about 300 bytes per event), and an application that
+  /// never reads it holds that many events for good: one that reads none can
+  /// set a small capacity.
+  pub fn status_channel_capacity(mut self, events: usize) -> Self {
+    self.status_channel_capacity = events;
+    self
+  }
+
+  /// Room for the SEDP burst when several participants are discovered at once.
+  pub const DEFAULT_STATUS_CHANNEL_CAPACITY: usize = 2048;
 
   /// 1 MiB.
   pub const DEFAULT_MAX_SAMPLE_SIZE: usize = 1024 * 1024;
@@ -355,11 +373,12 @@ impl DomainParticipantBuilder {
       ready_channel::<mio1::Token>(&discovery_waker);
 
     // Channel used to report noteworthy events to DomainParticipant.
-    // Capacity must be large enough to absorb the SEDP burst when multiple
-    // participants are discovered at once. A single participant can expose
-    // many endpoints (e.g. ~16 in a typical ROS 2 node), so 2048 handles
-    // large deployments without silent event loss.
-    let (status_sender, status_receiver) = sync_status_channel(2048)?;
+    // For an application that reads them the capacity must be large enough to
+    // absorb the SEDP burst when multiple participants are discovered at once.
+    // A single participant can expose many endpoints (e.g. ~16 in a typical
+    // ROS 2 node), so the default 2048 handles large deployments without silent
+    // event loss; one that reads none sets less (`status_channel_capacity`).
+    let (status_sender, status_receiver) = sync_status_channel(self.status_channel_capacity)?;
 
     #[cfg(not(feature = "security"))]
     let security_plugins_handle = None;
@@ -1836,7 +1855,7 @@ mod tests {
       udp_sender::UDPSender,
     },
     rtps::{submessage::*, Message},
-    serialization::CDRSerializerAdapter,
+    serialization::{CDRDeserializerAdapter, CDRSerializerAdapter},
     structure::{
       guid::{EntityId, GUID},
       locator::Locator,
@@ -1845,6 +1864,50 @@ mod tests {
     test::{random_data::RandomData, test_domain::test_domain_id},
   };
   use super::DomainParticipant;
+
+  #[test]
+  fn unread_status_events_are_kept_up_to_the_capacity() {
+    use crate::dds::statusevents::StatusEvented;
+    let domain = test_domain_id(48);
+    let quiet = super::DomainParticipantBuilder::new(domain)
+      .status_channel_capacity(3)
+      .build()
+      .unwrap();
+    // Another participant with endpoints on two topics: its discovery, and
+    // that of its topics, readers and writers, are more than three events.
+    let other = DomainParticipant::new(domain).unwrap();
+    let qos = QosPolicies::qos_none();
+    let publisher = other.create_publisher(&qos).unwrap();
+    let subscriber = other.create_subscriber(&qos).unwrap();
+    let mut endpoints = Vec::new();
+    for name in ["capacity_a", "capacity_b"] {
+      let topic = other
+        .create_topic(name.to_string(), "T".to_string(), &qos, TopicKind::NoKey)
+        .unwrap();
+      let writer = publisher
+        .create_datawriter_no_key::<RandomData, CDRSerializerAdapter<RandomData, LittleEndian>>(
+          &topic, None,
+        )
+        .unwrap();
+      let reader = subscriber
+        .create_datareader_no_key::<RandomData, CDRDeserializerAdapter<RandomData>>(&topic, None)
+        .unwrap();
+      endpoints.push((writer, reader));
+    }
+    std::thread::sleep(std::time::Duration::from_secs(3));
+    let listener = quiet.status_listener();
+    let mut unread = 0;
+    while listener.try_recv_status().is_some() {
+      unread += 1;
+    }
+    assert_eq!(unread, 3, "events kept unread");
+    let everyone = other.status_listener();
+    let mut heard = 0;
+    while everyone.try_recv_status().is_some() {
+      heard += 1;
+    }
+    assert!(heard > 3, "the default capacity kept {heard} events");
+  }
 
   // TODO: improve basic test when more or the structure is known
   #[test]
