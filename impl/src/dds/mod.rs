@@ -41,7 +41,7 @@ use crate::wire::{
     AlarmSample, HeartbeatSample, NetworkAlarmSample, ServoControl, ShapeTypeExtended, VoteSample,
     WireError, WireSample,
 };
-use ros2_client::{Context, ContextOptions};
+use ros2_client::Context;
 use rustdds::{
     serialization::CDRSerializerAdapter, CDRDeserializerAdapter, DomainParticipant,
     DomainParticipantBuilder, Publisher, QosPolicies, QosPolicyBuilder, RTPSEntity, Subscriber,
@@ -119,6 +119,19 @@ pub struct Session {
     topics: Topics,
     config: Dds,
     timing: Timing,
+}
+
+/// RustDDS's participant status events (discovered and lost participants, readers, writers)
+/// that wait to be read at most. RL reads none: it learns of its peers from their heartbeats
+/// and of writers' strengths by querying discovery. The queue is allocated at its full size and
+/// an unread one keeps its events for good: RustDDS's default, 2048, cost 0.6 MB and more per
+/// participant, three participants in a controller with its network monitor
+/// (docs/performance.md, "Resources").
+pub const PARTICIPANT_STATUS_EVENTS_KEPT: usize = 16;
+
+/// A participant builder for `domain` with RL's settings for every participant it creates.
+fn participant_builder(domain: u16) -> DomainParticipantBuilder {
+    DomainParticipantBuilder::new(domain).status_channel_capacity(PARTICIPANT_STATUS_EVENTS_KEPT)
 }
 
 /// A publisher and a subscriber with default QoS (each endpoint sets its own); `role` prefixes
@@ -209,9 +222,8 @@ impl Session {
             domain: dds.domain,
             reason,
         };
-        let context = if every_interface || keystore.is_some() {
-            let builder =
-                DomainParticipantBuilder::new(dds.domain).send_on_every_interface(every_interface);
+        let context = {
+            let builder = participant_builder(dds.domain).send_on_every_interface(every_interface);
             #[cfg(feature = "security")]
             let builder = match keystore {
                 Some(keystore) => builder.builtin_security(keystore.participant_files()),
@@ -221,15 +233,13 @@ impl Session {
                 .build()
                 .map_err(|e| participant_error(e.to_string()))?;
             Context::from_domain_participant(participant)
-        } else {
-            Context::with_options(ContextOptions::new().domain_id(dds.domain))
         }
         .map_err(|e| participant_error(e.to_string()))?;
         let participant = context.domain_participant();
         let (publisher, subscriber) = publisher_and_subscriber(&participant, "")?;
         let device = match keystore {
             Some(keystore) if keystore.open_device_topics => {
-                let participant = DomainParticipantBuilder::new(dds.domain)
+                let participant = participant_builder(dds.domain)
                     .send_on_every_interface(every_interface)
                     .build()
                     .map_err(|e| participant_error(format!("device participant: {e}")))?;

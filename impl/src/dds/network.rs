@@ -13,8 +13,7 @@ use super::endpoint::{Reader, Writer};
 use super::{create_topic, publisher_and_subscriber, qos, DdsError};
 use crate::wire::{NetworkHeartbeatSample, WireSample};
 use rustdds::{
-    serialization::CDRSerializerAdapter, CDRDeserializerAdapter, DomainParticipant,
-    DomainParticipantBuilder, TopicKind,
+    serialization::CDRSerializerAdapter, CDRDeserializerAdapter, DomainParticipant, TopicKind,
 };
 use std::net::Ipv4Addr;
 
@@ -40,7 +39,7 @@ impl NetworkParticipant {
         deadline_ms: u64,
     ) -> Result<NetworkParticipant, DdsError> {
         let participant_error = |reason: String| DdsError::Participant { domain, reason };
-        let participant = DomainParticipantBuilder::new(domain)
+        let participant = super::participant_builder(domain)
             .with_only_networks([address])
             .same_host_loopback(false)
             .build()
