@@ -190,10 +190,8 @@ impl Identities {
 
     /// The id bound to `participant` (still alive), if any: whom its writers speak for.
     pub fn controller_of(&self, participant: ParticipantKey, now_ms: u64) -> Option<ControllerId> {
-        self.bound
-            .iter()
-            .find(|(_, b)| b.participant == participant && self.alive(b, now_ms))
-            .map(|(id, _)| *id)
+        self.speaks_for(participant)
+            .filter(|id| self.bound.get(id).is_some_and(|b| self.alive(b, now_ms)))
     }
 
     /// The id bound to `participant`, however long it has been silent: whom its writers speak

@@ -1,8 +1,8 @@
 //! The recorded controller events of a run checked against the model, by the same trace
 //! validation `validate-run` does (`crate::validate`). Each life's events are written to
 //! `events/C1.log`, `events/C1#2.log`, ... in the run's directory, with `t_ms` taken back by
-//! whole periods of a life's clock error (an offset, or what a fast clock has gained), onto the rounds the controllers share (the model's
-//! rounds; `Life::round_clock_correction_ms`), so
+//! whole periods of a life's clock error (an offset, or what a fast clock has gained), onto
+//! the rounds the controllers share (the model's rounds; `Life::round_clock_correction_ms`), so
 //! `cargo run --release -p conformance --bin validate-run -- DIR/events` repeats the check.
 
 use super::error::LabError;
