@@ -330,27 +330,26 @@ impl UDPListener {
         // will overwrite this space and we copy out only what it wrote.
         self.receive_buffer.set_len(MAX_MESSAGE_SIZE);
       }
-      let received = self.recv_one();
-      let message = match &received {
-        Ok(Some((nbytes, _))) => Some(Bytes::copy_from_slice(&self.receive_buffer[..*nbytes])),
-        _ => None,
-      };
-      self.receive_buffer.clear();
-      match (received, message) {
-        // Each datagram gets an allocation of its own size: a sample kept in a
-        // reader's history then holds its own bytes only. Carving datagrams out of
-        // shared 256 KiB chunks made one small long-lived sample (a durable vote, a
-        // discovered participant's data) keep its whole chunk alive.
-        (Ok(Some((_, origin))), Some(message)) => messages.push((message, origin)),
-        (Ok(_), _) => {
+      let (nbytes, origin) = match self.recv_one() {
+        Ok(Some(received)) => received,
+        Ok(None) => {
           // WouldBlock: nothing (more) to read.
+          self.receive_buffer.clear();
           return messages;
         }
-        (Err(e), _) => {
+        Err(e) => {
+          self.receive_buffer.clear();
           warn!("socket recv() error: {e:?}");
           return messages;
         }
-      }
+      };
+      // Each datagram gets an allocation of its own size: a sample kept in a
+      // reader's history then holds its own bytes only. Carving datagrams out of
+      // shared 256 KiB chunks made one small long-lived sample (a durable vote, a
+      // discovered participant's data) keep its whole chunk alive.
+      let message = Bytes::copy_from_slice(&self.receive_buffer[..nbytes]);
+      self.receive_buffer.clear();
+      messages.push((message, origin));
     } // loop
 
     // unreachable!(); // But why does this cause a warning? (rustc 1.66.0)
