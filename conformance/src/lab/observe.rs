@@ -27,6 +27,9 @@ pub struct ControllerEvent {
 pub struct ActuatorSample {
     pub at_ms: f64,
     pub participant: String,
+    /// The writer's entity id (its GUID's last 8 hex digits): a controller's writers at
+    /// different strengths differ here.
+    pub writer_entity: String,
     /// The servo's own time (ms since it started), for exact gaps.
     pub own_ms: f64,
 }
@@ -54,6 +57,11 @@ pub struct Observations {
 /// The participant of a writer: its GUID's first 12 bytes (24 hex digits).
 pub fn participant_of(guid_hex: &str) -> String {
     guid_hex.chars().take(24).collect()
+}
+
+/// The entity id of a writer: its GUID's last 4 bytes (8 hex digits).
+pub fn entity_of(guid_hex: &str) -> String {
+    guid_hex.chars().skip(24).collect()
 }
 
 impl Observations {
@@ -112,12 +120,14 @@ impl Observations {
         } = event
         {
             let participant = participant_of(&writer_guid);
+            let writer_entity = entity_of(&writer_guid);
             if let Some(id) = controller_id {
                 self.participant_ids.insert(participant.clone(), id);
             }
             self.servo_commands.push(ActuatorSample {
                 at_ms: origin + own_ms,
                 participant,
+                writer_entity,
                 own_ms,
             });
         }
@@ -131,6 +141,7 @@ impl Observations {
             self.connext.push(ActuatorSample {
                 at_ms: clock.of_wall_ms(t_ms),
                 participant: participant_of(guid),
+                writer_entity: entity_of(guid),
                 own_ms: t_ms,
             });
         }
@@ -214,6 +225,7 @@ mod tests {
         ActuatorSample {
             at_ms,
             participant: participant.into(),
+            writer_entity: String::new(),
             own_ms: at_ms,
         }
     }

@@ -201,7 +201,36 @@ fn write_outputs(dir: &Path, outcome: &Outcome, session: &Session) -> Result<(),
         .map(|(source, text)| format!("{source}: {text}\n"))
         .collect();
     write("stderr.log", stderr)?;
+    write("actuators.log", actuator_samples(&session.observed))?;
     write("timeline.txt", timeline(outcome))
+}
+
+/// Every sample both actuators took, in time order: lab seconds, the reader, the writer's
+/// participant (the controller id where known) and entity id, so a switch can be traced to
+/// the very writer (a controller re-creates its writer at each new strength).
+fn actuator_samples(observed: &super::observe::Observations) -> String {
+    let mut lines: Vec<(f64, String)> = Vec::new();
+    for (reader, samples) in [
+        ("servo", &observed.servo_commands),
+        ("connext", &observed.connext),
+    ] {
+        for sample in samples {
+            let who = observed
+                .participant_ids
+                .get(&sample.participant)
+                .map_or_else(|| sample.participant.clone(), |id| format!("C{id}"));
+            lines.push((
+                sample.at_ms,
+                format!(
+                    "{:9.3} s  {reader:<8} {who} writer {}\n",
+                    sample.at_ms / 1000.0,
+                    sample.writer_entity
+                ),
+            ));
+        }
+    }
+    lines.sort_by(|a, b| a.0.total_cmp(&b.0));
+    lines.into_iter().map(|(_, line)| line).collect()
 }
 
 /// Faults and owner changes at both actuators in time order (seconds on the lab clock).
