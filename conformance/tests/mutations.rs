@@ -126,6 +126,14 @@ fn admit_fourth_is_caught() {
 }
 
 #[test]
+fn stay_when_unplugged_is_caught() {
+    // The model's unplugged controller starts again (initializing); the mutated one goes on.
+    assert_some_diff_shows(Mutation::StayWhenUnplugged, "phase", |model, core| {
+        model == "initializing" && core != "initializing"
+    });
+}
+
+#[test]
 fn without_a_configured_mutation_the_hooks_are_inert() {
     let snapshots = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/snapshots");
     let traces = traces();

@@ -78,6 +78,9 @@ pub enum Event {
     /// frozen machine): the controller starts again as the incarnation of this line, silent
     /// until it has heard a round and joined below the controllers that kept running.
     Resumed { stalled_ms: u64 },
+    /// Every link of the controller lost its carrier (crate::link_watch): it starts again as
+    /// the incarnation of this line, silent until it has heard a round and joined below.
+    Detached,
     /// The voting thread stopped cleanly: asked to (no other fields), or on its own after the
     /// controller failed itself. Then `reason` says why (`outvoted`, `local_fault`),
     /// `disagreed_with` lists the peers whose votes differed from its own, and `exit_status`
@@ -106,6 +109,7 @@ impl Event {
             Event::NetworkConclusion { .. } => "network_conclusion",
             Event::HeartbeatDropped { .. } => "heartbeat_dropped",
             Event::Resumed { .. } => "resumed",
+            Event::Detached => "detached",
             Event::Stopped { .. } => "stopped",
         }
     }
@@ -195,6 +199,10 @@ mod tests {
         assert_eq!(
             line(Event::Resumed { stalled_ms: 3000 }).to_json(),
             r#"{"t_ms":1000,"id":2,"incarnation":77,"event":"resumed","stalled_ms":3000}"#
+        );
+        assert_eq!(
+            line(Event::Detached).to_json(),
+            r#"{"t_ms":1000,"id":2,"incarnation":77,"event":"detached"}"#
         );
         assert_eq!(
             line(Event::Vote { vote: None }).to_json(),

@@ -20,7 +20,8 @@
 //! - [`round_clock`]: the voting loop's clock, which follows the Primary's round phase so the
 //!   controllers share round boundaries whatever their wall clocks say.
 //! - [`stall`]: a voting loop that stood still for a peer deadline restarts as a new
-//!   incarnation, so it cannot take the actuator back.
+//!   incarnation, so it cannot take the actuator back; [`link_watch`]: so does one whose
+//!   links all lose their carrier (a pulled cable).
 //! - [`network_monitor`]: the Network Alarm Participant, the core's network monitor run over
 //!   one DDS participant per network.
 //! - [`tracker`]: the paper's application (pan/tilt from the camera's circle).
@@ -53,6 +54,7 @@ pub mod event;
 pub mod failed_exit;
 pub mod identity;
 pub mod leds;
+pub mod link_watch;
 pub mod logging;
 pub mod malloc;
 pub mod network_monitor;

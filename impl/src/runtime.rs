@@ -26,6 +26,7 @@ use crate::dds::{Reader, Session, Writer};
 use crate::event::Event;
 use crate::failed_exit::{Failure, PendingExit};
 use crate::leds::{ConsoleLeds, LedPattern};
+use crate::link_watch::{LinkWatch, Links, Watched};
 use crate::round_clock::{PhaseFollower, RoundClock};
 use crate::wire::{AlarmSample, ControllerAlarm, HeartbeatSample, VoteSample};
 use rustdds::mio::{Events, Poll, PollOpt, Ready, Token};
@@ -40,6 +41,7 @@ const FLAG_CHECK_MS: u64 = 100;
 
 const HEARTBEATS: Token = Token(0);
 const VOTES: Token = Token(1);
+const LINKS: Token = Token(2);
 
 struct Endpoints {
     heartbeats_in: Reader<HeartbeatSample>,
@@ -107,6 +109,7 @@ pub(crate) fn spawn(
     let mut identities = crate::identity::Identities::new(timing.peer_deadline_ms);
     identities.bind_own(id, session.participant_key());
     let failed_exit_delay_ms = config.timing.failed_exit_delay_ms;
+    let links = LinkWatch::new(Watched::from_config(&config.networks));
     let period_ms = core.config().heartbeat_period_ms;
     let heartbeat_offset_ms = core.config().heartbeat_offset_ms();
     let thread = std::thread::Builder::new()
@@ -127,6 +130,8 @@ pub(crate) fn spawn(
                 pending_exit: None,
                 stale_heartbeats_until_ms: None,
                 heartbeat_woke: false,
+                links,
+                links_woke: false,
                 identities,
                 impostor_alarms: Vec::new(),
             };
@@ -192,6 +197,15 @@ fn led_bank(config: &Config) -> Leds {
     }
 }
 
+/// Why the voting loop starts again as a new incarnation.
+#[derive(Clone, Copy, Debug)]
+enum Restart {
+    /// It did not run for this long (crate::stall).
+    Stalled(Duration),
+    /// Every link lost its carrier (crate::link_watch).
+    Detached,
+}
+
 struct Voting {
     core: Core,
     clock: RoundClock,
@@ -213,6 +227,10 @@ struct Voting {
     stale_heartbeats_until_ms: Option<u64>,
     /// The last wait ended because a heartbeat arrived.
     heartbeat_woke: bool,
+    /// Whether this controller's links have a carrier (crate::link_watch).
+    links: LinkWatch,
+    /// The last wait ended because a link changed.
+    links_woke: bool,
     /// Which participant each controller id speaks from (crate::identity).
     identities: crate::identity::Identities,
     /// Ids with an impostor alarm raised.
@@ -228,6 +246,9 @@ impl Voting {
         };
         register(&self.endpoints.heartbeats_in, HEARTBEATS)?;
         register(&self.endpoints.votes_in, VOTES)?;
+        if let Some(fd) = self.links.fd() {
+            register(&rustdds::mio::unix::EventedFd(&fd), LINKS)?;
+        }
         let mut events = Events::with_capacity(16);
         self.event(Event::Started);
         #[cfg(feature = "fault-injection")]
@@ -239,9 +260,17 @@ impl Voting {
                 progress.mark();
             }
             if let Some(stalled) = self.shared.loop_clock.mark() {
-                self.start_again(stalled);
+                self.start_again(Restart::Stalled(stalled));
                 // Only now that the silent status is in place may the writer follow it.
                 self.shared.loop_clock.resumed();
+            }
+            match self.links.changed(self.links_woke) {
+                Some(Links::Detached) if self.core.config().restarts_when_unplugged() => {
+                    self.start_again(Restart::Detached)
+                }
+                Some(Links::Detached) => warn!("every link lost its carrier; going on as before"),
+                Some(Links::Attached) => info!("a link has its carrier again"),
+                None => {}
             }
             #[cfg(feature = "fault-injection")]
             fault_injection::stall();
@@ -268,6 +297,7 @@ impl Voting {
             match poll.poll(&mut events, Some(Duration::from_millis(wait_ms))) {
                 Ok(_) => {
                     self.heartbeat_woke = events.iter().any(|e| e.token() == HEARTBEATS);
+                    self.links_woke = events.iter().any(|e| e.token() == LINKS);
                 }
                 // SIGSTOP/SIGCONT interrupts the wait: not an error.
                 Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
@@ -286,21 +316,29 @@ impl Voting {
         }
     }
 
-    /// Back from a stall (crate::stall): start again as a new incarnation, silent, with what
-    /// the readers hold now.
-    fn start_again(&mut self, stalled: Duration) {
+    /// Back from a stall (crate::stall), or cut off at its own links (crate::link_watch):
+    /// start again as a new incarnation, silent, with what the readers hold now.
+    fn start_again(&mut self, why: Restart) {
         let now_ms = self.clock.now_ms();
         let old = *self.core.config();
         let config = CoreConfig {
             incarnation: crate::stall::incarnation(now_ms),
             ..old
         };
-        warn!(
-            "C{} did not run for {} ms (stopped or starved): starting again as a new \
-             incarnation, silent until it has heard a round and joined below the others",
-            config.id,
-            stalled.as_millis()
-        );
+        match why {
+            Restart::Stalled(stalled) => warn!(
+                "C{} did not run for {} ms (stopped or starved): starting again as a new \
+                 incarnation, silent until it has heard a round and joined below the others",
+                config.id,
+                stalled.as_millis()
+            ),
+            Restart::Detached => warn!(
+                "C{}'s links have all lost their carrier (a pulled cable, a dead switch port): \
+                 starting again as a new incarnation, silent until it has heard a round and \
+                 joined below the others",
+                config.id
+            ),
+        }
         self.core = Core::new(config, now_ms);
         self.pending_exit = None;
         // What arrives before the next boundary may be up to a stall old: the kernel kept the
@@ -309,8 +347,11 @@ impl Voting {
         // next round on, as if it had just started.
         let period_ms = config.heartbeat_period_ms.max(1);
         self.stale_heartbeats_until_ms = Some((now_ms / period_ms + 1) * period_ms);
-        self.event(Event::Resumed {
-            stalled_ms: u64::try_from(stalled.as_millis()).unwrap_or(u64::MAX),
+        self.event(match why {
+            Restart::Stalled(stalled) => Event::Resumed {
+                stalled_ms: u64::try_from(stalled.as_millis()).unwrap_or(u64::MAX),
+            },
+            Restart::Detached => Event::Detached,
         });
         self.show(self.core.status());
     }

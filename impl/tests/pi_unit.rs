@@ -236,6 +236,7 @@ fn the_deb_holds_the_binary_unit_conffile_and_udev_rule_for_arm64() -> Result<()
         "./etc/rl/rl.toml",
         "./lib/systemd/system/rl@.service",
         "./lib/udev/rules.d/60-rl-gpio.rules",
+        "./usr/lib/sysctl.d/60-rl.conf",
         "./usr/share/doc/rl/deploy-pi.md",
         "./usr/share/doc/rl/rl.toml.example",
     ] {

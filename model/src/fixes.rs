@@ -2,8 +2,8 @@
 //! the deliberately broken rules of the mutation tests.
 //!
 //! Every rule fix of docs/findings.md is one [`Fix`] and one boolean of [`Rules`], numbered as
-//! there (F1..F8, F10..F15). The default variant carries every fix, `--variant v1` leaves out the
-//! ones of protocol v2 (F11..F15), `--variant paper` reverts them
+//! there (F1..F8, F10..F16). The default variant carries every fix, `--variant v1` leaves out the
+//! ones of protocol v2 (F11..F16), `--variant paper` reverts them
 //! all, and `--revert fN` reverts exactly one, so each finding's counterexample can be shown to
 //! come back without its fix (model/tests/findings.rs). F9 states what loss can and cannot be
 //! protected against; it is not a rule, so it has no switch.
@@ -18,7 +18,7 @@ pub enum Variant {
     Default,
     /// Protocol v1: fixes F1..F10 without those of protocol v2 (F11 epochs, F12 self-fencing,
     /// F13 ordered raises, F14 joiners adopt agreed results, F15 a Primary no side can outrank
-    /// keeps its strength); the checker shows failback after
+    /// keeps its strength, F16 an unplugged controller starts again); the checker shows failback after
     /// a pause and a tie blip.
     V1,
     /// The paper's rules read literally: every fix reverted; the checker finds
@@ -119,10 +119,16 @@ pub enum Fix {
     #[serde(rename = "f15")]
     #[value(name = "f15")]
     HoldUnoutranked,
+    /// F16: a controller whose links all lose their carrier (a pulled cable) starts again as
+    /// a new incarnation at once; reverted, it goes on with what it knew and, when the cable
+    /// is back, takes the actuator back from the Primary its peers made meanwhile.
+    #[serde(rename = "f16")]
+    #[value(name = "f16")]
+    UnpluggedRestart,
 }
 
 impl Fix {
-    pub const ALL: [Fix; 14] = [
+    pub const ALL: [Fix; 15] = [
         Fix::LateJoinByHeartbeat,
         Fix::KeepStandbyOrder,
         Fix::IncarnationAware,
@@ -137,6 +143,7 @@ impl Fix {
         Fix::OrderedRaise,
         Fix::JoinAgreedResult,
         Fix::HoldUnoutranked,
+        Fix::UnpluggedRestart,
     ];
 
     /// The finding's number in docs/findings.md.
@@ -156,6 +163,7 @@ impl Fix {
             Fix::OrderedRaise => 13,
             Fix::JoinAgreedResult => 14,
             Fix::HoldUnoutranked => 15,
+            Fix::UnpluggedRestart => 16,
         }
     }
 
@@ -215,6 +223,9 @@ pub struct Rules {
     /// F15: a Primary turned provisional keeps its strength while no side it lost could
     /// elect a backed Primary.
     pub f15_hold_unoutranked: bool,
+    /// F16: a controller whose links all lose their carrier starts again as a new
+    /// incarnation.
+    pub f16_unplugged_restart: bool,
 }
 
 impl Rules {
@@ -237,6 +248,7 @@ impl Rules {
             f13_ordered_raise: v2,
             f14_join_agreed: v2,
             f15_hold_unoutranked: v2,
+            f16_unplugged_restart: v2,
         }
     }
 
@@ -257,6 +269,7 @@ impl Rules {
             Fix::OrderedRaise => &mut self.f13_ordered_raise,
             Fix::JoinAgreedResult => &mut self.f14_join_agreed,
             Fix::HoldUnoutranked => &mut self.f15_hold_unoutranked,
+            Fix::UnpluggedRestart => &mut self.f16_unplugged_restart,
         }
     }
 

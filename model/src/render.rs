@@ -253,6 +253,7 @@ fn short(action: &Action) -> String {
         Action::Pause { .. } => "pause".into(),
         Action::Resume { .. } => "resume".into(),
         Action::Isolate { .. } => "cut off".into(),
+        Action::Unplug { .. } => "cable pulled".into(),
         Action::Heal { .. } => "reconnected".into(),
         Action::DiscoverWriter { .. } => "writer found".into(),
         Action::TieBreak { .. } => "tie broken".into(),

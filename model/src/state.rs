@@ -35,7 +35,11 @@ pub enum Action {
     /// A controller is cut off from its peers (every heartbeat to and from it lost) while the
     /// actuator still hears it.
     Isolate { controller: Id },
-    /// The cut-off controller's links work again.
+    /// A controller's own links all go down (a pulled cable, a dead switch port): cut off
+    /// from its peers and from the actuator. It sees its carrier go and starts again as a new
+    /// incarnation at once, as after a stall (impl/src/link_watch.rs; F16).
+    Unplug { controller: Id },
+    /// The cut-off or unplugged controller's links work again.
     Heal { controller: Id },
     /// The actuator discovers a controller's newest command writer.
     DiscoverWriter { controller: Id },
@@ -58,13 +62,14 @@ pub enum ActionKind {
     Pause,
     Resume,
     Isolate,
+    Unplug,
     Heal,
     DiscoverWriter,
     TieBreak,
 }
 
 impl ActionKind {
-    pub const ALL: [ActionKind; 13] = [
+    pub const ALL: [ActionKind; 14] = [
         ActionKind::LoseHeartbeat,
         ActionKind::Tick,
         ActionKind::ExpireWindow,
@@ -75,6 +80,7 @@ impl ActionKind {
         ActionKind::Pause,
         ActionKind::Resume,
         ActionKind::Isolate,
+        ActionKind::Unplug,
         ActionKind::Heal,
         ActionKind::DiscoverWriter,
         ActionKind::TieBreak,
@@ -92,6 +98,7 @@ impl ActionKind {
             ActionKind::Pause => "pause",
             ActionKind::Resume => "resume",
             ActionKind::Isolate => "isolate",
+            ActionKind::Unplug => "unplug",
             ActionKind::Heal => "heal",
             ActionKind::DiscoverWriter => "discover_writer",
             ActionKind::TieBreak => "tie_break",
@@ -112,6 +119,7 @@ impl Action {
             Action::Pause { .. } => ActionKind::Pause,
             Action::Resume { .. } => ActionKind::Resume,
             Action::Isolate { .. } => ActionKind::Isolate,
+            Action::Unplug { .. } => ActionKind::Unplug,
             Action::Heal { .. } => ActionKind::Heal,
             Action::DiscoverWriter { .. } => ActionKind::DiscoverWriter,
             Action::TieBreak { .. } => ActionKind::TieBreak,
@@ -131,6 +139,7 @@ impl Action {
             | Action::Pause { controller }
             | Action::Resume { controller }
             | Action::Isolate { controller }
+            | Action::Unplug { controller }
             | Action::Heal { controller }
             | Action::DiscoverWriter { controller } => Some(controller),
             Action::DeliverVotes { to } | Action::TieBreak { to } => Some(to),
@@ -160,6 +169,10 @@ impl fmt::Display for Action {
                     "C{controller} cut off from its peers (not from the actuator)"
                 )
             }
+            Action::Unplug { controller } => write!(
+                f,
+                "C{controller}'s cable pulled (cut off from its peers and the actuator)"
+            ),
             Action::Heal { controller } => write!(f, "C{controller} reconnected to its peers"),
             Action::DiscoverWriter { controller } => {
                 write!(f, "actuator discovers C{controller}'s new command writer")
@@ -421,6 +434,10 @@ pub struct State {
     pub overdue_votes: u16,
     /// Bit `id - 1`: the controller is cut off from its peers (`Action::Isolate`).
     pub isolated: u8,
+    /// Bit `id - 1`: of the cut-off controllers, those the actuator does not hear either
+    /// (`Action::Unplug`).
+    #[serde(default, skip_serializing_if = "no_bits")]
+    pub unplugged: u8,
     /// The controller whose commands the actuator follows (the last one, while none is
     /// visible).
     pub owner: Option<Id>,
@@ -428,6 +445,10 @@ pub struct State {
     /// (the GUID order, learnt when a tie first arises; a new life forgets it).
     pub tie_order: u16,
     pub history: History,
+}
+
+fn no_bits(bits: &u8) -> bool {
+    *bits == 0
 }
 
 pub fn link_bit(from: Id, to: Id) -> u16 {

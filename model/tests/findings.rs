@@ -78,7 +78,7 @@ fn the_paper_variant_reverts_every_fix_and_each_fix_has_its_own_switch() {
         }
     }
     let numbers: Vec<u8> = Fix::ALL.iter().map(|fix| fix.number()).collect();
-    assert_eq!(numbers, [1, 2, 3, 4, 5, 6, 7, 8, 10, 11, 12, 13, 14, 15]);
+    assert_eq!(numbers, [1, 2, 3, 4, 5, 6, 7, 8, 10, 11, 12, 13, 14, 15, 16]);
 }
 
 #[test]
@@ -248,6 +248,31 @@ fn f15_a_primary_that_drops_for_a_one_way_loss_hands_the_actuator_to_its_seconda
     let explored = search::explore(&RlModel::new(reverted), 5_000_000, |_, _| {});
     let witness = "a Primary no lost side can outrank keeps its strength";
     assert!(explored.discovery(witness).is_none());
+}
+
+#[test]
+fn f16_an_unplugged_primary_takes_the_actuator_back_when_its_cable_is_back() {
+    // The returns scope (one pause, one cut or pulled cable): a Primary whose cable is
+    // pulled goes on without F16: the actuator follows the Secondary once the Primary's
+    // commands stop, and takes the old Primary back, still at 30, when the cable is back
+    // (before its peers could decide anything: one fault, two owner changes).
+    let returns = Config::returns();
+    assert_eq!(counterexamples(&returns), none());
+    let found = counterexamples(&reverting(&returns, &[Fix::UnpluggedRestart]));
+    assert_eq!(
+        found.keys().copied().collect::<Vec<_>>(),
+        [
+            "actuator follows the settled Primary",
+            "one owner change per fault",
+            "owner changes only to the next Primary",
+        ],
+        "{found:?}"
+    );
+    assert_eq!(
+        found.get("one owner change per fault"),
+        Some(&9),
+        "{found:?}"
+    );
 }
 
 #[test]

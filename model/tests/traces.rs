@@ -38,12 +38,7 @@ fn committed_traces_match_the_model() {
         .collect();
     assert_eq!(
         missed,
-        [
-            "lose_heartbeat@failed",
-            "restart@failed",
-            "heal@down",
-            "heal@initializing"
-        ],
+        ["lose_heartbeat@failed", "restart@failed", "heal@down",],
         "{}",
         set.coverage_report()
     );
@@ -56,10 +51,12 @@ fn committed_traces_match_the_model() {
     let pinned = [
         ("", 4_834_508, true),
         ("link-failure", 5_486_240, true),
-        ("returns", 41_621, true),
-        ("coverage-returns-restart", 2_443_347, false),
+        ("returns", 75_095, true),
+        ("coverage-returns-restart", 3_957_104, false),
         ("coverage-failed-restart", 4_453_494, false),
     ];
+    // Every scope's size is looked at before any assertion, so a change shows all of them.
+    let mut sizes = Vec::new();
     for (name, unique_states, checked) in pinned {
         let scope = set
             .scopes
@@ -67,8 +64,16 @@ fn committed_traces_match_the_model() {
             .find(|scope| scope.name == name)
             .unwrap_or_else(|| panic!("no scope {name:?} in the trace set"));
         assert!(!checked || scope.holds(), "{scope:?}");
-        assert_eq!(scope.unique_states, unique_states, "scope {name:?}");
+        sizes.push((name, unique_states, scope.unique_states));
     }
+    let changed: Vec<_> = sizes
+        .iter()
+        .filter(|(_, pinned, now)| pinned != now)
+        .collect();
+    assert!(
+        changed.is_empty(),
+        "scope sizes changed, (scope, pinned, now): {changed:?}"
+    );
     // The persistent link failure is the scope in which a minority voter is marked FAILED, and
     // in which the exemptions' situations are witnessed (`holds` above: "a split at formation"
     // too, whose shortest witness is the two-sided split's trace).

@@ -22,6 +22,9 @@
 //!   `Resume` starts a new core with the next incarnation, as the runtime does when it finds
 //!   its loop stalled for a peer deadline (impl/src/stall.rs).
 //! - `Isolate` / `Heal { controller }`: every heartbeat to and from it is lost until healed.
+//!   `Unplug` cuts it off from the actuator too and starts a new core with the next
+//!   incarnation, as the runtime does when every link loses its carrier
+//!   (impl/src/link_watch.rs).
 //! - `DiscoverWriter` / `TieBreak`: the actuator's events. The network runs the model's
 //!   actuator rule (`model::protocol::actuator::next_owner`) over the cores' writers (the
 //!   newest one once discovered, the retiring one for the round of a raise), so the owner

@@ -62,6 +62,8 @@ pub struct CoreNetwork<'a> {
     lost: BTreeSet<(ControllerId, ControllerId)>,
     /// Controllers cut off from their peers (every heartbeat to and from them lost).
     isolated: BTreeSet<ControllerId>,
+    /// Of the cut-off controllers, those whose cable is out: the actuator does not hear them.
+    unplugged: BTreeSet<ControllerId>,
     /// The actuator over the cores' command writers (see [`Actuator`]).
     actuator: Actuator,
     pub(super) numbers: IncarnationNumbers,
@@ -97,6 +99,7 @@ impl<'a> CoreNetwork<'a> {
             slots: Vec::new(),
             lost: BTreeSet::new(),
             isolated: BTreeSet::new(),
+            unplugged: BTreeSet::new(),
             actuator: Actuator::default(),
             numbers: IncarnationNumbers::new(),
         };
@@ -239,6 +242,7 @@ impl<'a> CoreNetwork<'a> {
         let writers: Vec<(ControllerId, u8)> = self
             .slots
             .iter()
+            .filter(|slot| !self.unplugged.contains(&slot.id))
             .filter_map(|slot| {
                 let state = slot.core.as_ref()?.state();
                 let newest = state
@@ -307,8 +311,24 @@ impl<'a> CoreNetwork<'a> {
             Action::Isolate { controller } => {
                 self.isolated.insert(controller);
             }
+            // The runtime sees its carrier go and starts again as a new incarnation
+            // (impl/src/link_watch.rs; the model's F16).
+            Action::Unplug { controller } => {
+                self.isolated.insert(controller);
+                self.unplugged.insert(controller);
+                let restarts = self
+                    .live_core(controller)?
+                    .config()
+                    .restarts_when_unplugged();
+                if restarts {
+                    let next = self.slot_mut(controller)?.incarnation.saturating_add(1);
+                    self.start_core(controller, next)?;
+                    log.insert(controller, vec![started()]);
+                }
+            }
             Action::Heal { controller } => {
                 self.isolated.remove(&controller);
+                self.unplugged.remove(&controller);
             }
             Action::DiscoverWriter { controller } => {
                 self.actuator.undiscovered.remove(&controller);

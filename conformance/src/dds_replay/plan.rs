@@ -375,6 +375,7 @@ fn rebuild(trace: &Trace, config: &model::Config, initial: State) -> Result<Rebu
             Action::Pause { .. }
             | Action::Resume { .. }
             | Action::Isolate { .. }
+            | Action::Unplug { .. }
             | Action::Heal { .. } => {
                 return Err(PlanError::PauseOrCut {
                     step: trace_step.number,

@@ -2,6 +2,9 @@
 //! side, the camera), each joined by a veth pair (`a0`, `b0` inside) to two Linux bridges,
 //! net A and net B.
 //!
+//! Controllers' namespaces are set as RL's package sets a controller's host
+//! (`unres_qlen_bytes = 0`, impl/debian/60-rl.conf).
+//!
 //! Every node has an address on both nets with the same host byte (net A 10.201.1.N/24 on
 //! `a0`, net B 10.202.1.N/24 on `b0`; controllers 1-3, actuator 10, camera 20), and multicast
 //! is routed to `a0` (RustDDS picks its multicast interfaces itself and sends on both; the
@@ -183,6 +186,24 @@ impl Lan {
             host::run("ip", &["-n", &ns, "link", "set", &inside, "up"])?;
             let addr = format!("{}/24", node.addr(net));
             host::run("ip", &["-n", &ns, "addr", "add", &addr, "dev", &inside])?;
+        }
+        if let Node::Controller(_) = node {
+            // As a controller's host is deployed (impl/debian/60-rl.conf): a datagram for an
+            // unresolved neighbour is dropped, not sent seconds late when the link is back.
+            for net in Net::BOTH {
+                let setting = rl::link_watch::unresolved_queue_setting(&net.inside());
+                host::run(
+                    "ip",
+                    &[
+                        "netns",
+                        "exec",
+                        &ns,
+                        "sh",
+                        "-c",
+                        &format!("echo 0 > {setting}"),
+                    ],
+                )?;
+            }
         }
         let multicast_dev = Net::A.inside();
         host::run(

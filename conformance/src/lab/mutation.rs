@@ -16,11 +16,12 @@ pub const VARIABLE: &str = "RL_MUTATION";
 
 /// The names a `mutation` build of `rl` knows (`rl::core::mutation::Mutation::name`). The
 /// lab's own `rl` dependency is built without that feature, so a test keeps the two equal.
-pub const NAMES: [&str; 4] = [
+pub const NAMES: [&str; 5] = [
     "promote-without-failure",
     "ignore-minority-vote",
     "failback",
     "admit-fourth",
+    "stay-when-unplugged",
 ];
 
 /// What a `mutation` build prints on stderr when it runs a broken rule (`impl/src/runtime.rs`).

@@ -372,6 +372,7 @@ pub(super) fn representatives(branch: &Branch) -> State {
         lost_links: 0,
         overdue_votes: 0,
         isolated: 0,
+        unplugged: 0,
         owner: None,
         tie_order: 0,
         history: History::default(),

@@ -68,6 +68,17 @@ impl CoreConfig {
         self.heartbeat_period_ms / 4
     }
 
+    /// Whether a controller whose links all lose their carrier (a pulled cable) starts again
+    /// as a new incarnation (the model's F16). The carrier is the runtime's to see
+    /// (impl/src/link_watch.rs), the decision is the protocol's: always, but under the
+    /// `StayWhenUnplugged` mutation.
+    pub fn restarts_when_unplugged(&self) -> bool {
+        #[cfg(feature = "mutation")]
+        return !crate::mutation::stays_when_unplugged(self);
+        #[cfg(not(feature = "mutation"))]
+        true
+    }
+
     /// Whether a deliberately broken rule is configured (the invariants are then not asserted:
     /// breaking them is the point).
     pub fn is_mutated(&self) -> bool {

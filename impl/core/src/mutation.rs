@@ -23,15 +23,19 @@ pub enum Mutation {
     Failback,
     /// A fourth controller puts itself in as Tertiary and takes the Tertiary role.
     AdmitFourth,
+    /// A controller whose links all lose their carrier goes on as it was (the model's F16
+    /// reverted): [`CoreConfig::restarts_when_unplugged`] says no.
+    StayWhenUnplugged,
 }
 
 impl Mutation {
     /// Every mutation.
-    pub const ALL: [Mutation; 4] = [
+    pub const ALL: [Mutation; 5] = [
         Mutation::PromoteWithoutFailure,
         Mutation::IgnoreMinorityVote,
         Mutation::Failback,
         Mutation::AdmitFourth,
+        Mutation::StayWhenUnplugged,
     ];
 
     /// Its name on a command line or in an environment variable (`promote-without-failure`).
@@ -41,6 +45,7 @@ impl Mutation {
             Mutation::IgnoreMinorityVote => "ignore-minority-vote",
             Mutation::Failback => "failback",
             Mutation::AdmitFourth => "admit-fourth",
+            Mutation::StayWhenUnplugged => "stay-when-unplugged",
         }
     }
 
@@ -52,6 +57,12 @@ impl Mutation {
 
 fn active(config: &CoreConfig, mutation: Mutation) -> bool {
     config.mutation == Some(mutation)
+}
+
+/// `StayWhenUnplugged`: whether a controller so configured goes on when its links all lose
+/// their carrier, instead of starting again as a new incarnation.
+pub(crate) fn stays_when_unplugged(config: &CoreConfig) -> bool {
+    active(config, Mutation::StayWhenUnplugged)
 }
 
 /// `PromoteWithoutFailure`: called when `silent_peer` missed this round's heartbeat but is not

@@ -20,6 +20,7 @@ fn visible(state: &State) -> Vec<(Id, u8)> {
     state
         .controllers
         .iter()
+        .filter(|c| state.unplugged & (1 << (c.id - 1)) == 0)
         .filter_map(|c| c.visible_strength().map(|strength| (c.id, strength)))
         .collect()
 }

@@ -54,6 +54,7 @@ pub fn init_states(config: &Config) -> Vec<State> {
             lost_links: 0,
             overdue_votes: 0,
             isolated: 0,
+            unplugged: 0,
             owner: None,
             tie_order: 0,
             history: History::default(),
@@ -155,6 +156,7 @@ fn lifecycle_actions(config: &Config, state: &State, id: Id, out: &mut Vec<Actio
             }
             if running && state.history.isolations < config.max_isolations {
                 out.push(Action::Isolate { controller: id });
+                out.push(Action::Unplug { controller: id });
             }
             if c.phase == Phase::Failed && state.history.restarts < config.max_restarts {
                 out.push(Action::Restart { controller: id });
@@ -234,6 +236,7 @@ pub fn next_state(config: &Config, state: &State, action: Action) -> Option<Stat
         Action::Pause { .. }
         | Action::Resume { .. }
         | Action::Isolate { .. }
+        | Action::Unplug { .. }
         | Action::Heal { .. }
         | Action::DiscoverWriter { .. }
         | Action::TieBreak { .. } => interrupt(config, state, &mut next, action),
@@ -305,8 +308,24 @@ fn interrupt(config: &Config, state: &State, next: &mut State, action: Action) {
             next.history.quiet_rounds = 0;
             next.history.away |= 1 << (controller - 1);
         }
+        Action::Unplug { controller } => {
+            next.isolated |= 1 << (controller - 1);
+            next.unplugged |= 1 << (controller - 1);
+            next.history.isolations += 1;
+            next.history.faults += 1;
+            next.history.quiet_rounds = 0;
+            next.history.away |= 1 << (controller - 1);
+            if config.rules().f16_unplugged_restart {
+                // It sees its carrier go: whatever it knew may be stale by the time the cable
+                // is back, so it starts again as a new incarnation now, as after a stall.
+                let old_role = next.controller(controller).role;
+                new_life(config, state, next, controller, true);
+                agreement::note_role_change(&mut next.history, controller, old_role, None);
+            }
+        }
         Action::Heal { controller } => {
             next.isolated &= !(1 << (controller - 1));
+            next.unplugged &= !(1 << (controller - 1));
             next.history.quiet_rounds = 0;
         }
         Action::DiscoverWriter { controller } => {
