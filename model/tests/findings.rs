@@ -78,7 +78,10 @@ fn the_paper_variant_reverts_every_fix_and_each_fix_has_its_own_switch() {
         }
     }
     let numbers: Vec<u8> = Fix::ALL.iter().map(|fix| fix.number()).collect();
-    assert_eq!(numbers, [1, 2, 3, 4, 5, 6, 7, 8, 10, 11, 12, 13, 14, 15, 16]);
+    assert_eq!(
+        numbers,
+        [1, 2, 3, 4, 5, 6, 7, 8, 10, 11, 12, 13, 14, 15, 16]
+    );
 }
 
 #[test]
