@@ -23,7 +23,8 @@
 //! answer) and sends them all once it is: commands seconds old, of writers deleted since,
 //! which a reader with the seed's QoS takes as new (measured: a Connext reader gave one such
 //! sample the instance between two of the new Primary's). RL's hosts set that queue to
-//! nothing (`unres_qlen_bytes = 0`, the package's sysctl.d file); [`LinkWatch::new`] warns at
+//! 0 bytes (`unres_qlen_bytes = 0`, the package's sysctl.d file), with which Linux keeps only
+//! the newest datagram, a moment old while the controller keeps sending; [`LinkWatch::new`] warns at
 //! start for every watched link that keeps one.
 
 use crate::config::{NetworkName, Networks};
