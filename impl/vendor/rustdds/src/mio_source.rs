@@ -3,6 +3,12 @@
 // 0.8 `Source` when that optional compatibility feature is enabled.
 //
 // The internal reactors do not use this channel.
+//
+// A signal costs a system call on each side (a write here, a read in `drain`),
+// for every sample a reader receives. Until the source is registered with a
+// poll nobody can wait on it, so the sender only remembers that a signal is
+// pending and writes it when the source is registered: the poll then reports
+// the source readable at once, as it would have with the byte written.
 
 macro_rules! socketpair_bridge {
   ($modname:ident, $mio:ident) => {
@@ -10,7 +16,10 @@ macro_rules! socketpair_bridge {
       use std::{
         io,
         io::{Read, Write},
-        sync::{Arc, Mutex},
+        sync::{
+          atomic::{AtomicBool, Ordering},
+          Arc, Mutex,
+        },
       };
       #[cfg(not(target_os = "windows"))]
       use std::os::fd::OwnedFd;
@@ -23,12 +32,52 @@ macro_rules! socketpair_bridge {
       use socketpair::{socketpair_stream, SocketpairStream};
 
       pub struct Source {
-        rec: Mutex<$mio::net::TcpStream>,
+        pub(crate) rec: Mutex<$mio::net::TcpStream>,
+        send: Arc<Mutex<SendSide>>,
+        // A copy of `SendSide::registered`, read without the lock by `drain`.
+        registered: Arc<AtomicBool>,
       }
 
       #[derive(Clone)]
       pub struct Sender {
-        send: Arc<Mutex<$mio::net::TcpStream>>,
+        send: Arc<Mutex<SendSide>>,
+      }
+
+      /// The writing end, and whether a poll waits on the reading end.
+      pub struct SendSide {
+        stream: $mio::net::TcpStream,
+        registered: bool,
+        // A signal sent while no poll was registered, written at registration.
+        pending: bool,
+      }
+
+      impl SendSide {
+        fn new(stream: $mio::net::TcpStream) -> Arc<Mutex<Self>> {
+          Arc::new(Mutex::new(SendSide {
+            stream,
+            registered: false,
+            pending: false,
+          }))
+        }
+
+        fn write_signal(&mut self) {
+          match self.stream.write(&[0xcc]) {
+            Ok(_b) => {}
+            Err(e) => info!("PollEventSender.send: {e}"),
+          }
+        }
+      }
+
+      fn pair(rec: $mio::net::TcpStream, send: $mio::net::TcpStream) -> (Source, Sender) {
+        let send = SendSide::new(send);
+        (
+          Source {
+            rec: Mutex::new(rec),
+            send: Arc::clone(&send),
+            registered: Arc::new(AtomicBool::new(false)),
+          },
+          Sender { send },
+        )
       }
 
       #[cfg(not(target_os = "windows"))]
@@ -47,14 +96,7 @@ macro_rules! socketpair_bridge {
         let rec = $mio::net::TcpStream::from_std(std::net::TcpStream::from(OwnedFd::from(rec_sps)));
         let send =
           $mio::net::TcpStream::from_std(std::net::TcpStream::from(OwnedFd::from(send_sps)));
-        Ok((
-          Source {
-            rec: Mutex::new(rec),
-          },
-          Sender {
-            send: Arc::new(Mutex::new(send)),
-          },
-        ))
+        Ok(pair(rec, send))
       }
 
       #[cfg(target_os = "windows")]
@@ -69,27 +111,36 @@ macro_rules! socketpair_bridge {
         }
         let (send, _addr_send) = accepted?;
         debug!("IPC socket: {addr:#?} <-> {_addr_send:#?}");
-        Ok((
-          Source {
-            rec: Mutex::new(rec),
-          },
-          Sender {
-            send: Arc::new(Mutex::new(send)),
-          },
-        ))
+        Ok(pair(rec, send))
       }
 
       impl Sender {
         pub fn send(&self) {
-          match self.send.lock().unwrap().write(&[0xcc]) {
-            Ok(_b) => {}
-            Err(e) => info!("PollEventSender.send: {e}"),
+          let mut side = self.send.lock().unwrap();
+          if side.registered {
+            side.write_signal();
+          } else {
+            side.pending = true;
           }
         }
       }
 
       impl Source {
+        fn set_registered(&self, registered: bool) {
+          let mut side = self.send.lock().unwrap();
+          side.registered = registered;
+          self.registered.store(registered, Ordering::Release);
+          if registered && side.pending {
+            side.pending = false;
+            side.write_signal();
+          }
+        }
+
         pub fn drain(&self) {
+          if !self.registered.load(Ordering::Acquire) {
+            // Nothing was written: signals wait in `pending` until registration.
+            return;
+          }
           let mut buf = Vec::with_capacity(16);
           match self.rec.lock().unwrap().read_to_end(&mut buf) {
             Ok(_) => (),
@@ -112,7 +163,9 @@ macro_rules! socketpair_bridge {
             .rec
             .lock()
             .unwrap()
-            .register(registry, token, interests)
+            .register(registry, token, interests)?;
+          self.set_registered(true);
+          Ok(())
         }
 
         fn reregister(
@@ -129,7 +182,9 @@ macro_rules! socketpair_bridge {
         }
 
         fn deregister(&mut self, registry: &$mio::Registry) -> io::Result<()> {
-          self.rec.lock().unwrap().deregister(registry)
+          self.rec.lock().unwrap().deregister(registry)?;
+          self.set_registered(false);
+          Ok(())
         }
       }
     }
@@ -313,5 +368,54 @@ impl mio_06::Evented for NotificationReceiver {
 
   fn deregister(&self, poll: &mio_06::Poll) -> std::io::Result<()> {
     self.legacy_receiver.deregister(poll)
+  }
+}
+
+#[cfg(test)]
+mod tests {
+  use std::time::Duration;
+
+  use super::*;
+
+  /// Bytes waiting in the signal socket of the mio 1 side, read directly.
+  fn bytes_waiting(source: &PollEventSource) -> usize {
+    use std::io::Read;
+    let mut buf = Vec::new();
+    let _ = source.mio1.rec.lock().unwrap().read_to_end(&mut buf);
+    buf.len()
+  }
+
+  // Signals cost a system call on each side only once a poll waits on the source; one sent
+  // before still makes the poll report the source readable at registration.
+  #[test]
+  fn signals_before_registration_cost_nothing_and_are_not_lost() {
+    let (mut source, sender) = make_poll_channel().unwrap();
+    for _ in 0..1000 {
+      sender.send();
+    }
+    assert_eq!(bytes_waiting(&source), 0, "no byte written before registration");
+
+    let mut poll = mio1::Poll::new().unwrap();
+    poll
+      .registry()
+      .register(&mut source, mio1::Token(7), mio1::Interest::READABLE)
+      .unwrap();
+    let mut events = mio1::Events::with_capacity(4);
+    poll
+      .poll(&mut events, Some(Duration::from_secs(2)))
+      .unwrap();
+    assert!(
+      events.iter().any(|e| e.token() == mio1::Token(7)),
+      "the pending signal is reported at registration"
+    );
+    source.drain();
+    sender.send();
+    poll
+      .poll(&mut events, Some(Duration::from_secs(2)))
+      .unwrap();
+    assert!(
+      events.iter().any(|e| e.token() == mio1::Token(7)),
+      "a registered source is signalled"
+    );
   }
 }
