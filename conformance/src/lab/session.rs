@@ -225,7 +225,7 @@ impl Session {
     ///
     /// One fault at a time is what RL promises about ("one fault, at most one switch"): a
     /// fault the schedule starts while no other is active starts only once the controllers
-    /// have settled from the one before ([`Session::settled`]; a controller outvoted by a
+    /// have settled from the one before (`Session::settled`; a controller outvoted by a
     /// one-way loss, say, restarts after the heal and rejoins seconds later), and the rest of
     /// the schedule moves by that wait. Faults the schedule overlaps on purpose still overlap.
     pub fn play(&mut self, steps: &[Step]) -> Result<(), LabError> {

@@ -48,6 +48,7 @@ use rustdds::{
     Topic, TopicDescription, TopicKind,
 };
 use std::collections::{BTreeMap, HashMap};
+use std::time::Duration;
 
 /// A DDS failure, with the entity and topic it concerns.
 #[derive(Debug, thiserror::Error)]
@@ -129,9 +130,19 @@ pub struct Session {
 /// (docs/performance.md, "Resources").
 pub const PARTICIPANT_STATUS_EVENTS_KEPT: usize = 16;
 
+/// How often each of RL's participants announces itself (SPDP; RustDDS's default is 10 s). A
+/// controller restarted while its packets did not get through (outvoted by one-way loss, it
+/// exits and systemd starts it again) is heard by its peers only at its next announcement
+/// after the link heals: with 10 s that took it 11 to 37 rounds to rejoin, beyond the model's
+/// 10 (docs/faults.md, "One-way loss settles late"). At 1 s: one announcement of a few hundred
+/// bytes a second per participant, the lease it announces unchanged.
+pub const SPDP_PUBLISH_PERIOD: Duration = Duration::from_secs(1);
+
 /// A participant builder for `domain` with RL's settings for every participant it creates.
 fn participant_builder(domain: u16) -> DomainParticipantBuilder {
-    DomainParticipantBuilder::new(domain).status_channel_capacity(PARTICIPANT_STATUS_EVENTS_KEPT)
+    DomainParticipantBuilder::new(domain)
+        .status_channel_capacity(PARTICIPANT_STATUS_EVENTS_KEPT)
+        .spdp_publish_period(SPDP_PUBLISH_PERIOD)
 }
 
 /// A publisher and a subscriber with default QoS (each endpoint sets its own); `role` prefixes

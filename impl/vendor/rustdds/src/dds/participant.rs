@@ -87,6 +87,8 @@ pub struct DomainParticipantBuilder {
 
   status_channel_capacity: usize, // participant status events kept until read
 
+  spdp_publish_period: std::time::Duration, // how often the participant announces itself
+
   #[cfg(feature = "security")]
   security_plugins: Option<SecurityPlugins>,
   #[cfg(feature = "security")]
@@ -104,6 +106,7 @@ impl DomainParticipantBuilder {
       socket_receive_buffer_size: Self::DEFAULT_SOCKET_RECEIVE_BUFFER_SIZE,
       socket_send_buffer_size: Self::DEFAULT_SOCKET_SEND_BUFFER_SIZE,
       status_channel_capacity: Self::DEFAULT_STATUS_CHANNEL_CAPACITY,
+      spdp_publish_period: Discovery::SPDP_PUBLISH_PERIOD,
       #[cfg(feature = "security")]
       security_plugins: None,
       #[cfg(feature = "security")]
@@ -176,6 +179,17 @@ impl DomainParticipantBuilder {
   /// set a small capacity.
   pub fn status_channel_capacity(mut self, events: usize) -> Self {
     self.status_channel_capacity = events;
+    self
+  }
+
+  /// How often the participant announces itself to the domain (SPDP; default
+  /// 10 s). A participant whose announcements were lost (it started while its
+  /// packets did not get through) is discovered by its peers only at its next
+  /// one, so a shorter period shortens that wait. The lease the announcements
+  /// carry does not change with it (five default periods), so peers keep a
+  /// silent participant as long as before.
+  pub fn spdp_publish_period(mut self, period: std::time::Duration) -> Self {
+    self.spdp_publish_period = period;
     self
   }
 
@@ -417,6 +431,7 @@ impl DomainParticipantBuilder {
     // Construct and start background thread
     let dp_clone = dp.weak_clone();
     let disc_db_clone = dp.discovery_db();
+    let spdp_publish_period = self.spdp_publish_period;
     let discovery_handle = thread::Builder::new()
       .name("RustDDS discovery thread".to_string())
       .spawn(move || {
@@ -431,6 +446,7 @@ impl DomainParticipantBuilder {
           security_plugins_handle,
           discovery_waker,
           discovery_sample_receiver,
+          spdp_publish_period,
         ) {
           discovery.discovery_event_loop(); // run the event loop
         }
@@ -1864,6 +1880,43 @@ mod tests {
     test::{random_data::RandomData, test_domain::test_domain_id},
   };
   use super::DomainParticipant;
+
+  // A participant announces itself at the builder's period: counted on the
+  // SPDP multicast group, from its GUID prefix, after its start-up
+  // announcement (the default period would send none in that window).
+  #[test]
+  fn announcements_follow_the_spdp_publish_period() {
+    use std::{net::Ipv4Addr, time::Duration};
+
+    use crate::{
+      network::{constant::spdp_well_known_multicast_port, udp_listener::UDPListener},
+      RTPSEntity,
+    };
+    let domain = test_domain_id(49);
+    let mut listener = UDPListener::new_multicast(
+      "0.0.0.0",
+      spdp_well_known_multicast_port(domain),
+      Ipv4Addr::new(239, 255, 0, 1),
+    )
+    .unwrap();
+    let announcing = super::DomainParticipantBuilder::new(domain)
+      .spdp_publish_period(Duration::from_millis(200))
+      .build()
+      .unwrap();
+    let prefix = announcing.guid().prefix.bytes;
+    std::thread::sleep(Duration::from_secs(1));
+    let _ = listener.messages_bounded(usize::MAX);
+    std::thread::sleep(Duration::from_secs(2));
+    let announcements = listener
+      .messages_bounded(usize::MAX)
+      .iter()
+      .filter(|(bytes, _)| bytes.len() >= 20 && bytes[8..20] == prefix)
+      .count();
+    assert!(
+      announcements >= 6,
+      "{announcements} announcements in 2 s at a 200 ms period"
+    );
+  }
 
   #[test]
   fn unread_status_events_are_kept_up_to_the_capacity() {
