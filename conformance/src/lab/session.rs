@@ -53,6 +53,8 @@ pub struct Session {
     applied: Vec<Option<Applied>>,
     /// The position in `faults` of each applied step's record.
     record_of_step: std::collections::BTreeMap<usize, usize>,
+    /// The applied steps whose target was the Primary when they applied.
+    primary_steps: std::collections::BTreeSet<usize>,
     connext: bool,
 }
 
@@ -106,6 +108,7 @@ impl Session {
             judged_from_ms: 0.0,
             applied: Vec::new(),
             record_of_step: Default::default(),
+            primary_steps: Default::default(),
             connext: setup.connext,
         };
         session.await_formation()?;
@@ -227,24 +230,38 @@ impl Session {
     /// fault the schedule starts while no other is active starts only once the controllers
     /// have settled from the one before (`Session::settled`; a controller outvoted by a
     /// one-way loss, say, restarts after the heal and rejoins seconds later), and the rest of
-    /// the schedule moves by that wait. Faults the schedule overlaps on purpose still overlap.
+    /// the schedule moves by that wait. Faults the schedule overlaps on purpose still overlap,
+    /// unless one of them hits the controller that is the Primary when it applies: that one
+    /// waits until the others have healed and the controllers have settled.
     pub fn play(&mut self, steps: &[Step]) -> Result<(), LabError> {
         let mut origin = self.clock.now_ms();
         let base = self.applied.len();
         self.applied.extend(steps.iter().map(|_| None));
-        let mut due: Vec<(u64, bool, usize)> = steps
+        // (ms after `origin`, apply or heal, step), in order; a deferred step moves.
+        let mut due: Vec<(f64, bool, usize)> = steps
             .iter()
             .enumerate()
-            .flat_map(|(i, s)| [(s.at_ms, true, i), (s.at_ms + s.lasts_ms, false, i)])
+            .flat_map(|(i, s)| {
+                let at = s.at_ms as f64;
+                [(at, true, i), (at + s.lasts_ms as f64, false, i)]
+            })
             .collect();
-        due.sort_by_key(|(at, apply, _)| (*at, *apply));
-        for (at_ms, apply, i) in due {
-            let wait_ms = (origin + at_ms as f64 - self.clock.now_ms()).max(0.0);
+        sort_due(&mut due);
+        while !due.is_empty() {
+            let (at_ms, apply, i) = due.remove(0);
+            let wait_ms = (origin + at_ms - self.clock.now_ms()).max(0.0);
             self.pump(Duration::from_secs_f64(wait_ms / 1000.0))?;
             if apply {
-                let none_active = self.applied[base..].iter().all(Option::is_none);
-                if none_active && (i > 0 || base > 0) {
-                    origin += self.await_settled()?;
+                let active: Vec<usize> = (0..steps.len())
+                    .filter(|k| self.applied[base + k].is_some())
+                    .collect();
+                if active.is_empty() {
+                    if i > 0 || base > 0 {
+                        origin += self.await_settled()?;
+                    }
+                } else if self.overlap_involves_the_primary(&steps[i], base, &active) {
+                    defer_after_heals(&mut due, at_ms, i, &active);
+                    continue;
                 }
                 self.apply(&steps[i], base + i)?;
             } else if let Some(applied) = self.applied[base + i].take() {
@@ -257,6 +274,18 @@ impl Session {
             }
         }
         Ok(())
+    }
+
+    /// Whether applying `step` now, beside the `active` steps (indices after `base`), would
+    /// overlap a fault on the Primary with another fault: the schedule overlaps faults on
+    /// different controllers, and which one is the Primary is known only when they apply.
+    fn overlap_involves_the_primary(&self, step: &Step, base: usize, active: &[usize]) -> bool {
+        let primary = self.resolve(Target::Primary);
+        let hits_primary = step.fault.target().map(|t| self.resolve(t)) == Some(primary);
+        hits_primary
+            || active
+                .iter()
+                .any(|k| self.primary_steps.contains(&(base + k)))
     }
 
     /// Whether the controllers have settled: all three steady, one in each role, and the
@@ -289,6 +318,9 @@ impl Session {
 
     fn apply(&mut self, step: &Step, index: usize) -> Result<(), LabError> {
         let id = step.fault.target().map(|target| self.resolve(target));
+        if id.is_some() && id == Some(self.resolve(Target::Primary)) {
+            self.primary_steps.insert(index);
+        }
         let table = format!("labf{index}");
         // Before applying: a restart takes time, and what it causes counts from its start.
         let applied_ms = self.clock.now_ms();
@@ -317,5 +349,58 @@ impl Session {
     /// The LAN's prefix (names of its namespaces and links).
     pub fn prefix(&self) -> &str {
         &self.lan.prefix
+    }
+}
+
+/// Orders the safety phase's events by time, a heal before an apply at the same time.
+fn sort_due(due: &mut [(f64, bool, usize)]) {
+    due.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+}
+
+/// Moves step `i`, due to apply at `at_ms`, to just after the last heal of the `active`
+/// steps, with every later event of the schedule but those heals moved by as much, so the
+/// schedule keeps its spacing.
+fn defer_after_heals(due: &mut Vec<(f64, bool, usize)>, at_ms: f64, i: usize, active: &[usize]) {
+    let last_heal = due
+        .iter()
+        .filter(|(_, apply, k)| !apply && active.contains(k))
+        .map(|(at, ..)| *at)
+        .fold(at_ms, f64::max);
+    let shift = last_heal - at_ms + 1.0;
+    for event in due.iter_mut() {
+        let heal_of_active = !event.1 && active.contains(&event.2);
+        if !heal_of_active {
+            event.0 += shift;
+        }
+    }
+    due.push((at_ms + shift, true, i));
+    sort_due(due);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_deferred_step_follows_the_active_heals_and_the_rest_keeps_its_spacing() {
+        // Step 0 active until 5000; step 1 due at 3000 (heal 4000) is deferred; step 2 at
+        // 6000 (heal 7000) moves by as much.
+        let mut due = vec![
+            (4000.0, false, 1),
+            (5000.0, false, 0),
+            (6000.0, true, 2),
+            (7000.0, false, 2),
+        ];
+        defer_after_heals(&mut due, 3000.0, 1, &[0]);
+        assert_eq!(
+            due,
+            vec![
+                (5000.0, false, 0),
+                (5001.0, true, 1),
+                (6001.0, false, 1),
+                (8001.0, true, 2),
+                (9001.0, false, 2),
+            ]
+        );
     }
 }

@@ -243,6 +243,25 @@ fn in_namespace<T: Send + 'static>(
     })
 }
 
+/// Puts a switch (a bridge) in the calling thread's own new network namespace, and plugs
+/// into it each host `(namespace, switch port, address)`: its `eth0` on that port.
+fn plug_into_a_switch(hosts: &[(&str, &str, &str)]) {
+    nix::sched::unshare(nix::sched::CloneFlags::CLONE_NEWNET)
+        .expect("a network namespace (the tests run as root)");
+    ip(&["link", "add", "switch", "type", "bridge"]);
+    ip(&["link", "set", "switch", "up"]);
+    for (ns, port, address) in hosts {
+        ip(&["netns", "add", ns]);
+        ip(&[
+            "link", "add", port, "type", "veth", "peer", "name", "eth0", "netns", ns,
+        ]);
+        ip(&["link", "set", port, "master", "switch", "up"]);
+        ip(&["-n", ns, "link", "set", "eth0", "up"]);
+        ip(&["-n", ns, "addr", "add", address, "dev", "eth0"]);
+    }
+    std::thread::sleep(Duration::from_millis(300));
+}
+
 /// Why RL's hosts turn the kernel's queue for unresolved neighbours off: with it, datagrams
 /// sent while the carrier was down arrive when it is back, a second old; without it, only the
 /// newest, a moment old (Linux holds the one datagram sent last, and the sender keeps sending).
@@ -255,24 +274,10 @@ fn datagrams_sent_while_the_cable_was_out_arrive_late_unless_the_queue_is_off() 
     let names = (sender_ns.clone(), receiver_ns.clone());
     let outcome = std::thread::spawn(move || {
         let (sender_ns, receiver_ns) = names;
-        // The switch lives in this thread's own namespace.
-        nix::sched::unshare(nix::sched::CloneFlags::CLONE_NEWNET)
-            .expect("a network namespace (the tests run as root)");
-        ip(&["link", "add", "switch", "type", "bridge"]);
-        ip(&["link", "set", "switch", "up"]);
-        for (ns, port, address) in [
+        plug_into_a_switch(&[
             (&sender_ns, "port-s", "10.78.0.1/24"),
             (&receiver_ns, "port-r", "10.78.0.2/24"),
-        ] {
-            ip(&["netns", "add", ns]);
-            ip(&[
-                "link", "add", port, "type", "veth", "peer", "name", "eth0", "netns", ns,
-            ]);
-            ip(&["link", "set", port, "master", "switch", "up"]);
-            ip(&["-n", ns, "link", "set", "eth0", "up"]);
-            ip(&["-n", ns, "addr", "add", address, "dev", "eth0"]);
-        }
-        std::thread::sleep(Duration::from_millis(300));
+        ]);
         let (bound, is_bound) = std::sync::mpsc::channel();
         let receiver = in_namespace(&receiver_ns, move || {
             let socket = std::net::UdpSocket::bind("10.78.0.2:7401").expect("bind");
