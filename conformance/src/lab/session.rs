@@ -318,7 +318,7 @@ impl Session {
 
     fn apply(&mut self, step: &Step, index: usize) -> Result<(), LabError> {
         let id = step.fault.target().map(|target| self.resolve(target));
-        if id.is_some() && id == Some(self.resolve(Target::Primary)) {
+        if id.is_some_and(|id| id == self.resolve(Target::Primary)) {
             self.primary_steps.insert(index);
         }
         let table = format!("labf{index}");
