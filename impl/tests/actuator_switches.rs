@@ -9,11 +9,15 @@
 //! - ten `kill -9`s of the current Primary, each restarted with the same id, a Tertiary always
 //!   present: one switch per kill, to the Secondary, and the restarted controller back as
 //!   Tertiary.
+//! - no fault, the Connext reader checking liveliness every 200 ms (its default is once a
+//!   minute): no switch at all, as the command writers assert their 300 ms liveliness lease
+//!   in time (without RustDDS fix 17 the reader dropped the Primary at most checks and took
+//!   one sample of a standby).
 //!
 //! The Connext reader needs PyPI `rticonnextdds-connector` (`.ci/run` installs it), so these
 //! tests are ignored by default; `cargo test -- --include-ignored` runs them, and then a missing
 //! reader fails them. Each prints its timeline (faults, roles, owner changes at both readers);
-//! a failure message carries it. Domains 229 and 230 (the Connext reader takes 0..232).
+//! a failure message carries it. Domains 229, 230 and 231 (the Connext reader takes 0..232).
 
 mod support;
 
@@ -23,7 +27,7 @@ use std::sync::Mutex;
 use std::time::{Duration, Instant};
 use support::actuators::{
     owner_changes, require_peer, servo_owners, ConnextReader, Judge, Life, Lives, OwnerChange,
-    Timeline, CONNEXT_PACKAGE,
+    Timeline, CONNEXT_LIVELINESS_CHECK_MS, CONNEXT_PACKAGE,
 };
 use support::Cluster;
 
@@ -59,13 +63,24 @@ struct Judged {
 impl Judged {
     /// P=1 S=2 T=3 formed, the servo and the Connext reader both following C1.
     fn formed(tag: &str, domain: u16) -> Judged {
+        Judged::formed_checking_liveliness(tag, domain, CONNEXT_LIVELINESS_CHECK_MS)
+    }
+
+    /// As [`Judged::formed`], the Connext reader checking writers' liveliness every
+    /// `liveliness_check_ms` at the longest.
+    fn formed_checking_liveliness(tag: &str, domain: u16, liveliness_check_ms: u64) -> Judged {
         let mut cluster = Cluster::new(tag, domain, "");
         let lives = Lives::new(domain);
         cluster.start_servo();
         for id in 1..=3 {
             cluster.start(id);
         }
-        let connext = ConnextReader::start(domain, CONNEXT_DEADLINE_MS, cluster.started);
+        let connext = ConnextReader::start(
+            domain,
+            CONNEXT_DEADLINE_MS,
+            liveliness_check_ms,
+            cluster.started,
+        );
         let mut judged = Judged {
             cluster,
             lives,
@@ -318,6 +333,36 @@ fn pause_primary_3s_one_owner_change() {
         wrong.push("C2 left the Primary role after taking it".into());
     }
     verdict(&wrong, &timeline);
+}
+
+#[test]
+#[ignore = "needs python3 with rticonnextdds-connector (pip install rticonnextdds-connector==1.2.4)"]
+fn no_fault_no_switch_at_frequent_liveliness_checks() {
+    // Every 200 ms, so that a lease not asserted in time shows within seconds.
+    const LIVELINESS_CHECK_MS: u64 = 200;
+    let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    require_peer("rticonnextdds_connector", CONNEXT_PACKAGE);
+    let mut judged = Judged::formed_checking_liveliness("liveliness", 231, LIVELINESS_CHECK_MS);
+    judged.pump(Duration::from_secs(10));
+    let mut wrong = Vec::new();
+    for judge in Judge::BOTH {
+        let changes = judged.changes(judge);
+        eprintln!(
+            "{}: {} owner changes {}",
+            judge.name(),
+            changes.len(),
+            named(&judged, &changes)
+        );
+        if !changes.is_empty() {
+            wrong.push(format!(
+                "{}: {} owner changes {} with no fault, expected none",
+                judge.name(),
+                changes.len(),
+                named(&judged, &changes)
+            ));
+        }
+    }
+    verdict(&wrong, &judged.timeline());
 }
 
 /// One kill of the Primary: when, whom, and who should take the actuator.

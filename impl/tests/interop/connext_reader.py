@@ -7,11 +7,18 @@ against a real ownership implementation.
 
 Contract
     usage: connext_reader.py DOMAIN [--duration SECONDS] [--topic NAME] [--deadline-ms MS]
+                             [--liveliness-check-ms MS]
 
     Joins DDS domain DOMAIN and reads topic NAME (default `pixy/servo_control`), type
     `ServoControl {uint16 pan, tilt, frequency}` (appendable, as in the original), with QoS:
     reliable, EXCLUSIVE ownership, deadline MS (default 100), loopback enabled
     (servo_control_connext.xml beside this file declares type and QoS).
+
+    --liveliness-check-ms sets how often, at the longest, the participant checks whether
+    a writer's liveliness lease has passed without an assertion (Connext's
+    `max_liveliness_loss_detection_period`; default 60000, Connext's own). A writer found
+    not alive loses ownership until its next sample: a short period makes a writer whose
+    liveliness is not asserted in time show at once, rather than once a minute.
 
     Prints one JSON object per received sample on stdout, one line each, flushed at once:
         {"t_ms": 1712345678901.234, "writer_guid": "0102...10", "pan": 500, "tilt": 500,
@@ -44,11 +51,17 @@ def parse_args(argv):
     parser.add_argument("--duration", type=float, default=10.0, help="seconds to run (default 10)")
     parser.add_argument("--topic", default="pixy/servo_control", help="topic name")
     parser.add_argument("--deadline-ms", type=int, default=100, help="requested deadline (ms)")
+    parser.add_argument(
+        "--liveliness-check-ms",
+        type=int,
+        default=60000,
+        help="longest period between the participant's liveliness checks (ms, default 60000)",
+    )
     args = parser.parse_args(argv)
     if not 0 <= args.domain <= 232:
         parser.error("domain must be 0..232")
-    if args.duration < 0 or args.deadline_ms < 1:
-        parser.error("duration must be >= 0 and deadline-ms >= 1")
+    if args.duration < 0 or args.deadline_ms < 1 or args.liveliness_check_ms < 1:
+        parser.error("duration must be >= 0, deadline-ms and liveliness-check-ms >= 1")
     return args
 
 
@@ -64,6 +77,10 @@ def main(argv):
     os.environ["RL_INTEROP_TOPIC"] = args.topic
     os.environ["RL_INTEROP_DEADLINE_SEC"] = str(args.deadline_ms // 1000)
     os.environ["RL_INTEROP_DEADLINE_NANOSEC"] = str((args.deadline_ms % 1000) * 1_000_000)
+    os.environ["RL_INTEROP_LIVELINESS_CHECK_SEC"] = str(args.liveliness_check_ms // 1000)
+    os.environ["RL_INTEROP_LIVELINESS_CHECK_NANOSEC"] = str(
+        (args.liveliness_check_ms % 1000) * 1_000_000
+    )
 
     import rticonnextdds_connector as rti
 

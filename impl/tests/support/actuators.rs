@@ -17,6 +17,9 @@ use std::time::{Instant, SystemTime, UNIX_EPOCH};
 
 /// The PyPI package the Connext reader needs (as `.ci/run` installs it).
 pub const CONNEXT_PACKAGE: &str = "rticonnextdds-connector==1.2.4";
+/// How often a Connext participant checks writers' liveliness leases by default
+/// (`max_liveliness_loss_detection_period`).
+pub const CONNEXT_LIVELINESS_CHECK_MS: u64 = 60_000;
 
 /// Panics unless python3 can import the peer's DDS module (the test was asked for, so its
 /// peer must be there).
@@ -208,8 +211,15 @@ pub struct ConnextReader {
 
 impl ConnextReader {
     /// Starts the reader with the paper's deadline `deadline_ms`; it runs until dropped.
-    /// `started` is the test's start (the clock of every time it reports).
-    pub fn start(domain: u16, deadline_ms: u64, started: Instant) -> ConnextReader {
+    /// It checks writers' liveliness every `liveliness_check_ms` at the longest (Connext's
+    /// default is [`CONNEXT_LIVELINESS_CHECK_MS`]). `started` is the test's start (the clock
+    /// of every time it reports).
+    pub fn start(
+        domain: u16,
+        deadline_ms: u64,
+        liveliness_check_ms: u64,
+        started: Instant,
+    ) -> ConnextReader {
         let script = format!(
             "{}/tests/interop/connext_reader.py",
             env!("CARGO_MANIFEST_DIR")
@@ -222,6 +232,8 @@ impl ConnextReader {
                 "900",
                 "--deadline-ms",
                 &deadline_ms.to_string(),
+                "--liveliness-check-ms",
+                &liveliness_check_ms.to_string(),
             ])
             .stdin(Stdio::null())
             .stdout(Stdio::piped())

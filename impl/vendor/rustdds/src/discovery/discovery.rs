@@ -115,6 +115,10 @@ pub enum DiscoveryCommand {
 pub struct LivelinessState {
   last_auto_update: Timestamp,
   manual_participant_liveness_refresh_requested: bool,
+  // The period of the pending liveliness check, and the generation of the timer
+  // chain that runs it (see `DiscoveryTimerEvent::PublishParticipantMessage`).
+  check_period: StdDuration,
+  timer_generation: u64,
 }
 
 impl LivelinessState {
@@ -122,8 +126,41 @@ impl LivelinessState {
     Self {
       last_auto_update: Timestamp::now(),
       manual_participant_liveness_refresh_requested: false,
+      check_period: Discovery::CHECK_PARTICIPANT_MESSAGES,
+      timer_generation: 0,
     }
   }
+}
+
+/// How often to check whether an AUTOMATIC liveliness assertion is due: a third
+/// of the smallest automatic lease among the local writers, at most
+/// `longest`. A remote reader declares a writer not alive when a whole lease
+/// passes without an assertion (RTPS 8.4.13.5; RTI Connext checks this, and does
+/// not count the writer's DATA), so a fixed one-second check cannot keep a
+/// writer with a lease under a second alive.
+fn automatic_liveliness_check_period(
+  min_automatic_lease: Option<StdDuration>,
+  longest: StdDuration,
+) -> StdDuration {
+  // A floor, so a zero or tiny lease cannot spin the discovery thread.
+  const SHORTEST: StdDuration = StdDuration::from_millis(10);
+  match min_automatic_lease {
+    Some(lease) => (lease / 3).clamp(SHORTEST, longest),
+    None => longest,
+  }
+}
+
+/// Whether an AUTOMATIC liveliness assertion is due, `since_last` after the
+/// previous one, at a check that runs every `check_period`. Asserting once
+/// `lease / 3 - check_period / 2` has passed keeps every gap under
+/// `lease / 3 + check_period / 2`, at most half the lease, while a long lease is
+/// asserted about three times per lease rather than every check.
+fn automatic_liveliness_due(
+  min_automatic_lease: StdDuration,
+  check_period: StdDuration,
+  since_last: StdDuration,
+) -> bool {
+  since_last >= (min_automatic_lease / 3).saturating_sub(check_period / 2)
 }
 
 // TODO: Refactor this. Maybe the repeating groups of "topic", "reader",
@@ -194,7 +231,12 @@ enum DiscoveryTimerEvent {
   },
   ParticipantCleanup,
   TopicCleanup,
-  PublishParticipantMessage,
+  // Carries the generation of the chain that scheduled it: adding a writer with
+  // a shorter automatic liveliness lease starts a new chain, and the old one's
+  // pending timeout is then ignored rather than doubling the checks.
+  PublishParticipantMessage {
+    generation: u64,
+  },
   #[cfg(feature = "security")]
   CachedSecureMessageResend,
 }
@@ -635,7 +677,7 @@ impl Discovery {
       );
       t.set_timeout(
         StdDuration::from_millis(100),
-        DiscoveryTimerEvent::PublishParticipantMessage,
+        DiscoveryTimerEvent::PublishParticipantMessage { generation: 0 },
       );
       #[cfg(feature = "security")]
       t.set_timeout(
@@ -774,6 +816,7 @@ impl Discovery {
                 }
                 DiscoveryCommand::AddLocalWriter { guid } => {
                   self.add_local_writer(guid);
+                  self.restart_liveliness_checks_if_faster();
                 }
                 DiscoveryCommand::AddLocalReader { guid } => {
                   self.add_local_reader(guid);
@@ -889,12 +932,15 @@ impl Discovery {
                     DiscoveryTimerEvent::TopicCleanup,
                   );
                 }
-                DiscoveryTimerEvent::PublishParticipantMessage => {
-                  self.publish_participant_message();
-                  self.discovery_timer.borrow_mut().set_timeout(
-                    Self::CHECK_PARTICIPANT_MESSAGES,
-                    DiscoveryTimerEvent::PublishParticipantMessage,
-                  );
+                DiscoveryTimerEvent::PublishParticipantMessage { generation } => {
+                  // A chain replaced by a faster one (see add_local_writer) ends.
+                  if generation == self.liveliness_state.timer_generation {
+                    let check_period = self.publish_participant_message();
+                    self.discovery_timer.borrow_mut().set_timeout(
+                      check_period,
+                      DiscoveryTimerEvent::PublishParticipantMessage { generation },
+                    );
+                  }
                 }
                 #[cfg(feature = "security")]
                 DiscoveryTimerEvent::CachedSecureMessageResend => {
@@ -1473,23 +1519,47 @@ impl Discovery {
       });
   }
 
-  pub fn publish_participant_message(&mut self) {
+  // The smallest lease duration among local writers with Automatic liveliness.
+  fn min_automatic_lease(&self) -> Option<StdDuration> {
+    discovery_db_read(&self.discovery_db)
+      .get_all_local_topic_writers()
+      .filter_map(|p| match p.publication_topic_data.liveliness {
+        Some(Liveliness::Automatic { lease_duration }) => Some(StdDuration::from(lease_duration)),
+        _other => None,
+      })
+      .min()
+  }
+
+  // A writer just added may have a shorter automatic lease than the pending
+  // check allows for: assert now if due and check at the new period, in a new
+  // timer chain (the old chain's pending timeout is then ignored).
+  fn restart_liveliness_checks_if_faster(&mut self) {
+    let period =
+      automatic_liveliness_check_period(self.min_automatic_lease(), Self::CHECK_PARTICIPANT_MESSAGES);
+    if period < self.liveliness_state.check_period {
+      self.liveliness_state.timer_generation += 1;
+      let check_period = self.publish_participant_message();
+      self.discovery_timer.borrow_mut().set_timeout(
+        check_period,
+        DiscoveryTimerEvent::PublishParticipantMessage {
+          generation: self.liveliness_state.timer_generation,
+        },
+      );
+    }
+  }
+
+  // Sends the liveliness messages that are due, and returns when to check again.
+  pub fn publish_participant_message(&mut self) -> StdDuration {
     // Inspect if we need to send liveness messages
     // See 8.4.13.5 "Implementing Writer Liveliness Protocol .." in the RPTS spec
 
     // Dig out the smallest lease duration for writers with Automatic liveliness QoS
-    let writer_livelinesses: Vec<Liveliness> = discovery_db_read(&self.discovery_db)
-      .get_all_local_topic_writers()
-      .filter_map(|p| p.publication_topic_data.liveliness)
-      .collect();
-
-    let min_automatic_lease_duration_opt = writer_livelinesses
-      .iter()
-      .filter_map(|liveliness| match liveliness {
-        Liveliness::Automatic { lease_duration } => Some(*lease_duration),
-        _other => None,
-      })
-      .min();
+    let min_automatic_lease_duration_opt = self.min_automatic_lease();
+    let check_period = automatic_liveliness_check_period(
+      min_automatic_lease_duration_opt,
+      Self::CHECK_PARTICIPANT_MESSAGES,
+    );
+    self.liveliness_state.check_period = check_period;
 
     let timenow = Timestamp::now();
 
@@ -1497,16 +1567,15 @@ impl Discovery {
 
     // Send Automatic liveness update if needed
     if let Some(min_auto_duration) = min_automatic_lease_duration_opt {
-      let time_since_last_auto_update =
-        timenow.duration_since(self.liveliness_state.last_auto_update);
+      let time_since_last_auto_update = StdDuration::from(
+        timenow.duration_since(self.liveliness_state.last_auto_update),
+      );
       trace!(
         "time_since_last_auto_update: {time_since_last_auto_update:?}, min_auto_duration \
          {min_auto_duration:?}"
       );
 
-      // We choose to send a new liveliness message if longer than half of the min
-      // auto duration has elapsed since last message
-      if time_since_last_auto_update > min_auto_duration / 2 {
+      if automatic_liveliness_due(min_auto_duration, check_period, time_since_last_auto_update) {
         let msg = ParticipantMessageData {
           guid: self.domain_participant.guid_prefix(),
           kind: ParticipantMessageDataKind::AUTOMATIC_LIVELINESS_UPDATE,
@@ -1573,6 +1642,7 @@ impl Discovery {
         }
       }
     }
+    check_period
   }
 
   #[cfg(feature = "security")]
@@ -2777,6 +2847,48 @@ mod tests {
     assert!(
       reported.disposed(disposed_reader_guid) && reported.disposed(disposed_writer_guid),
       "the disposed reader and writer were not reported lost"
+    );
+  }
+
+  // Runs the liveliness check as the discovery thread does, each check
+  // `jitter` late, and returns the longest gap between two assertions.
+  fn longest_assertion_gap(lease: StdDuration, jitter: StdDuration) -> StdDuration {
+    let mut now = StdDuration::ZERO;
+    let mut last = StdDuration::ZERO;
+    let mut longest = StdDuration::ZERO;
+    while now < StdDuration::from_secs(30) {
+      let check_period =
+        automatic_liveliness_check_period(Some(lease), Discovery::CHECK_PARTICIPANT_MESSAGES);
+      now += check_period + jitter;
+      if automatic_liveliness_due(lease, check_period, now - last) {
+        longest = longest.max(now - last);
+        last = now;
+      }
+    }
+    longest
+  }
+
+  #[test]
+  fn automatic_liveliness_is_asserted_within_half_of_a_short_lease() {
+    // RL's command writers offer a 300 ms lease. Asserted once a second, a
+    // Connext reader found the writer not alive at its periodic liveliness
+    // check and took one sample from a weaker writer.
+    for jitter_ms in [0, 5, 20] {
+      let lease = StdDuration::from_millis(300);
+      let gap = longest_assertion_gap(lease, StdDuration::from_millis(jitter_ms));
+      assert!(gap <= lease / 2, "jitter {jitter_ms} ms: gap {gap:?}");
+    }
+  }
+
+  #[test]
+  fn a_long_automatic_lease_is_asserted_about_three_times_per_lease() {
+    let lease = StdDuration::from_secs(10);
+    let gap = longest_assertion_gap(lease, StdDuration::ZERO);
+    assert!(gap <= lease / 2, "gap {gap:?}");
+    assert!(gap >= StdDuration::from_secs(3), "gap {gap:?}: asserted too often");
+    assert_eq!(
+      automatic_liveliness_check_period(None, Discovery::CHECK_PARTICIPANT_MESSAGES),
+      Discovery::CHECK_PARTICIPANT_MESSAGES
     );
   }
 }
