@@ -172,7 +172,7 @@ fn track(
     let dds = |e: crate::dds::DdsError| crate::Error::Dds(e.to_string());
     let mut camera = rl.session().camera_reader().map_err(dds)?;
     // The commanding controller's commands, to follow while standing by.
-    let mut owner_commands = CommandFeed::open(
+    let mut owner_commands = CommandFeed::open_following(
         rl.session(),
         config.timing.command_deadline_ms,
         config.timing.peer_deadline_ms,

@@ -438,6 +438,15 @@ impl Session {
         self.unkeyed_reader(&self.topics.command, qos::command_reader(&self.timing))
     }
 
+    /// As [`Self::command_reader`], best effort: for a controller following the commanding
+    /// controller while it stands by (see [`qos::command_follower_reader`]).
+    pub fn command_follower_reader(&self) -> Result<Reader<ServoControl>, DdsError> {
+        self.unkeyed_reader(
+            &self.topics.command,
+            qos::command_follower_reader(&self.timing),
+        )
+    }
+
     /// The command writer at `strength` (`None` = no writer until a strength is set).
     pub fn command_writer(&self, strength: Option<i32>) -> Result<CommandWriter, DdsError> {
         CommandWriter::new(

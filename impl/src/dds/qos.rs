@@ -123,6 +123,23 @@ pub fn command_reader(timing: &Timing) -> QosPolicies {
         .build()
 }
 
+/// A controller's reader of the other controllers' commands, which it follows while standing
+/// by (bumpless transfer, crate::tracker): as [`command_reader`] but best effort, since only
+/// the latest command matters to it. A reliable reader would acknowledge every sample of
+/// every command writer (RustDDS asks for an acknowledgement with each sample): on a slow
+/// link those acknowledgements were half of a controller's traffic.
+pub fn command_follower_reader(timing: &Timing) -> QosPolicies {
+    QosPolicyBuilder::new()
+        .reliability(Reliability::BestEffort)
+        .durability(Durability::Volatile)
+        .history(History::KeepLast {
+            depth: COMMAND_READER_HISTORY_DEPTH,
+        })
+        .ownership(Ownership::Exclusive { strength: 0 })
+        .deadline(Deadline(duration_ms(timing.command_deadline_ms)))
+        .build()
+}
+
 /// Camera reader (`Circle`): best effort, keep last 1 per colour. A best-effort reader
 /// matches both best-effort and reliable shapes writers (RTI Shapes Demo, PixyShapes).
 pub fn camera_reader() -> QosPolicies {

@@ -30,8 +30,37 @@ impl CommandFeed {
         deadline_ms: u64,
         peer_deadline_ms: u64,
     ) -> Result<CommandFeed, DdsError> {
+        CommandFeed::with_reader(
+            session,
+            session.command_reader()?,
+            deadline_ms,
+            peer_deadline_ms,
+        )
+    }
+
+    /// As [`Self::open`], reading best effort: for a controller that follows the owner's
+    /// commands while standing by, and needs only the latest (crate::dds::qos).
+    pub fn open_following(
+        session: &Session,
+        deadline_ms: u64,
+        peer_deadline_ms: u64,
+    ) -> Result<CommandFeed, DdsError> {
+        CommandFeed::with_reader(
+            session,
+            session.command_follower_reader()?,
+            deadline_ms,
+            peer_deadline_ms,
+        )
+    }
+
+    fn with_reader(
+        session: &Session,
+        commands: Reader<ServoControl>,
+        deadline_ms: u64,
+        peer_deadline_ms: u64,
+    ) -> Result<CommandFeed, DdsError> {
         Ok(CommandFeed {
-            commands: session.command_reader()?,
+            commands,
             heartbeats: session.heartbeat_reader()?,
             arbiter: Arbiter::new(deadline_ms),
             trust: CommandTrust::new(peer_deadline_ms, false),
