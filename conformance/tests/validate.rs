@@ -6,6 +6,9 @@
 //! - `tests/fixtures/demo-run-secondary-promotes-itself/`: the same recording with one line
 //!   added, the Secondary reporting itself Primary while the Primary is alive, which must be
 //!   rejected with a readable message;
+//! - `tests/fixtures/lab-restart-within-a-round/`: a fault-lab recording in which C3 stopped and
+//!   its next life started within one heartbeat period, after C1 had heard the old life in
+//!   that round; accepted (tolerance 3 of `conformance::validate`);
 //! - a fresh `rl demo --record` run on DDS domain 198, validated as it comes.
 //!
 //! The DDS-level replays validate their own recordings (tests/dds_replay.rs).
@@ -93,6 +96,20 @@ fn a_secondary_that_promotes_itself_is_rejected() {
             .sum::<usize>()
     };
     assert_eq!(events(&bad), events(&good) + 1);
+}
+
+#[test]
+fn a_restart_within_one_round_is_a_behaviour_of_the_model() {
+    // `lab run random --seed 4`: C3's life with its clock an hour back stopped 164 ms into a
+    // round and the next (the right clock) started 37 ms later; the old life had sent that
+    // round's heartbeat, so C1 saw C3 missing a round later than a restart at the round's
+    // start would make it, and voted for the new life a round later. Rejected at round 32
+    // without tolerance 3.
+    let accepted = check(&fixture("lab-restart-within-a-round")).unwrap_or_else(|r| panic!("{r}"));
+    println!("{accepted}");
+    assert_eq!(accepted.controllers, 3);
+    assert_eq!(accepted.lives, 6, "C1, C2 and four lives of C3");
+    assert!(accepted.rounds_checked > 100, "{accepted}");
 }
 
 /// `rl demo --record` on domain 198: three controllers, camera and servo, the Primary killed

@@ -41,7 +41,11 @@
 //! model by one round: where no model state agrees with what a controller reported by
 //! boundary `b`, the states that agree with what it reported by boundary `b + 1` are kept
 //! instead (a report stamped after the boundary it belongs to, e.g. when the process was not
-//! scheduled in time). The summary counts the reports only (2) explains.
+//! scheduled in time). The summary counts the reports only (2) explains. (3) A process that
+//! replaces a life which stopped cleanly in the same round (a restart within one heartbeat
+//! period) may start one round late: the old life's heartbeat timer may have fired in that
+//! round before it stopped, and its peers heard it, which the model shows as the old life
+//! lasting the round.
 
 mod compare;
 mod rejection;

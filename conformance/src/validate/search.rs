@@ -277,13 +277,28 @@ impl<'a> Search<'a> {
                 .as_ref()
                 .and_then(|l| l.stopped_round)
                 .is_some_and(|stopped| round > stopped);
+        // The life this one replaces stopped in the round the next one started: it may have
+        // spoken in that round before it stopped (its heartbeat timer fires at any point of
+        // the round), which the model shows as the old life lasting the round and the new
+        // one starting with the next.
+        let replaced_mid_round = |start: u64| {
+            c.life == Life::Up
+                && current
+                    .as_ref()
+                    .is_some_and(|l| l.stopped_round == Some(start))
+        };
         let mut options = Vec::new();
         if let Some(next) = self.life(id, next_number) {
             let start = next.start_round;
             if round + 1 == start {
                 options.push(Lifecycle::Start(next_number));
             } else if round == start {
-                // It started this round: the start is not optional.
+                if !replaced_mid_round(start) {
+                    // It started this round: the start is not optional.
+                    return vec![Lifecycle::Start(next_number)];
+                }
+                return vec![Lifecycle::Start(next_number), Lifecycle::Keep];
+            } else if round == start + 1 && replaced_mid_round(start) {
                 return vec![Lifecycle::Start(next_number)];
             } else if round > start {
                 return Vec::new();
