@@ -172,8 +172,9 @@ fn track(
     let dds = |e: crate::dds::DdsError| crate::Error::Dds(e.to_string());
     let mut camera = rl.session().camera_reader().map_err(dds)?;
     // The commanding controller's commands, to follow while standing by.
-    let mut owner_commands = CommandFeed::open_following(
+    let mut owner_commands = CommandFeed::open(
         rl.session(),
+        rl.session().command_follower_reader().map_err(dds)?,
         config.timing.command_deadline_ms,
         config.timing.peer_deadline_ms,
     )

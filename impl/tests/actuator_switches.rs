@@ -157,6 +157,20 @@ impl Judged {
             .collect()
     }
 
+    /// As [`Self::changes`], printed, with the line that says them (`connext: 1 owner changes
+    /// [C1 -> C2 at ...]`).
+    fn reported_changes(&self, judge: Judge) -> (Vec<OwnerChange>, String) {
+        let changes = self.changes(judge);
+        let said = format!(
+            "{}: {} owner changes {}",
+            judge.name(),
+            changes.len(),
+            named(self, &changes)
+        );
+        eprintln!("{said}");
+        (changes, said)
+    }
+
     /// Faults, every controller's (phase, role, strength) as it changed, and the owner changes
     /// at both readers.
     fn timeline(&self) -> String {
@@ -300,23 +314,12 @@ fn pause_primary_3s_one_owner_change() {
     let c2 = Life { id: 2, life: 1 };
     let mut wrong = Vec::new();
     for judge in Judge::BOTH {
-        let changes = judged.changes(judge);
-        eprintln!(
-            "{}: {} owner changes {}",
-            judge.name(),
-            changes.len(),
-            named(&judged, &changes)
-        );
+        let (changes, said) = judged.reported_changes(judge);
         let to_the_secondary = changes.len() == 1
             && judged.lives.of(&changes[0].from) == Some(c1)
             && judged.lives.of(&changes[0].to) == Some(c2);
         if !to_the_secondary {
-            wrong.push(format!(
-                "{}: {} owner changes {}, expected one, C1 -> C2",
-                judge.name(),
-                changes.len(),
-                named(&judged, &changes)
-            ));
+            wrong.push(format!("{said}, expected one, C1 -> C2"));
         }
     }
     let below = judged.cluster.steady_with(1, T)
@@ -346,20 +349,9 @@ fn no_fault_no_switch_at_frequent_liveliness_checks() {
     judged.pump(Duration::from_secs(10));
     let mut wrong = Vec::new();
     for judge in Judge::BOTH {
-        let changes = judged.changes(judge);
-        eprintln!(
-            "{}: {} owner changes {}",
-            judge.name(),
-            changes.len(),
-            named(&judged, &changes)
-        );
+        let (changes, said) = judged.reported_changes(judge);
         if !changes.is_empty() {
-            wrong.push(format!(
-                "{}: {} owner changes {} with no fault, expected none",
-                judge.name(),
-                changes.len(),
-                named(&judged, &changes)
-            ));
+            wrong.push(format!("{said} with no fault, expected none"));
         }
     }
     verdict(&wrong, &judged.timeline());

@@ -112,15 +112,7 @@ pub fn command_writer(timing: &Timing, strength: i32) -> QosPolicies {
 /// Command reader: EXCLUSIVE (matches only exclusive writers), reliable, the same deadline,
 /// and a deeper history so every writer's sample reaches the arbiter.
 pub fn command_reader(timing: &Timing) -> QosPolicies {
-    QosPolicyBuilder::new()
-        .reliability(reliable())
-        .durability(Durability::Volatile)
-        .history(History::KeepLast {
-            depth: COMMAND_READER_HISTORY_DEPTH,
-        })
-        .ownership(Ownership::Exclusive { strength: 0 })
-        .deadline(Deadline(duration_ms(timing.command_deadline_ms)))
-        .build()
+    command_reader_with(timing, reliable())
 }
 
 /// A controller's reader of the other controllers' commands, which it follows while standing
@@ -129,8 +121,12 @@ pub fn command_reader(timing: &Timing) -> QosPolicies {
 /// every command writer (RustDDS asks for an acknowledgement with each sample): on a slow
 /// link those acknowledgements were half of a controller's traffic.
 pub fn command_follower_reader(timing: &Timing) -> QosPolicies {
+    command_reader_with(timing, Reliability::BestEffort)
+}
+
+fn command_reader_with(timing: &Timing, reliability: Reliability) -> QosPolicies {
     QosPolicyBuilder::new()
-        .reliability(Reliability::BestEffort)
+        .reliability(reliability)
         .durability(Durability::Volatile)
         .history(History::KeepLast {
             depth: COMMAND_READER_HISTORY_DEPTH,

@@ -23,37 +23,12 @@ pub struct CommandFeed {
 }
 
 impl CommandFeed {
-    /// Readers on `session`; `deadline_ms` is the command deadline, `peer_deadline_ms` how
-    /// long a controller's participant stays trusted after its last heartbeat.
+    /// The owner's commands from `commands` (an actuator's [`Session::command_reader`], or a
+    /// standing-by controller's best-effort [`Session::command_follower_reader`]), with a
+    /// heartbeat reader on `session`; `deadline_ms` is the command deadline,
+    /// `peer_deadline_ms` how long a controller's participant stays trusted after its last
+    /// heartbeat.
     pub fn open(
-        session: &Session,
-        deadline_ms: u64,
-        peer_deadline_ms: u64,
-    ) -> Result<CommandFeed, DdsError> {
-        CommandFeed::with_reader(
-            session,
-            session.command_reader()?,
-            deadline_ms,
-            peer_deadline_ms,
-        )
-    }
-
-    /// As [`Self::open`], reading best effort: for a controller that follows the owner's
-    /// commands while standing by, and needs only the latest (crate::dds::qos).
-    pub fn open_following(
-        session: &Session,
-        deadline_ms: u64,
-        peer_deadline_ms: u64,
-    ) -> Result<CommandFeed, DdsError> {
-        CommandFeed::with_reader(
-            session,
-            session.command_follower_reader()?,
-            deadline_ms,
-            peer_deadline_ms,
-        )
-    }
-
-    fn with_reader(
         session: &Session,
         commands: Reader<ServoControl>,
         deadline_ms: u64,

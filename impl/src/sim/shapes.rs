@@ -134,6 +134,9 @@ pub fn run(args: ShapesArgs) -> Result<(), Error> {
         Some(
             CommandFeed::open(
                 &session,
+                session
+                    .command_reader()
+                    .map_err(|e| Error::Dds(e.to_string()))?,
                 config.timing.command_deadline_ms,
                 config.timing.peer_deadline_ms,
             )
