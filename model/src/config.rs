@@ -30,6 +30,10 @@ pub struct Config {
     /// Cuts of one controller from its peers (the actuator still hears it) over a run.
     #[serde(default)]
     pub max_isolations: u8,
+    /// Starved links of one controller (a rate limit: late, partly dropped datagrams, the
+    /// carrier up) over a run.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub max_starvations: u8,
     /// A peer is declared lost after this many rounds without its heartbeat (deadline 2x period).
     pub dead_after_rounds: u8,
     /// The initialization window closes after this many rounds without a new peer (paper: 10 s;
@@ -77,6 +81,7 @@ impl Default for Config {
             max_lost_heartbeats: 1,
             max_pauses: 0,
             max_isolations: 0,
+            max_starvations: 0,
             dead_after_rounds: 2,
             window_rounds: 2,
             settle_within_rounds: 10,
@@ -110,6 +115,21 @@ impl Config {
             max_pauses: 1,
             max_isolations: 1,
             ..Config::default()
+        }
+    }
+
+    /// A starved link (F17): three controllers, no crash, one starvation and enough lost
+    /// heartbeats for the peers to declare a starved controller lost (its heartbeats come
+    /// late or not at all) and for it to miss the takeover's heartbeat once.
+    pub fn starved() -> Config {
+        let base = Config::default();
+        Config {
+            late_joiners: 0,
+            max_crashes: 0,
+            max_restarts: 0,
+            max_lost_heartbeats: base.dead_after_rounds,
+            max_starvations: 1,
+            ..base
         }
     }
 
@@ -265,6 +285,9 @@ impl Config {
                 crate::Variant::Paper => "paper",
             }
         );
+        if self.max_starvations > 0 {
+            flags.push_str(&format!(" --starvations {}", self.max_starvations));
+        }
         for fix in &self.reverted {
             flags.push_str(&format!(" --revert {}", fix.label().to_lowercase()));
         }
@@ -287,6 +310,9 @@ impl Config {
             self.window_rounds,
             self.variant
         );
+        if self.max_starvations > 0 {
+            line.push_str(&format!(", starvations {}", self.max_starvations));
+        }
         if !self.reverted.is_empty() {
             let labels: Vec<String> = self.reverted.iter().map(|fix| fix.label()).collect();
             line.push_str(&format!(", reverted {}", labels.join(" ")));
@@ -296,4 +322,8 @@ impl Config {
         }
         line
     }
+}
+
+fn is_zero(value: &u8) -> bool {
+    *value == 0
 }

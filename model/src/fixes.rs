@@ -2,8 +2,8 @@
 //! the deliberately broken rules of the mutation tests.
 //!
 //! Every rule fix of docs/findings.md is one [`Fix`] and one boolean of [`Rules`], numbered as
-//! there (F1..F8, F10..F16). The default variant carries every fix, `--variant v1` leaves out the
-//! ones of protocol v2 (F11..F16), `--variant paper` reverts them
+//! there (F1..F8, F10..F17). The default variant carries every fix, `--variant v1` leaves out the
+//! ones of protocol v2 (F11..F17), `--variant paper` reverts them
 //! all, and `--revert fN` reverts exactly one, so each finding's counterexample can be shown to
 //! come back without its fix (model/tests/findings.rs). F9 states what loss can and cannot be
 //! protected against; it is not a rule, so it has no switch.
@@ -18,7 +18,8 @@ pub enum Variant {
     Default,
     /// Protocol v1: fixes F1..F10 without those of protocol v2 (F11 epochs, F12 self-fencing,
     /// F13 ordered raises, F14 joiners adopt agreed results, F15 a Primary no side can outrank
-    /// keeps its strength, F16 an unplugged controller starts again); the checker shows failback after
+    /// keeps its strength, F16 an unplugged controller starts again, F17 a Secondary takes over
+    /// from a starved Primary); the checker shows failback after
     /// a pause and a tie blip.
     V1,
     /// The paper's rules read literally: every fix reverted; the checker finds
@@ -125,10 +126,18 @@ pub enum Fix {
     #[serde(rename = "f16")]
     #[value(name = "f16")]
     UnpluggedRestart,
+    /// F17: a Secondary that receives the Primary's commands late while the Tertiary's
+    /// arrive on time (the Primary's link is starved: it delays rather than drops) takes
+    /// over at once at a strength above the Primary's, and the Primary, hearing it, starts
+    /// again as a new incarnation; reverted, the actuator follows the late Primary's samples
+    /// back each time one arrives.
+    #[serde(rename = "f17")]
+    #[value(name = "f17")]
+    StarvedTakeover,
 }
 
 impl Fix {
-    pub const ALL: [Fix; 15] = [
+    pub const ALL: [Fix; 16] = [
         Fix::LateJoinByHeartbeat,
         Fix::KeepStandbyOrder,
         Fix::IncarnationAware,
@@ -144,6 +153,7 @@ impl Fix {
         Fix::JoinAgreedResult,
         Fix::HoldUnoutranked,
         Fix::UnpluggedRestart,
+        Fix::StarvedTakeover,
     ];
 
     /// The finding's number in docs/findings.md.
@@ -164,6 +174,7 @@ impl Fix {
             Fix::JoinAgreedResult => 14,
             Fix::HoldUnoutranked => 15,
             Fix::UnpluggedRestart => 16,
+            Fix::StarvedTakeover => 17,
         }
     }
 
@@ -226,6 +237,8 @@ pub struct Rules {
     /// F16: a controller whose links all lose their carrier starts again as a new
     /// incarnation.
     pub f16_unplugged_restart: bool,
+    /// F17: a Secondary takes over from a Primary whose commands arrive late.
+    pub f17_starved_takeover: bool,
 }
 
 impl Rules {
@@ -249,6 +262,7 @@ impl Rules {
             f14_join_agreed: v2,
             f15_hold_unoutranked: v2,
             f16_unplugged_restart: v2,
+            f17_starved_takeover: v2,
         }
     }
 
@@ -270,6 +284,7 @@ impl Rules {
             Fix::JoinAgreedResult => &mut self.f14_join_agreed,
             Fix::HoldUnoutranked => &mut self.f15_hold_unoutranked,
             Fix::UnpluggedRestart => &mut self.f16_unplugged_restart,
+            Fix::StarvedTakeover => &mut self.f17_starved_takeover,
         }
     }
 

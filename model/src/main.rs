@@ -100,6 +100,10 @@ struct Scope {
     /// Cuts of one controller from its peers (the actuator still hears it) over a run.
     #[arg(long, default_value_t = 0)]
     cuts: u8,
+    /// Starved links of one controller (a rate limit: late, partly dropped datagrams) over a
+    /// run (F17).
+    #[arg(long, default_value_t = 0)]
+    starvations: u8,
     /// The scope of a controller that comes back: 3 controllers, one pause and one cut, no
     /// crash or lost heartbeat (overrides the fault flags).
     #[arg(long, conflicts_with = "full")]
@@ -134,6 +138,7 @@ impl Scope {
                 max_restarts: self.restarts,
                 max_pauses: self.pauses,
                 max_isolations: self.cuts,
+                max_starvations: self.starvations,
                 max_lost_heartbeats: self.lost_heartbeats,
                 ..Config::default()
             }

@@ -43,6 +43,7 @@ impl PropertyInfo {
     pub fn applies(&self, config: &crate::Config) -> bool {
         let faults = match self.name {
             "Primary crash promotes the Secondary" => config.max_crashes >= 1,
+            "a Secondary takes over from a starved Primary" => config.max_starvations >= 1,
             "restarted controller takes the lowest role" => {
                 config.max_crashes >= 1 && config.max_restarts >= 1
             }
@@ -81,10 +82,10 @@ pub fn catalogue() -> Vec<PropertyInfo> {
            outside a partition (from a live controller declared lost until the controllers settle again)",
           single_owner),
         p("no command output without a role", Always,
-          "a controller publishes commands only with a role, never above its role's strength, once a Primary exists",
+          "a controller publishes commands only with a role, never above its role's strength (but for a takeover from a starved Primary, F17), once a Primary exists",
           output_needs_role),
         p("one owner change per fault", Always,
-          "the actuator changes owner at most once per fault episode (a crash, a pause, a cut, a link failure however many heartbeats it loses), to or from a provisional Primary too: no failback, no blip",
+          "the actuator changes owner at most once per fault episode (a crash, a pause, a cut, a starved link, a link failure however many heartbeats it loses), to or from a provisional Primary too: no failback, no blip",
           one_change_per_fault),
         p("owner changes only to the next Primary", Always,
           "every owner change between two settled states goes to the Primary that settles (or back to the owner before)",
@@ -158,6 +159,9 @@ pub fn catalogue() -> Vec<PropertyInfo> {
         p("a Primary no lost side can outrank keeps its strength", Sometimes,
           "a provisional Primary still commands at 30 a round after losing peers that are no majority of its backed result (F15), beside a live one",
           unoutranked_primary_holds),
+        p("a Secondary takes over from a starved Primary", Sometimes,
+          "the actuator follows a Secondary commanding at the takeover strength above a Primary whose commands arrive late (F17)",
+          starved_primary_taken_over),
     ]
 }
 
@@ -264,7 +268,11 @@ fn output_needs_role(_: &RlModel, s: &State) -> bool {
         None => true,
         Some(strength) => {
             matches!(c.phase, Phase::Voting | Phase::Steady)
-                && c.role.is_some_and(|r| strength <= r.strength())
+                && c.role.is_some_and(|r| {
+                    strength <= r.strength()
+                        || (c.took_over_from.is_some()
+                            && strength == crate::types::TAKEOVER_STRENGTH)
+                })
                 && c.agreed.is_some_and(|a| a.holder(Role::Primary).is_some())
         }
     })
@@ -420,4 +428,11 @@ fn unoutranked_primary_holds(_: &RlModel, s: &State) -> bool {
             && c.members().count() * 2 <= c.quorum_base.count_ones() as usize
             && s.up().any(|other| other.id != c.id)
     })
+}
+
+fn starved_primary_taken_over(_: &RlModel, s: &State) -> bool {
+    s.history.took_over
+        && s.actuator_owner().is_some_and(|owner| {
+            s.controller(owner).visible_strength() == Some(crate::types::TAKEOVER_STRENGTH)
+        })
 }

@@ -40,6 +40,9 @@ pub fn controller_line(c: &Controller) -> String {
     if c.undiscovered {
         line.push_str(" (writer undiscovered)");
     }
+    if let Some((from, incarnation)) = c.took_over_from {
+        let _ = write!(line, " took-over-from-C{from}#{incarnation}");
+    }
     if c.provisional {
         line.push_str(" provisional");
     }
@@ -120,6 +123,15 @@ pub fn network_line(s: &State) -> String {
             .collect();
         let _ = write!(line, " cut off {} |", cut.join(" "));
     }
+    for (mask, label) in [(s.starved, "starved"), (s.lagging, "deadline missed")] {
+        if mask != 0 {
+            let ids: Vec<String> = (1..=n)
+                .filter(|id| mask & (1 << (id - 1)) != 0)
+                .map(|id| format!("C{id}"))
+                .collect();
+            let _ = write!(line, " {label} {} |", ids.join(" "));
+        }
+    }
     let h = &s.history;
     let _ = write!(
         line,
@@ -127,6 +139,9 @@ pub fn network_line(s: &State) -> String {
          quiet rounds {}",
         h.losses, h.crashes, h.restarts, h.pauses, h.isolations, h.owner_changes, h.quiet_rounds
     );
+    if h.starvations > 0 {
+        let _ = write!(line, ", starved links {}", h.starvations);
+    }
     line
 }
 
@@ -254,6 +269,9 @@ fn short(action: &Action) -> String {
         Action::Resume { .. } => "resume".into(),
         Action::Isolate { .. } => "cut off".into(),
         Action::Unplug { .. } => "cable pulled".into(),
+        Action::Starve { .. } => "starved".into(),
+        Action::Lag { .. } => "deadline missed".into(),
+        Action::CatchUp { .. } => "late sample".into(),
         Action::Heal { .. } => "reconnected".into(),
         Action::DiscoverWriter { .. } => "writer found".into(),
         Action::TieBreak { .. } => "tie broken".into(),

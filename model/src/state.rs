@@ -39,7 +39,17 @@ pub enum Action {
     /// from its peers and from the actuator. It sees its carrier go and starts again as a new
     /// incarnation at once, as after a stall (impl/src/link_watch.rs; F16).
     Unplug { controller: Id },
-    /// The cut-off or unplugged controller's links work again.
+    /// A controller's links are starved (rate-limited): they still carry some of its
+    /// datagrams, late, and its carrier stays up. The actuator may miss its commands' deadline
+    /// and then receive a late one ([`Action::Lag`], [`Action::CatchUp`]); its peers see its
+    /// commands arrive late while the others' arrive on time (F17).
+    Starve { controller: Id },
+    /// The actuator misses a starved controller's command deadline: its writer counts as
+    /// silent until a late sample arrives.
+    Lag { controller: Id },
+    /// A late sample of a starved controller reaches the actuator: its writer counts again.
+    CatchUp { controller: Id },
+    /// The cut-off, unplugged or starved controller's links work again.
     Heal { controller: Id },
     /// The actuator discovers a controller's newest command writer.
     DiscoverWriter { controller: Id },
@@ -63,13 +73,16 @@ pub enum ActionKind {
     Resume,
     Isolate,
     Unplug,
+    Starve,
+    Lag,
+    CatchUp,
     Heal,
     DiscoverWriter,
     TieBreak,
 }
 
 impl ActionKind {
-    pub const ALL: [ActionKind; 14] = [
+    pub const ALL: [ActionKind; 17] = [
         ActionKind::LoseHeartbeat,
         ActionKind::Tick,
         ActionKind::ExpireWindow,
@@ -81,6 +94,9 @@ impl ActionKind {
         ActionKind::Resume,
         ActionKind::Isolate,
         ActionKind::Unplug,
+        ActionKind::Starve,
+        ActionKind::Lag,
+        ActionKind::CatchUp,
         ActionKind::Heal,
         ActionKind::DiscoverWriter,
         ActionKind::TieBreak,
@@ -99,6 +115,9 @@ impl ActionKind {
             ActionKind::Resume => "resume",
             ActionKind::Isolate => "isolate",
             ActionKind::Unplug => "unplug",
+            ActionKind::Starve => "starve",
+            ActionKind::Lag => "lag",
+            ActionKind::CatchUp => "catch_up",
             ActionKind::Heal => "heal",
             ActionKind::DiscoverWriter => "discover_writer",
             ActionKind::TieBreak => "tie_break",
@@ -120,6 +139,9 @@ impl Action {
             Action::Resume { .. } => ActionKind::Resume,
             Action::Isolate { .. } => ActionKind::Isolate,
             Action::Unplug { .. } => ActionKind::Unplug,
+            Action::Starve { .. } => ActionKind::Starve,
+            Action::Lag { .. } => ActionKind::Lag,
+            Action::CatchUp { .. } => ActionKind::CatchUp,
             Action::Heal { .. } => ActionKind::Heal,
             Action::DiscoverWriter { .. } => ActionKind::DiscoverWriter,
             Action::TieBreak { .. } => ActionKind::TieBreak,
@@ -140,6 +162,9 @@ impl Action {
             | Action::Resume { controller }
             | Action::Isolate { controller }
             | Action::Unplug { controller }
+            | Action::Starve { controller }
+            | Action::Lag { controller }
+            | Action::CatchUp { controller }
             | Action::Heal { controller }
             | Action::DiscoverWriter { controller } => Some(controller),
             Action::DeliverVotes { to } | Action::TieBreak { to } => Some(to),
@@ -173,6 +198,16 @@ impl fmt::Display for Action {
                 f,
                 "C{controller}'s cable pulled (cut off from its peers and the actuator)"
             ),
+            Action::Starve { controller } => write!(
+                f,
+                "C{controller}'s links starved (its datagrams delayed, some dropped)"
+            ),
+            Action::Lag { controller } => {
+                write!(f, "actuator misses C{controller}'s command deadline")
+            }
+            Action::CatchUp { controller } => {
+                write!(f, "a late command of C{controller} reaches the actuator")
+            }
             Action::Heal { controller } => write!(f, "C{controller} reconnected to its peers"),
             Action::DiscoverWriter { controller } => {
                 write!(f, "actuator discovers C{controller}'s new command writer")
@@ -260,6 +295,12 @@ pub struct Controller {
     pub fresh_writer: bool,
     /// The actuator has not discovered the newest writer yet.
     pub undiscovered: bool,
+    /// F17: it took over from this Primary (id, incarnation), whose commands arrived late,
+    /// and commands at [`crate::types::TAKEOVER_STRENGTH`] until it hears that Primary's next
+    /// incarnation.
+    pub took_over_from: Option<(Id, u8)>,
+    /// F17: it heard a peer that took over from it; it starts again at the round's end.
+    pub deposed: bool,
 }
 
 impl Controller {
@@ -285,6 +326,8 @@ impl Controller {
             retiring: None,
             fresh_writer: false,
             undiscovered: false,
+            took_over_from: None,
+            deposed: false,
         }
     }
 
@@ -309,13 +352,18 @@ impl Controller {
 
     /// Changes the command strength the way the DDS adapter does: a raise creates the new
     /// writer and keeps the old one writing until the actuator has discovered the new one; a
-    /// lowering or silence drops the old writer at once.
+    /// lowering or silence drops the old writer at once, except from the takeover strength
+    /// to another (F17), which hands over like a raise.
     pub fn set_output(&mut self, strength: Option<u8>) {
         if strength == self.output {
             return;
         }
         let raise = matches!((self.output, strength), (Some(old), Some(new)) if new > old);
-        self.retiring = if raise {
+        // F17: leaving the takeover strength for the Primary's hands over like a raise: the
+        // takeover writer is the actuator's owner, and nobody else commands above 30 then.
+        let from_takeover =
+            self.output == Some(crate::types::TAKEOVER_STRENGTH) && strength.is_some();
+        self.retiring = if raise || from_takeover {
             self.output.max(self.retiring)
         } else {
             None
@@ -323,6 +371,14 @@ impl Controller {
         self.output = strength;
         self.fresh_writer = strength.is_some();
         self.undiscovered = strength.is_some();
+    }
+
+    /// F17: takes over from the Primary `from` (its incarnation `incarnation`) at the takeover
+    /// strength, on the writer it keeps ready for this: the actuator already knows it.
+    pub fn take_over(&mut self, from: Id, incarnation: u8) {
+        self.took_over_from = Some((from, incarnation));
+        self.set_output(Some(crate::types::TAKEOVER_STRENGTH));
+        self.undiscovered = false;
     }
 
     /// A new round: the writers created in the last one are established (the actuator has
@@ -394,6 +450,12 @@ pub struct History {
     pub revoted_after_loss: bool,
     pub pauses: u8,
     pub isolations: u8,
+    /// Starved links (`Action::Starve`).
+    pub starvations: u8,
+    /// A witness: a Secondary took over from a starved Primary (F17).
+    pub took_over: bool,
+    /// A link was starved and the system has not settled since with every link working.
+    pub starvation_open: bool,
     /// Fault episodes begun: crashes, pauses, cuts and link failures (a link failure is one
     /// episode however many heartbeats it loses, see `links_down`). Each may move the
     /// actuator once.
@@ -438,6 +500,13 @@ pub struct State {
     /// (`Action::Unplug`).
     #[serde(default, skip_serializing_if = "no_bits")]
     pub unplugged: u8,
+    /// Bit `id - 1`: the controller's links are starved (`Action::Starve`).
+    #[serde(default, skip_serializing_if = "no_bits")]
+    pub starved: u8,
+    /// Bit `id - 1`: of the starved controllers, those whose command deadline the actuator
+    /// has missed (`Action::Lag`): their writers count as silent.
+    #[serde(default, skip_serializing_if = "no_bits")]
+    pub lagging: u8,
     /// The controller whose commands the actuator follows (the last one, while none is
     /// visible).
     pub owner: Option<Id>,

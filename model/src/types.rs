@@ -19,6 +19,11 @@ pub const ROLE_COUNT: usize = 3;
 /// result's members (F11): below every standby of a majority, above every Tertiary.
 pub const PROVISIONAL_PRIMARY_STRENGTH: u8 = 15;
 
+/// The strength a Secondary commands at when it takes over from a Primary whose commands
+/// reach the actuator late (F17): above the Primary's, so none of the late Primary's samples
+/// still in flight can take the actuator back.
+pub const TAKEOVER_STRENGTH: u8 = 35;
+
 /// A voted role. The order is the order of precedence: Primary drives the actuator.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]

@@ -80,7 +80,7 @@ fn the_paper_variant_reverts_every_fix_and_each_fix_has_its_own_switch() {
     let numbers: Vec<u8> = Fix::ALL.iter().map(|fix| fix.number()).collect();
     assert_eq!(
         numbers,
-        [1, 2, 3, 4, 5, 6, 7, 8, 10, 11, 12, 13, 14, 15, 16]
+        [1, 2, 3, 4, 5, 6, 7, 8, 10, 11, 12, 13, 14, 15, 16, 17]
     );
 }
 
@@ -274,6 +274,35 @@ fn f16_an_unplugged_primary_takes_the_actuator_back_when_its_cable_is_back() {
     assert_eq!(
         found.get("one owner change per fault"),
         Some(&9),
+        "{found:?}"
+    );
+}
+
+#[test]
+fn f17_a_starved_primary_takes_the_actuator_back_with_each_late_sample() {
+    // The starved scope (one rate-limited link, two lost heartbeats): the Primary's commands
+    // reach the actuator late. Without F17 the actuator takes the Secondary when it misses
+    // the Primary's deadline and the Primary back when its late sample arrives (one fault,
+    // two owner changes); with it the Secondary has taken over above the Primary first.
+    let starved = Config::starved();
+    assert_eq!(counterexamples(&starved), none());
+    let explored = search::explore(&RlModel::new(starved.clone()), 5_000_000, |_, _| {});
+    assert!(explored
+        .discovery("a Secondary takes over from a starved Primary")
+        .is_some());
+    let found = counterexamples(&reverting(&starved, &[Fix::StarvedTakeover]));
+    assert_eq!(
+        found.keys().copied().collect::<Vec<_>>(),
+        [
+            "actuator follows the settled Primary",
+            "one owner change per fault",
+            "owner changes only to the next Primary",
+        ],
+        "{found:?}"
+    );
+    assert_eq!(
+        found.get("one owner change per fault"),
+        Some(&10),
         "{found:?}"
     );
 }

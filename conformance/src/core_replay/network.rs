@@ -330,6 +330,13 @@ impl<'a> CoreNetwork<'a> {
                 self.isolated.remove(&controller);
                 self.unplugged.remove(&controller);
             }
+            // F17 is in the specification only (docs/findings.md): the core has no takeover
+            // yet, so no trace of the replayed scopes starves a link.
+            Action::Starve { .. } | Action::Lag { .. } | Action::CatchUp { .. } => {
+                return Err(Problem::Unsupported(format!(
+                    "{action}: a starved link (F17) is not in the core yet"
+                )))
+            }
             Action::DiscoverWriter { controller } => {
                 self.actuator.undiscovered.remove(&controller);
             }

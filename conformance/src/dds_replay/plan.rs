@@ -69,8 +69,8 @@ pub enum PlanError {
     /// `DeliverVotes` belongs to the paper variant.
     #[error("durable-vote delivery exists only in the paper variant")]
     PaperVariantAction,
-    /// Pauses and cuts need a process stopped or a network cut on schedule, which this
-    /// replay does not do (the process tests and the fault lab do).
+    /// Pauses, cuts and starved links need a process stopped or a network cut or shaped on
+    /// schedule, which this replay does not do (the process tests and the fault lab do).
     #[error("step {step}: \"{action}\" (a pause or a cut) is not replayed on processes")]
     PauseOrCut { step: usize, action: Action },
     /// The model keeps changing after the trace's last step.
@@ -376,6 +376,9 @@ fn rebuild(trace: &Trace, config: &model::Config, initial: State) -> Result<Rebu
             | Action::Resume { .. }
             | Action::Isolate { .. }
             | Action::Unplug { .. }
+            | Action::Starve { .. }
+            | Action::Lag { .. }
+            | Action::CatchUp { .. }
             | Action::Heal { .. } => {
                 return Err(PlanError::PauseOrCut {
                     step: trace_step.number,

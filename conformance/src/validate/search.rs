@@ -388,6 +388,8 @@ pub(super) fn representatives(branch: &Branch) -> State {
         overdue_votes: 0,
         isolated: 0,
         unplugged: 0,
+        starved: 0,
+        lagging: 0,
         owner: None,
         tie_order: 0,
         history: History::default(),

@@ -20,7 +20,7 @@ fn visible(state: &State) -> Vec<(Id, u8)> {
     state
         .controllers
         .iter()
-        .filter(|c| state.unplugged & (1 << (c.id - 1)) == 0)
+        .filter(|c| (state.unplugged | state.lagging) & (1 << (c.id - 1)) == 0)
         .filter_map(|c| c.visible_strength().map(|strength| (c.id, strength)))
         .collect()
 }
@@ -132,7 +132,9 @@ pub(super) fn settle_bookkeeping(next: &mut State) {
         allowed |= 1 << (id - 1);
     }
     let backed = next.up().all(|c| !c.provisional);
+    let starved = next.starved != 0;
     let history = &mut next.history;
+    history.starvation_open &= starved;
     history.formed |= backed;
     if history.change_targets & !allowed != 0 {
         history.stray_owner = true;

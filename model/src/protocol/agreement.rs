@@ -266,6 +266,10 @@ fn adopt(config: &Config, next: &mut State, id: Id, agreed: Assignment) {
 /// let DDS, not the vote, pick the commander.
 pub(super) fn entitled_strength(config: &Config, c: &Controller) -> Option<u8> {
     let rules = config.rules();
+    if rules.f17_starved_takeover && c.took_over_from.is_some() {
+        // F17: a takeover holds until the deposed Primary is heard again as a new life.
+        return Some(crate::types::TAKEOVER_STRENGTH);
+    }
     let role = c.role?;
     if !matches!(c.phase, Phase::Voting | Phase::Steady) {
         return None;
@@ -287,7 +291,8 @@ pub(super) fn entitled_strength(config: &Config, c: &Controller) -> Option<u8> {
             && c.output == Some(Role::Primary.strength())
             && !c.lost_could_outvote();
         if c.output.is_some() && (c.provisional_rounds == 0 || hears_majority(c) || unoutranked) {
-            return c.output;
+            // A takeover released meanwhile (F17) comes down to the Primary's strength.
+            return c.output.map(|kept| kept.min(Role::Primary.strength()));
         }
         return Some(PROVISIONAL_PRIMARY_STRENGTH);
     }

@@ -55,6 +55,8 @@ pub fn init_states(config: &Config) -> Vec<State> {
             overdue_votes: 0,
             isolated: 0,
             unplugged: 0,
+            starved: 0,
+            lagging: 0,
             owner: None,
             tie_order: 0,
             history: History::default(),
@@ -138,13 +140,19 @@ fn lifecycle_actions(config: &Config, state: &State, id: Id, out: &mut Vec<Actio
     let c = state.controller(id);
     match c.life {
         Life::Up => {
-            if state.history.crashes < config.max_crashes {
+            // A starved link is one fault at a time too, until the system has settled after it: with
+            // a second one the Secondary may have no controller on time to compare the
+            // Primary with, or the taker may die before the deposed Primary heard it
+            // (docs/findings.md, F17).
+            let starvation_open = state.history.starvation_open;
+            if state.history.crashes < config.max_crashes && !starvation_open {
                 out.push(Action::Crash { controller: id });
             }
-            // One pause or cut at a time, of a full running system that has settled, its
-            // writers established (a split at formation, of a system of two, or in three,
-            // has no majority anywhere: F9).
+            // One pause, cut or starved link at a time, of a full running system that has
+            // settled, its writers established (a split at formation, of a system of two, or
+            // in three, has no majority anywhere: F9).
             let running = state.isolated == 0
+                && !starvation_open
                 && state
                     .controllers
                     .iter()
@@ -158,6 +166,9 @@ fn lifecycle_actions(config: &Config, state: &State, id: Id, out: &mut Vec<Actio
                 out.push(Action::Isolate { controller: id });
                 out.push(Action::Unplug { controller: id });
             }
+            if running && state.history.starvations < config.max_starvations {
+                out.push(Action::Starve { controller: id });
+            }
             if c.phase == Phase::Failed && state.history.restarts < config.max_restarts {
                 out.push(Action::Restart { controller: id });
             }
@@ -170,7 +181,15 @@ fn lifecycle_actions(config: &Config, state: &State, id: Id, out: &mut Vec<Actio
         Life::Paused => out.push(Action::Resume { controller: id }),
         Life::NotStarted => out.push(Action::Join { controller: id }),
     }
-    if state.isolated & (1 << (id - 1)) != 0 {
+    let bit = 1 << (id - 1);
+    if state.starved & bit != 0 && c.is_up() {
+        out.push(if state.lagging & bit == 0 {
+            Action::Lag { controller: id }
+        } else {
+            Action::CatchUp { controller: id }
+        });
+    }
+    if (state.isolated | state.starved) & bit != 0 {
         out.push(Action::Heal { controller: id });
     }
     if c.is_up() && c.undiscovered {
@@ -237,6 +256,9 @@ pub fn next_state(config: &Config, state: &State, action: Action) -> Option<Stat
         | Action::Resume { .. }
         | Action::Isolate { .. }
         | Action::Unplug { .. }
+        | Action::Starve { .. }
+        | Action::Lag { .. }
+        | Action::CatchUp { .. }
         | Action::Heal { .. }
         | Action::DiscoverWriter { .. }
         | Action::TieBreak { .. } => interrupt(config, state, &mut next, action),
@@ -323,9 +345,25 @@ fn interrupt(config: &Config, state: &State, next: &mut State, action: Action) {
                 agreement::note_role_change(&mut next.history, controller, old_role, None);
             }
         }
+        Action::Starve { controller } => {
+            next.starved |= 1 << (controller - 1);
+            next.history.starvations += 1;
+            next.history.starvation_open = true;
+            next.history.faults += 1;
+            next.history.quiet_rounds = 0;
+            next.history.away |= 1 << (controller - 1);
+            if config.rules().f17_starved_takeover {
+                take_over_from_starved(next, controller);
+            }
+        }
+        Action::Lag { controller } => next.lagging |= 1 << (controller - 1),
+        Action::CatchUp { controller } => next.lagging &= !(1 << (controller - 1)),
         Action::Heal { controller } => {
-            next.isolated &= !(1 << (controller - 1));
-            next.unplugged &= !(1 << (controller - 1));
+            let bit = 1 << (controller - 1);
+            next.isolated &= !bit;
+            next.unplugged &= !bit;
+            next.starved &= !bit;
+            next.lagging &= !bit;
             next.history.quiet_rounds = 0;
         }
         Action::DiscoverWriter { controller } => {
@@ -341,7 +379,48 @@ fn interrupt(config: &Config, state: &State, next: &mut State, action: Action) {
     }
 }
 
+/// F17: the starved controller's commands reach its peers late. If it is the Primary, its
+/// Secondary compares them with the Tertiary's, which arrive on time, and takes over at once
+/// at the takeover strength (timing assumption: two late samples, well within the actuator's
+/// command deadline). Without a Tertiary on time to compare with, a Secondary cannot tell a
+/// late Primary from its own starved link, and does nothing.
+fn take_over_from_starved(next: &mut State, starved: Id) {
+    let primary = next.controller(starved);
+    if !primary.is_active()
+        || primary.role != Some(Role::Primary)
+        || primary.output != Some(Role::Primary.strength())
+    {
+        return;
+    }
+    let incarnation = primary.incarnation;
+    let Some(agreed) = primary.agreed else {
+        return;
+    };
+    let on_time = |id: Option<Id>| {
+        id.filter(|id| next.starved & (1 << (id - 1)) == 0)
+            .map(|id| next.controller(id))
+            .filter(|c| c.is_active() && c.output.is_some())
+    };
+    let (Some(secondary), Some(_tertiary)) = (
+        on_time(agreed.holder(Role::Secondary)),
+        on_time(agreed.holder(Role::Tertiary)),
+    ) else {
+        return;
+    };
+    if secondary.role != Some(Role::Secondary) {
+        return;
+    }
+    let id = secondary.id;
+    next.controller_mut(id).take_over(starved, incarnation);
+    next.history.took_over = true;
+}
+
 fn forget_links(state: &mut State, id: Id) {
+    // Ghost: the life that ended no longer holds a role a restarted controller must come in
+    // below (a next life of it has no such claim).
+    for c in state.controllers.iter_mut() {
+        c.held_roles_at_restart &= !(1 << (id - 1));
+    }
     for other in 1..=state.controllers.len() as Id {
         let mask = !(link_bit(id, other) | link_bit(other, id));
         state.lost_links &= mask;

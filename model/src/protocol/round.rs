@@ -32,6 +32,16 @@ pub(super) fn tick(config: &Config, before: &State, next: &mut State) {
     for &id in &ids {
         round_step(config, before, next, id);
     }
+    // F17: a Primary that heard a peer take over from it starts again as a new incarnation,
+    // as after a stall: its commands are late, and what it still sends must not outrank the
+    // system it comes back to.
+    for &id in &ids {
+        if next.controller(id).deposed {
+            let old_role = next.controller(id).role;
+            super::new_life(config, before, next, id, true);
+            super::agreement::note_role_change(&mut next.history, id, old_role, None);
+        }
+    }
     // A link stays down while it loses a heartbeat, either way, every round; a round that
     // carries its heartbeats ends its failure.
     next.history.links_down = both_ways(before.lost_links);
@@ -94,10 +104,26 @@ pub fn round_step(config: &Config, before: &State, next: &mut State, id: Id) {
             c.provisional_rounds = 1;
         }
         confirm_provisional(config, c);
+        release_takeover(c);
         if c.is_active() {
             // The strength follows the role: a held Primary (F8) rises once uncontested, a
             // raise waits for the roles above (F13).
             apply_output(config, c);
+        }
+    }
+}
+
+/// F17: the takeover strength is held until the deposed Primary is heard as its next
+/// incarnation (until then its old writer may still be writing at 30) and the taker holds the
+/// Primary role of a backed result: a Secondary's or a provisional Primary's strength would
+/// hand the actuator to another.
+fn release_takeover(c: &mut Controller) {
+    if let Some((deposed, incarnation)) = c.took_over_from {
+        let deposed_gone = c.peer(deposed).alive != Some(incarnation);
+        let backed_primary =
+            c.phase == Phase::Steady && c.role == Some(Role::Primary) && !c.provisional;
+        if deposed_gone && backed_primary {
+            c.took_over_from = None;
         }
     }
 }
@@ -195,6 +221,8 @@ fn receive_heartbeat(
 ) -> HeartbeatOutcome {
     let rules = config.rules();
     let c = next.controller_mut(receiver);
+    let c_incarnation = c.incarnation;
+    let mut deposed = false;
     let mut outcome = HeartbeatOutcome::default();
     let known_as = c.peer(sender.id).alive;
     let known = match known_as {
@@ -243,11 +271,15 @@ fn receive_heartbeat(
     if rules.f13_ordered_raise {
         peer.heard_strength = sender.established_strength();
     }
+    if rules.f17_starved_takeover && sender.took_over_from == Some((receiver, c_incarnation)) {
+        deposed = true;
+    }
     if sender.phase == Phase::Failed && !peer.failed {
         // It announced its own failure: every voter excludes it.
         peer.failed = true;
         peer.alarm = true;
         outcome.membership_changed = true;
     }
+    c.deposed |= deposed;
     outcome
 }
