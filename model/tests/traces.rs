@@ -52,7 +52,9 @@ fn committed_traces_match_the_model() {
         ("", 4_834_508, true),
         ("link-failure", 5_486_240, true),
         ("returns", 75_095, true),
-        ("coverage-returns-restart", 3_957_104, false),
+        // 3,957,104 before a restarted controller's ghost "held a role when I restarted"
+        // forgot the lives that ended since (docs/findings.md, F17).
+        ("coverage-returns-restart", 3_635_461, false),
         ("coverage-failed-restart", 4_453_494, false),
     ];
     // Every scope's size is looked at before any assertion, so a change shows all of them.
