@@ -1873,6 +1873,7 @@ mod tests {
     rtps::{submessage::*, Message},
     serialization::{CDRDeserializerAdapter, CDRSerializerAdapter},
     structure::{
+      duration::Duration,
       guid::{EntityId, GUID},
       locator::Locator,
       sequence_number::{SequenceNumber, SequenceNumberSet},
@@ -1960,6 +1961,92 @@ mod tests {
       heard += 1;
     }
     assert!(heard > 3, "the default capacity kept {heard} events");
+  }
+
+  // What a reader receives after a writer with `lifespan` wrote a sample
+  // stamped 1 s back (as a sample written just before a SIGSTOP is sent when
+  // the process resumes), then a fresh one.
+  fn received_after_a_stale_write(domain_offset: u16, lifespan: Duration) -> Vec<i64> {
+    use std::time::{Duration as StdDuration, Instant};
+
+    use crate::{
+      dds::qos::policy::{History, Lifespan, Reliability},
+      Timestamp,
+    };
+    let domain = test_domain_id(domain_offset);
+    let qos = QosPolicies::builder()
+      .reliability(Reliability::Reliable {
+        max_blocking_time: Duration::from_millis(100),
+      })
+      .lifespan(Lifespan { duration: lifespan })
+      // Deep enough that a stale sample would not be replaced before it is taken.
+      .history(History::KeepLast { depth: 10 })
+      .build();
+    let writing = DomainParticipant::new(domain).unwrap();
+    let reading = DomainParticipant::new(domain).unwrap();
+    let topic = writing
+      .create_topic("lifespan".to_string(), "T".to_string(), &qos, TopicKind::NoKey)
+      .unwrap();
+    let writer = writing
+      .create_publisher(&qos)
+      .unwrap()
+      .create_datawriter_no_key::<RandomData, CDRSerializerAdapter<RandomData, LittleEndian>>(
+        &topic,
+        Some(qos.clone()),
+      )
+      .unwrap();
+    let reader_topic = reading
+      .create_topic("lifespan".to_string(), "T".to_string(), &qos, TopicKind::NoKey)
+      .unwrap();
+    let mut reader = reading
+      .create_subscriber(&qos)
+      .unwrap()
+      .create_datareader_no_key::<RandomData, CDRDeserializerAdapter<RandomData>>(
+        &reader_topic,
+        Some(qos.clone()),
+      )
+      .unwrap();
+    let sample = |a| RandomData {
+      a,
+      b: String::new(),
+    };
+    // Matched once a fresh sample gets through.
+    let matched_by = Instant::now() + StdDuration::from_secs(10);
+    let mut received = Vec::new();
+    while received.is_empty() && Instant::now() < matched_by {
+      writer.write(sample(0), Some(Timestamp::now())).unwrap();
+      std::thread::sleep(StdDuration::from_millis(50));
+      while let Ok(Some(s)) = reader.take_next_sample() {
+        received.push(s.into_value().a);
+      }
+    }
+    assert!(!received.is_empty(), "the reader never matched");
+    // Every earlier sample past a short lifespan too: samples are written in
+    // time order, so the expired ones are the oldest.
+    std::thread::sleep(StdDuration::from_millis(300));
+    let stale = Timestamp::now() - Duration::from_secs(1);
+    writer.write(sample(1), Some(stale)).unwrap();
+    writer.write(sample(2), Some(Timestamp::now())).unwrap();
+    std::thread::sleep(StdDuration::from_millis(500));
+    received.clear();
+    while let Ok(Some(s)) = reader.take_next_sample() {
+      received.push(s.into_value().a);
+    }
+    received
+  }
+
+  #[test]
+  fn a_sample_past_the_writers_lifespan_is_not_sent() {
+    let received = received_after_a_stale_write(50, Duration::from_millis(100));
+    assert_eq!(received, [2], "samples received after the stale write");
+  }
+
+  // The default lifespan, INFINITE (ROS 2 profiles announce it too), keeps
+  // every sample however old.
+  #[test]
+  fn an_infinite_lifespan_keeps_an_old_sample() {
+    let received = received_after_a_stale_write(51, Duration::INFINITE);
+    assert_eq!(received, [1, 2], "samples received after the stale write");
   }
 
   // TODO: improve basic test when more or the structure is known

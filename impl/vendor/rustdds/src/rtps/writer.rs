@@ -776,7 +776,35 @@ impl Writer {
     }
   }
 
+  /// LIFESPAN (DDS 1.4 2.2.3.16) on the writer side: a sample older than the
+  /// lifespan is never sent nor repaired. A sample written just before the
+  /// process was stopped (SIGSTOP) would otherwise go out when it resumes, long
+  /// after any reader's deadline. Samples without a source timestamp stay.
+  fn expire_lifespan(&mut self) {
+    let Some(lifespan) = self.qos_policies.lifespan() else {
+      return;
+    };
+    // INFINITE (the DDS default, and what ROS 2 profiles announce) never
+    // expires; nor does a lifespan longer than the clock's age, which the
+    // wrapping timestamp arithmetic would turn into a cut-off in the future.
+    let now = Timestamp::now();
+    let fits = u64::try_from(lifespan.duration.to_ticks()).is_ok_and(|ticks| ticks < now.to_ticks());
+    if lifespan.duration == Duration::INFINITE || !fits {
+      return;
+    }
+    let expired = self
+      .send_buffer
+      .remove_written_before(now - lifespan.duration);
+    if expired > 0 {
+      debug!(
+        "Writer {:?}: {expired} sample(s) past their lifespan dropped",
+        self.my_guid
+      );
+    }
+  }
+
   pub fn process_pending(&mut self) {
+    self.expire_lifespan();
     // The doorbell enqueues this writer's id and then wakes. A sample admitted
     // while we are here pushes another id, so the next wake runs us again. The
     // shared buffer's `last_seq` is the source of truth.
@@ -1415,6 +1443,7 @@ impl Writer {
   fn handle_repair_data_send_worker(&mut self, reader_proxy: &mut RtpsReaderProxy) {
     // Note: The reader_proxy is now removed from readers map
     let reader_guid = reader_proxy.remote_reader_guid;
+    self.expire_lifespan();
 
     debug!(
       "Repair data send to {reader_guid:?}. ReaderProxy Unsent changes: {:?}",

@@ -11,7 +11,9 @@ use log::{debug, error, trace, warn};
 
 use crate::{
   dds::{ddsdata::DDSData, with_key::datawriter::WriteOptions},
-  structure::{cache_change::CacheChange, guid::GUID, sequence_number::SequenceNumber},
+  structure::{
+    cache_change::CacheChange, guid::GUID, sequence_number::SequenceNumber, time::Timestamp,
+  },
 };
 
 /// Result of an admission attempt into the [`WriterSendBuffer`].
@@ -412,6 +414,30 @@ impl WriterSendBuffer {
     }
   }
 
+  /// LIFESPAN on the writer side (DDS 1.4 2.2.3.16): evict the oldest samples
+  /// written before `written_before`, up to the first one that is newer (or
+  /// has no source timestamp). Samples are stamped when written, so the
+  /// expired ones are a prefix. Returns how many were evicted.
+  pub fn remove_written_before(&self, written_before: Timestamp) -> usize {
+    // One lock: a sample admitted meanwhile must not be taken for expired.
+    let mut inner = self.shared.inner.lock().unwrap();
+    let remove_before = inner
+      .changes
+      .iter()
+      .find(|(_, cc)| {
+        cc.write_options
+          .source_timestamp()
+          .is_none_or(|written| written >= written_before)
+      })
+      .map_or(inner.last_seq.plus_1(), |(sn, _)| *sn);
+    let count_before = inner.changes.len();
+    inner.changes = inner.changes.split_off(&remove_before);
+    if remove_before > inner.first_seq {
+      inner.first_seq = remove_before;
+    }
+    count_before - inner.changes.len()
+  }
+
   // --- wait_for_acknowledgments support ---
 
   /// Has every matched reliable reader acknowledged everything up to and
@@ -485,6 +511,38 @@ mod tests {
     WriteOptionsBuilder::new()
       .best_effort_may_block(true)
       .build()
+  }
+
+  // Writer-side LIFESPAN evicts the samples written before the cut-off, the
+  // oldest first, and keeps the rest (and those without a timestamp after).
+  #[test]
+  fn samples_written_before_the_cut_off_are_evicted() {
+    use crate::structure::duration::Duration;
+    let buf = WriterSendBuffer::new(
+      GUID::GUID_UNKNOWN,
+      "t".to_string(),
+      /* reliable_writer */ true,
+      /* is_builtin */ false,
+      /* volatile */ true,
+      /* window_limit */ 10,
+      /* backlog_limit */ 1000,
+      /* max_retain */ 10,
+    );
+    let now = Timestamp::now();
+    let stamped = |age_ms: i64| {
+      WriteOptionsBuilder::new()
+        .source_timestamp(now - Duration::from_millis(age_ms))
+        .build()
+    };
+    for age_ms in [300, 200, 50, 10] {
+      assert!(admit_now(&buf, stamped(age_ms)));
+    }
+    assert!(admit_now(&buf, WriteOptions::default()));
+    assert_eq!(buf.remove_written_before(now - Duration::from_millis(100)), 2);
+    assert_eq!(buf.retained_len(), 3);
+    assert_eq!(i64::from(buf.first_change_sequence_number()), 3);
+    assert_eq!(buf.remove_written_before(now + Duration::from_millis(100)), 2);
+    assert_eq!(i64::from(buf.first_change_sequence_number()), 5);
   }
 
   // A matched reliable reader that has not sent an ACKNACK yet reports
