@@ -470,10 +470,12 @@ impl CommandWriter {
             topic: self.topic.name(),
             source: e.forget_data(),
         };
+        // Stamped: the writer's lifespan counts from it (crate::dds::qos::command_writer).
+        let written = Timestamp::now();
         if let Some((retiring, _)) = &self.retiring {
-            retiring.write(command, None).map_err(error)?;
+            retiring.write(command, Some(written)).map_err(error)?;
         }
-        writer.write(command, None).map_err(error)?;
+        writer.write(command, Some(written)).map_err(error)?;
         Ok(true)
     }
 }

@@ -6,7 +6,7 @@
 
 use crate::config::Timing;
 use rustdds::{
-    policy::{Deadline, Durability, History, Liveliness, Ownership, Reliability},
+    policy::{Deadline, Durability, History, Lifespan, Liveliness, Ownership, Reliability},
     Duration, QosPolicies, QosPolicyBuilder,
 };
 
@@ -95,7 +95,10 @@ pub fn command_liveliness_lease_ms(timing: &Timing) -> u64 {
 
 /// Command writer (`pixy/servo_control`): reliable, EXCLUSIVE ownership at `strength`,
 /// deadline = the command deadline, automatic liveliness with a short lease, keep last 1 (as
-/// the original tracker).
+/// the original tracker), and a lifespan of one command deadline: a command older than that
+/// is never sent nor repaired (RustDDS fix 18), since a reader would take it for the writer
+/// being alive and on time. A command written just before a stall (SIGSTOP) would otherwise
+/// go out when the process resumes and take the actuator back for a moment.
 pub fn command_writer(timing: &Timing, strength: i32) -> QosPolicies {
     QosPolicyBuilder::new()
         .reliability(reliable())
@@ -105,6 +108,9 @@ pub fn command_writer(timing: &Timing, strength: i32) -> QosPolicies {
         .deadline(Deadline(duration_ms(timing.command_deadline_ms)))
         .liveliness(Liveliness::Automatic {
             lease_duration: duration_ms(command_liveliness_lease_ms(timing)),
+        })
+        .lifespan(Lifespan {
+            duration: duration_ms(timing.command_deadline_ms),
         })
         .build()
 }
