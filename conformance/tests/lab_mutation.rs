@@ -12,10 +12,13 @@
 //! failure is certain; the other mutations need a lost heartbeat, a minority vote or a fourth
 //! controller at the right moment, which no named scenario guarantees.
 //!
-//! The second pair is `flap-primary` with `stay-when-unplugged`: C1 goes on when its links
-//! lose their carrier, so an outage longer than `rl servo`'s command deadline and shorter than
-//! the peers' decision hands the actuator to C2 and back to C1 (the model's F16 reverted).
-//! Seed 1's flapping has such outages (3 owner changes at `rl servo` in each of 3 runs).
+//! The second pair is `unplug-primary` with `stay-when-unplugged`: C1 goes on when its links
+//! lose their carrier, so its cables out for 0.3 s, longer than either reader's command deadline
+//! and shorter than the soonest anyone acts on the silence (a peer is lost after two silent
+//! rounds and the new roles hold a round later: at least half a second after the pull), hand
+//! the actuator to C2 and, when they are back in, to C1 again, still at 30 (the model's F16
+//! reverted). Certain at every round phase, unlike a seed of `flap-primary`, whose outages of
+//! 0.5 s and more may outlast the peers' decision.
 //!
 //! The lab runs need root (namespaces, links, nftables) and nft and libfaketime installed, as
 //! `lab` itself does: they are ignored by default and CI runs them (as root, the tools
@@ -35,9 +38,8 @@ static ONE_RUN_AT_A_TIME: Mutex<()> = Mutex::new(());
 
 const SCENARIO: &str = "kill-primary";
 const MUTATION: &str = "failback";
-const FLAP_SCENARIO: &str = "flap-primary";
-const FLAP_SEED: &str = "1";
-const FLAP_MUTATION: &str = "stay-when-unplugged";
+const UNPLUG_SCENARIO: &str = "unplug-primary";
+const UNPLUG_MUTATION: &str = "stay-when-unplugged";
 
 fn out_dir() -> PathBuf {
     Path::new(env!("CARGO_TARGET_TMPDIR")).join("lab-mutation")
@@ -161,8 +163,8 @@ fn the_same_build_without_a_mutation_passes_kill_primary() {
 
 #[test]
 #[ignore = "needs root, nft and faketime (the fault lab's namespaces and firewall rules); CI runs it"]
-fn a_build_that_stays_when_unplugged_fails_flap_primary_on_owner_changes() {
-    let (output, result) = lab_run_of(FLAP_SCENARIO, FLAP_SEED, Some(FLAP_MUTATION));
+fn a_build_that_stays_when_unplugged_fails_unplug_primary_on_owner_changes() {
+    let (output, result) = lab_run_of(UNPLUG_SCENARIO, "1", Some(UNPLUG_MUTATION));
     assert_eq!(output.status.code(), Some(1), "lab's exit status");
     let failures = failures(&result);
     let changes = servo_changes(&result);
@@ -171,18 +173,18 @@ fn a_build_that_stays_when_unplugged_fails_flap_primary_on_owner_changes() {
         "C1 takes the actuator back when its links are up again, measured {changes:?}"
     );
     assert!(
-        failures.iter().any(|f| f.contains("links flapping")
+        failures.iter().any(|f| f.contains("cables pulled")
             && f.contains("owner changes at rl servo")
             && f.ends_with("(expected at most 1)")),
-        "the owner-change judge names the flapping links: {:#?}",
+        "the owner-change judge names the pulled cables: {:#?}",
         first_lines(&failures)
     );
 }
 
 #[test]
 #[ignore = "needs root, nft and faketime (the fault lab's namespaces and firewall rules); CI runs it"]
-fn the_same_build_without_a_mutation_passes_flap_primary() {
-    let (output, result) = lab_run_of(FLAP_SCENARIO, FLAP_SEED, None);
+fn the_same_build_without_a_mutation_passes_unplug_primary() {
+    let (output, result) = lab_run_of(UNPLUG_SCENARIO, "1", None);
     assert_eq!(
         first_lines(&failures(&result)),
         Vec::<&str>::new(),
@@ -192,7 +194,7 @@ fn the_same_build_without_a_mutation_passes_flap_primary() {
     assert_eq!(
         servo_changes(&result),
         vec![1],
-        "one owner change for the flapping"
+        "one owner change for the pulled cables"
     );
 }
 

@@ -132,6 +132,9 @@ pub fn for_fault(fault: &Fault) -> FaultExpected {
         // Controllers follow the Primary's round phase (rl::round_clock), whatever their wall
         // clocks say or however fast their crystals run: a clock fault is a restart.
         Fault::Kill(_) | Fault::Pause(_) | Fault::ClockOffset(..) | Fault::ClockRate(..) => CRASH,
+        // A controller that sees every link lose its carrier starts again as a new incarnation
+        // at once, as after a stall (F16).
+        Fault::Unplug(_) => CRASH,
         Fault::Loss(_, percent) if *percent <= UNFELT_LOSS_PERCENT => UNFELT,
         // Heavier loss, a flapping or a starved link: see [`lossy_link`].
         Fault::Loss(..) | Fault::Flap(..) | Fault::RateLimit(..) => lossy_link(),
@@ -247,6 +250,7 @@ pub fn for_scenario(name: &str, faults: &[Fault]) -> Result<Expected, UnknownSce
         // back and settled within the model's bound after the heal.
         "one-way-out" | "one-way-in" => Ok(for_faults(faults)),
         "loss-5" | "loss-20" | "loss-40" | "flap-primary" | "tbf-primary" => Ok(for_faults(faults)),
+        "unplug-primary" => Ok(for_faults(faults)),
         "clock-0.1s" | "clock-period" | "clock-10s" | "clock-minus-1h" | "clock-drift" => {
             Ok(for_faults(faults))
         }

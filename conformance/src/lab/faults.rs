@@ -63,6 +63,9 @@ pub enum Fault {
     MulticastOnly(Target),
     /// The target's links (both nets at once) go down and up every 0.5 to 3 s (seeded).
     Flap(Target, u64),
+    /// The target's links (both nets at once) down for the step's time, carrier and all: its
+    /// cables pulled and pushed back in.
+    Unplug(Target),
     /// The target restarted with its wall clock offset by `offset_s`; healed by a restart on
     /// the true clock. Only the glibc build of `rl` can be offset (libfaketime).
     ClockOffset(Target, f64),
@@ -117,6 +120,7 @@ impl fmt::Display for Fault {
             Fault::Loss(t, p) => write!(f, "{p}% random loss at {t}"),
             Fault::MulticastOnly(t) => write!(f, "multicast dropped at {t}"),
             Fault::Flap(t, _) => write!(f, "{t}'s links flapping (0.5-3 s)"),
+            Fault::Unplug(t) => write!(f, "{t}'s cables pulled"),
             Fault::ClockOffset(t, s) => write!(f, "{t} restarted with its clock {s:+} s"),
             Fault::ClockRate(t, rate) => {
                 let fast_percent = (rate - 1.0) * 100.0;
@@ -141,6 +145,7 @@ impl Fault {
             | Fault::Loss(t, _)
             | Fault::MulticastOnly(t)
             | Fault::Flap(t, _)
+            | Fault::Unplug(t)
             | Fault::ClockOffset(t, _)
             | Fault::ClockRate(t, _)
             | Fault::RateLimit(t, _)
@@ -167,6 +172,7 @@ impl Fault {
             Fault::Loss(_, p) => Fault::Loss(t, p),
             Fault::MulticastOnly(_) => Fault::MulticastOnly(t),
             Fault::Flap(_, s) => Fault::Flap(t, s),
+            Fault::Unplug(_) => Fault::Unplug(t),
             Fault::ClockOffset(_, s) => Fault::ClockOffset(t, s),
             Fault::ClockRate(_, rate) => Fault::ClockRate(t, rate),
             Fault::RateLimit(_, k) => Fault::RateLimit(t, k),
@@ -187,6 +193,8 @@ pub struct Applied {
     /// The net whose bridge it took down.
     bridge_down: Option<Net>,
     flapper: Option<(Arc<AtomicBool>, JoinHandle<()>)>,
+    /// The links it took down (`ip link set down`), to bring up again.
+    links_down: Vec<String>,
 }
 
 /// The other two controllers.
@@ -215,6 +223,7 @@ pub fn apply(
         tables: Vec::new(),
         bridge_down: None,
         flapper: None,
+        links_down: Vec::new(),
     };
     let me = Node::Controller(id);
     let mut rules: Vec<(Node, Rules)> = Vec::new();
@@ -252,6 +261,15 @@ pub fn apply(
         Fault::Flap(_, seed) => {
             let links = Net::BOTH.map(|net| lan.link(me, net)).to_vec();
             applied.flapper = Some(start_flapping(links, *seed));
+        }
+        // The link down rather than nftables: the controller must see its carrier go, as on
+        // a pulled cable (`rl::link_watch`), which firewall rules never show it.
+        Fault::Unplug(_) => {
+            for net in Net::BOTH {
+                let link = lan.link(me, net);
+                host::run("ip", &["link", "set", &link, "down"])?;
+                applied.links_down.push(link);
+            }
         }
         Fault::ClockOffset(_, offset_s) => {
             procs.clock_offsets_s.insert(id, *offset_s);
@@ -297,6 +315,9 @@ pub fn heal(applied: Applied, lan: &Lan, procs: &mut Procs) -> Result<(), LabErr
     }
     if let Some(net) = applied.bridge_down {
         host::run("ip", &["link", "set", &lan.bridge(net), "up"])?;
+    }
+    for link in &applied.links_down {
+        host::run("ip", &["link", "set", link, "up"])?;
     }
     if let Some((stop, thread)) = applied.flapper {
         stop.store(true, Ordering::Relaxed);

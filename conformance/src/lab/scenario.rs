@@ -213,6 +213,16 @@ fn link_and_clock_scenarios() -> Vec<Scenario> {
             Fault::Flap(p, 7),
             10.0,
         ),
+        // Shorter than the peers' decision and longer than either reader's deadline: the
+        // window in which a Primary that went on while unplugged would take the actuator back
+        // (F16).
+        one(
+            "unplug-primary",
+            "the Primary's cables pulled for 0.3 s and pushed back in",
+            false,
+            Fault::Unplug(p),
+            0.3,
+        ),
         one(
             "tbf-primary",
             "the Primary's link at 64 kbit/s (tbf), 10 s",

@@ -42,6 +42,14 @@ fn a_flapping_or_starved_link_costs_one_change_for_the_whole_episode() {
 }
 
 #[test]
+fn a_pulled_cable_is_a_restart_one_change_and_never_two_at_top() {
+    let unplugged = for_fault(&Fault::Unplug(Target::Primary));
+    assert_eq!(unplugged.owner_changes, OwnerChanges::AtMost(1));
+    assert_eq!(unplugged.two_at_top_ms, 0.0);
+    assert_eq!(unplugged.silent_ms, 0.0);
+}
+
+#[test]
 fn splits_cost_one_change_unless_the_actuator_is_split_from_the_primary() {
     let p = Target::Primary;
     let partition = |alone, actuator_with_alone| Fault::Partition {
