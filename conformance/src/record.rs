@@ -306,6 +306,7 @@ pub fn describe_event(event: &EventLine, number: Option<u8>) -> String {
         Event::HeartbeatDropped { from } => format!("from C{from}"),
         Event::Resumed { stalled_ms } => format!("after a {stalled_ms} ms stall"),
         Event::Detached => "every link without a carrier".to_string(),
+        Event::Deposed => "a peer took over from its late commands".to_string(),
         _ => String::new(),
     };
     format!("{who} {} {detail}", event.event.kind())

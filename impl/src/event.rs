@@ -81,6 +81,10 @@ pub enum Event {
     /// Every link of the controller lost its carrier (crate::link_watch): it starts again as
     /// the incarnation of this line, silent until it has heard a round and joined below.
     Detached,
+    /// A peer took over from the controller, whose commands reached it late (F17): it starts
+    /// again as the incarnation of this line, silent until it has heard a round and joined
+    /// below.
+    Deposed,
     /// The voting thread stopped cleanly: asked to (no other fields), or on its own after the
     /// controller failed itself. Then `reason` says why (`outvoted`, `local_fault`),
     /// `disagreed_with` lists the peers whose votes differed from its own, and `exit_status`
@@ -110,6 +114,7 @@ impl Event {
             Event::HeartbeatDropped { .. } => "heartbeat_dropped",
             Event::Resumed { .. } => "resumed",
             Event::Detached => "detached",
+            Event::Deposed => "deposed",
             Event::Stopped { .. } => "stopped",
         }
     }
@@ -203,6 +208,10 @@ mod tests {
         assert_eq!(
             line(Event::Detached).to_json(),
             r#"{"t_ms":1000,"id":2,"incarnation":77,"event":"detached"}"#
+        );
+        assert_eq!(
+            line(Event::Deposed).to_json(),
+            r#"{"t_ms":1000,"id":2,"incarnation":77,"event":"deposed"}"#
         );
         assert_eq!(
             line(Event::Vote { vote: None }).to_json(),

@@ -17,6 +17,7 @@
 //! the rounds, and moved to follow the Primary's round phase, so the controllers share round
 //! boundaries whether or not their wall clocks agree.
 
+use self::arrival::ArrivalWatch;
 use crate::api::{Options, Shared};
 use crate::config::{Config, LedBackend};
 use crate::core::{
@@ -28,7 +29,7 @@ use crate::failed_exit::{Failure, PendingExit};
 use crate::leds::{ConsoleLeds, LedPattern};
 use crate::link_watch::{LinkWatch, Links, Watched};
 use crate::round_clock::{PhaseFollower, RoundClock};
-use crate::wire::{AlarmSample, ControllerAlarm, HeartbeatSample, VoteSample};
+use crate::wire::{AlarmSample, ControllerAlarm, HeartbeatSample, ServoControl, VoteSample};
 use rustdds::mio::{Events, Poll, PollOpt, Ready, Token};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
@@ -42,10 +43,13 @@ const FLAG_CHECK_MS: u64 = 100;
 const HEARTBEATS: Token = Token(0);
 const VOTES: Token = Token(1);
 const LINKS: Token = Token(2);
+const COMMANDS: Token = Token(3);
 
 struct Endpoints {
     heartbeats_in: Reader<HeartbeatSample>,
     votes_in: Reader<VoteSample>,
+    /// Every controller's commands, best effort, to see how they arrive (F17).
+    commands_in: Reader<ServoControl>,
     heartbeats_out: Writer<HeartbeatSample>,
     votes_out: Writer<VoteSample>,
     alarms_out: Writer<AlarmSample>,
@@ -80,6 +84,7 @@ pub(crate) fn spawn(
     let endpoints = Endpoints {
         heartbeats_in: session.heartbeat_reader().map_err(dds)?,
         votes_in: session.vote_reader().map_err(dds)?,
+        commands_in: session.command_follower_reader().map_err(dds)?,
         heartbeats_out: session.heartbeat_writer().map_err(dds)?,
         votes_out: session.vote_writer().map_err(dds)?,
         alarms_out: session.alarm_writer().map_err(dds)?,
@@ -112,6 +117,7 @@ pub(crate) fn spawn(
     let links = LinkWatch::new(Watched::from_config(&config.networks));
     let period_ms = core.config().heartbeat_period_ms;
     let heartbeat_offset_ms = core.config().heartbeat_offset_ms();
+    let arrival = ArrivalWatch::new(timing.command_deadline_ms);
     let thread = std::thread::Builder::new()
         .name(format!("rl-voting-{id}"))
         .spawn(move || {
@@ -134,6 +140,8 @@ pub(crate) fn spawn(
                 links_woke: false,
                 identities,
                 impostor_alarms: Vec::new(),
+                arrival,
+                deposed: false,
             };
             voting.run()
         })
@@ -204,6 +212,8 @@ enum Restart {
     Stalled(Duration),
     /// Every link lost its carrier (crate::link_watch).
     Detached,
+    /// A peer took over from this life, whose commands reached it late (F17).
+    Deposed,
 }
 
 struct Voting {
@@ -235,6 +245,10 @@ struct Voting {
     identities: crate::identity::Identities,
     /// Ids with an impostor alarm raised.
     impostor_alarms: Vec<ControllerId>,
+    /// How each peer's commands arrive (F17).
+    arrival: ArrivalWatch,
+    /// The core asked to start again (a peer took over from this life, F17).
+    deposed: bool,
 }
 
 impl Voting {
@@ -246,6 +260,7 @@ impl Voting {
         };
         register(&self.endpoints.heartbeats_in, HEARTBEATS)?;
         register(&self.endpoints.votes_in, VOTES)?;
+        register(&self.endpoints.commands_in, COMMANDS)?;
         if let Some(fd) = self.links.fd() {
             register(&rustdds::mio::unix::EventedFd(&fd), LINKS)?;
         }
@@ -277,6 +292,7 @@ impl Voting {
             // Samples first: a heartbeat that arrived before a round boundary belongs to the
             // round that ends there.
             self.take_samples();
+            self.take_commands();
             if self.shared.fault.swap(false, Ordering::SeqCst) {
                 self.step(Input::LocalFault);
             }
@@ -338,6 +354,12 @@ impl Voting {
                  joined below the others",
                 config.id
             ),
+            Restart::Deposed => warn!(
+                "C{}'s commands reached its peers late (a starved link?) and its Secondary took \
+                 over: starting again as a new incarnation, silent until it has heard a round \
+                 and joined below the others",
+                config.id
+            ),
         }
         self.core = Core::new(config, now_ms);
         self.pending_exit = None;
@@ -352,6 +374,7 @@ impl Voting {
                 stalled_ms: u64::try_from(stalled.as_millis()).unwrap_or(u64::MAX),
             },
             Restart::Detached => Event::Detached,
+            Restart::Deposed => Event::Deposed,
         });
         self.show(self.core.status());
     }
@@ -435,6 +458,34 @@ impl Voting {
         self.clear_silent_impostors();
     }
 
+    /// Drains the command reader: how each peer's commands arrive, and which stopped (F17).
+    fn take_commands(&mut self) {
+        let now_ms = self.clock.now_ms();
+        let arrived = rustdds::Timestamp::now();
+        let own_id = self.core.config().id;
+        let mut changed = Vec::new();
+        for command in self.endpoints.commands_in.take() {
+            let Some(written) = command.source_timestamp else {
+                continue;
+            };
+            let participant = crate::dds::ParticipantKey::of(command.writer);
+            let Some(from) = self.identities.speaks_for(participant) else {
+                continue;
+            };
+            if from == own_id {
+                continue;
+            }
+            let delay_ms = (arrived - written).to_nanoseconds() / 1_000_000;
+            if let Some(arrival) = self.arrival.sample(from, command.writer, delay_ms, now_ms) {
+                changed.push((from, arrival));
+            }
+        }
+        changed.extend(self.arrival.silence(now_ms));
+        for (from, arrival) in changed {
+            self.step(Input::Commands { from, arrival });
+        }
+    }
+
     fn step(&mut self, input: Input) {
         let now = self.clock.now_ms();
         let vote_before = self.core.state().vote;
@@ -443,6 +494,10 @@ impl Voting {
             self.perform(command);
         }
         self.show(self.core.status());
+        // After the old life's last status went out, so the record shows where it ended.
+        if std::mem::take(&mut self.deposed) {
+            self.start_again(Restart::Deposed);
+        }
         if self.pending_exit.is_none() && self.core.state().phase == Phase::Failed {
             let failure = Failure::observe(self.core.state(), vote_before, local_fault);
             // The delay counts from after the FAILED status went out.
@@ -484,6 +539,8 @@ impl Voting {
             }
             Command::RaiseAlarm { about, reason } => self.alarm(about, reason, true),
             Command::ClearAlarm { about, reason } => self.alarm(about, reason, false),
+            // After the step's other commands: the new life replaces the core.
+            Command::StartAgain => self.deposed = true,
         }
     }
 
@@ -531,6 +588,7 @@ impl Voting {
     }
 }
 
+mod arrival;
 #[cfg(feature = "fault-injection")]
 mod fault_injection;
 mod impostors;

@@ -453,6 +453,7 @@ mod tests {
             epoch: 1,
             provisional: false,
             established_strength: role.map(Role::strength),
+            took_over_from: None,
         }
     }
 

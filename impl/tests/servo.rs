@@ -188,6 +188,7 @@ impl Controller {
                 epoch: 1,
                 provisional: false,
                 established_strength: Some(role.strength()),
+                took_over_from: None,
             };
             let mut last_beat = Instant::now() - HEARTBEAT_PERIOD;
             while running_flag.load(Ordering::Relaxed) {

@@ -203,9 +203,13 @@ pub fn settled(state: &State) -> Option<Assignment> {
 
 /// The strength a settled controller commands at: its role's, or for a provisional result
 /// (F11) 15 for its Primary and nothing for its standbys; a Primary that no side it lost can
-/// outrank keeps its full strength (F15).
+/// outrank keeps its full strength (F15); the backed Primary that took over from a starved
+/// Primary holds the takeover strength until that Primary's commands stop arriving late (F17).
 fn full_strength(c: &crate::Controller) -> Option<u8> {
     let primary = Role::Primary.strength();
+    if c.took_over_from.is_some() && c.role == Some(Role::Primary) && !c.provisional {
+        return Some(crate::types::TAKEOVER_STRENGTH);
+    }
     match (c.provisional, c.role) {
         (true, Some(Role::Primary)) if c.output == Some(primary) && !c.lost_could_outvote() => {
             Some(primary)

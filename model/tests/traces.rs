@@ -52,6 +52,7 @@ fn committed_traces_match_the_model() {
         ("", 4_834_508, true),
         ("link-failure", 5_486_240, true),
         ("returns", 75_095, true),
+        ("starved", 195_924, true),
         // 3,957,104 before a restarted controller's ghost "held a role when I restarted"
         // forgot the lives that ended since (docs/findings.md, F17).
         ("coverage-returns-restart", 3_635_461, false),
@@ -84,6 +85,7 @@ fn committed_traces_match_the_model() {
         "re-vote after heartbeat loss",
         "a two-sided split",
         "a provisional Primary owns the actuator",
+        "a Secondary takes over from a starved Primary",
     ] {
         assert!(
             index.contains(&format!("\"purpose\": \"witness: {finding}\"")),

@@ -2,7 +2,7 @@
 //! exactly when its role or strength changed, a `PublishVote` exactly when its vote changed,
 //! `RaiseAlarm` / `ClearAlarm` exactly for the alarms added / removed.
 
-use super::network::{commands_of, StepLog};
+use super::network::{commands_of, Cause, StepLog};
 use crate::abstraction::{self, IncarnationNumbers, UnknownIncarnation};
 use crate::diff::id_set;
 use model::traces::{AbstractController, AbstractState};
@@ -19,7 +19,13 @@ pub fn command_problems(
 ) -> Result<Vec<String>, UnknownIncarnation> {
     let mut problems = Vec::new();
     for (&id, emitted) in log {
-        let emitted = &commands_of(emitted);
+        // A life that started in the step answers for its own commands only, not for those
+        // its predecessor emitted before (a deposed core's last round end, F17).
+        let own = emitted
+            .iter()
+            .rposition(|e| e.cause == Cause::Started)
+            .map_or(&emitted[..], |start| &emitted[start..]);
+        let emitted = &commands_of(own);
         let Some(now) = after.controllers.iter().find(|c| c.id == id) else {
             continue;
         };

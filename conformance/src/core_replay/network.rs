@@ -6,6 +6,7 @@ use super::{Problem, DELIVERY_OFFSET_MS, PERIOD_MS, START_OFFSET_MS};
 use crate::abstraction::{self, IncarnationNumbers, Observed};
 use model::traces::AbstractState;
 use model::{Action, Life};
+use rl::core::types::{Arrival, TAKEOVER_STRENGTH};
 use rl::core::{Command, ControllerId, Core, CoreConfig, Heartbeat, Input, Rounds, Timer};
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -18,6 +19,8 @@ pub enum Cause {
     HeartbeatFrom(ControllerId),
     /// It started (a new life).
     Started,
+    /// How a peer's commands arrive changed (F17).
+    Arrival(ControllerId, Arrival),
 }
 
 /// One input to one core and the commands it returned.
@@ -64,6 +67,11 @@ pub struct CoreNetwork<'a> {
     isolated: BTreeSet<ControllerId>,
     /// Of the cut-off controllers, those whose cable is out: the actuator does not hear them.
     unplugged: BTreeSet<ControllerId>,
+    /// Controllers whose links are starved: their commands reach their peers late (F17).
+    starved: BTreeSet<ControllerId>,
+    /// Of the starved controllers, those whose command deadline the actuator missed: it does
+    /// not count their writers until a late sample arrives.
+    lagging: BTreeSet<ControllerId>,
     /// The actuator over the cores' command writers (see [`Actuator`]).
     actuator: Actuator,
     pub(super) numbers: IncarnationNumbers,
@@ -100,6 +108,8 @@ impl<'a> CoreNetwork<'a> {
             lost: BTreeSet::new(),
             isolated: BTreeSet::new(),
             unplugged: BTreeSet::new(),
+            starved: BTreeSet::new(),
+            lagging: BTreeSet::new(),
             actuator: Actuator::default(),
             numbers: IncarnationNumbers::new(),
         };
@@ -227,9 +237,13 @@ impl<'a> CoreNetwork<'a> {
         let log = self.perform(action)?;
         for (id, output) in self.outputs() {
             if before.get(&id) != Some(&output) {
+                // A takeover moves to the writer the runtime keeps ready, which every reader
+                // knows already (F17).
+                let ready =
+                    matches!(action, Action::Starve { .. }) && output == Some(TAKEOVER_STRENGTH);
                 match output {
-                    Some(_) => self.actuator.undiscovered.insert(id),
-                    None => self.actuator.undiscovered.remove(&id),
+                    Some(_) if !ready => self.actuator.undiscovered.insert(id),
+                    _ => self.actuator.undiscovered.remove(&id),
                 };
             }
         }
@@ -242,7 +256,7 @@ impl<'a> CoreNetwork<'a> {
         let writers: Vec<(ControllerId, u8)> = self
             .slots
             .iter()
-            .filter(|slot| !self.unplugged.contains(&slot.id))
+            .filter(|slot| !self.unplugged.contains(&slot.id) && !self.lagging.contains(&slot.id))
             .filter_map(|slot| {
                 let state = slot.core.as_ref()?.state();
                 let newest = state
@@ -329,13 +343,23 @@ impl<'a> CoreNetwork<'a> {
             Action::Heal { controller } => {
                 self.isolated.remove(&controller);
                 self.unplugged.remove(&controller);
+                self.lagging.remove(&controller);
+                // A starved link drained: its commands arrive on time again.
+                if self.starved.remove(&controller) {
+                    self.arrivals(&mut log);
+                }
             }
-            // F17 is in the specification only (docs/findings.md): the core has no takeover
-            // yet, so no trace of the replayed scopes starves a link.
-            Action::Starve { .. } | Action::Lag { .. } | Action::CatchUp { .. } => {
-                return Err(Problem::Unsupported(format!(
-                    "{action}: a starved link (F17) is not in the core yet"
-                )))
+            // The runtime measures how each peer's commands arrive (impl/src/runtime/
+            // arrival.rs): the starved controller's late, every other's on time.
+            Action::Starve { controller } => {
+                self.starved.insert(controller);
+                self.arrivals(&mut log);
+            }
+            Action::Lag { controller } => {
+                self.lagging.insert(controller);
+            }
+            Action::CatchUp { controller } => {
+                self.lagging.remove(&controller);
             }
             Action::DiscoverWriter { controller } => {
                 self.actuator.undiscovered.remove(&controller);
@@ -358,6 +382,44 @@ impl<'a> CoreNetwork<'a> {
             }
         }
         Ok(log)
+    }
+
+    /// Every live core learns how each live peer's commands arrive: late from a starved
+    /// controller, on time from the others (the on-time ones first, as a Secondary has heard
+    /// its Tertiary's commands before its Primary's turn late).
+    fn arrivals(&mut self, log: &mut StepLog) {
+        let at_ms = self.boundary_ms() + DELIVERY_OFFSET_MS;
+        let live: Vec<ControllerId> = self
+            .slots
+            .iter()
+            .filter(|slot| slot.core.is_some())
+            .map(|slot| slot.id)
+            .collect();
+        let mut order: Vec<(ControllerId, Arrival)> = live
+            .iter()
+            .filter(|id| !self.starved.contains(id))
+            .map(|id| (*id, Arrival::OnTime))
+            .collect();
+        order.extend(
+            live.iter()
+                .filter(|id| self.starved.contains(id))
+                .map(|id| (*id, Arrival::Late)),
+        );
+        for slot in &mut self.slots {
+            let to = slot.id;
+            let Some(core) = slot.core.as_mut() else {
+                continue;
+            };
+            for &(from, arrival) in order.iter().filter(|(from, _)| *from != to) {
+                let commands = core.step(Input::Commands { from, arrival }, at_ms);
+                if !commands.is_empty() {
+                    log.entry(to).or_default().push(Emitted {
+                        cause: Cause::Arrival(from, arrival),
+                        commands,
+                    });
+                }
+            }
+        }
     }
 
     /// The end of a round: heartbeats out at the send slot, delivered, then the round ends.
@@ -420,6 +482,7 @@ impl<'a> CoreNetwork<'a> {
                 }
             }
         }
+        let mut deposed = Vec::new();
         for slot in &mut self.slots {
             let Some(core) = slot.core.as_mut() else {
                 continue;
@@ -432,6 +495,9 @@ impl<'a> CoreNetwork<'a> {
                 )));
             }
             let commands = core.step(Input::Timer(Timer::RoundEnd), round_end);
+            if commands.contains(&Command::StartAgain) {
+                deposed.push(slot.id);
+            }
             log.entry(slot.id).or_default().push(Emitted {
                 cause: Cause::Timer(Timer::RoundEnd),
                 commands,
@@ -439,6 +505,13 @@ impl<'a> CoreNetwork<'a> {
         }
         self.lost.clear();
         self.round += 1;
+        // A peer took over from it (F17): it starts again as a new incarnation at the round's
+        // end, as the runtime does on `Command::StartAgain`.
+        for id in deposed {
+            let next = self.slot_mut(id)?.incarnation.saturating_add(1);
+            self.start_core(id, next)?;
+            log.entry(id).or_default().push(started());
+        }
         Ok(())
     }
 }

@@ -91,6 +91,7 @@ fn cause_text(cause: Cause) -> String {
         Cause::Timer(Timer::Heartbeat) => "heartbeat due".to_string(),
         Cause::HeartbeatFrom(from) => format!("heartbeat from C{from}"),
         Cause::Started => "started".to_string(),
+        Cause::Arrival(from, arrival) => format!("C{from}'s commands {arrival:?}"),
     }
 }
 
@@ -103,7 +104,7 @@ fn command_text(id: ControllerId, command: &Command, numbers: &IncarnationNumber
     };
     match command {
         Command::PublishHeartbeat(h) => format!(
-            "send heartbeat {} {} {} established={} agreed[{}]@e{}{} vote[{}]",
+            "send heartbeat {} {} {} established={} agreed[{}]@e{}{} vote[{}]{}",
             h.phase,
             h.role.map_or("no-role".to_string(), |r| r.to_string()),
             h.strength
@@ -113,7 +114,14 @@ fn command_text(id: ControllerId, command: &Command, numbers: &IncarnationNumber
             assignment(h.agreed),
             h.epoch,
             if h.provisional { " provisional" } else { "" },
-            assignment(h.vote)
+            assignment(h.vote),
+            h.took_over_from.map_or(String::new(), |from| format!(
+                " took-over-from[{}]",
+                numbers.number(from.id, from.incarnation).map_or_else(
+                    || format!("C{}#?", from.id),
+                    |n| format!("C{}#{n}", from.id)
+                )
+            ))
         ),
         Command::PublishVote(record) => match record.vote {
             Some(vote) => format!("publish vote [{}]", assignment(Some(vote))),
@@ -126,5 +134,6 @@ fn command_text(id: ControllerId, command: &Command, numbers: &IncarnationNumber
         ),
         Command::RaiseAlarm { about, reason } => format!("raise alarm C{about} {reason:?}"),
         Command::ClearAlarm { about, reason } => format!("clear alarm C{about} {reason:?}"),
+        Command::StartAgain => "start again as a new incarnation".to_string(),
     }
 }

@@ -116,12 +116,14 @@ pub fn all_held_ms(faults: &[FaultRecord], end_ms: f64) -> f64 {
 /// The strength an event says its controller commands with now, if it says: `output` and
 /// `status` name it; a controller back from a stall (`resumed`, a new incarnation whose
 /// writer is silent until its voting loop has run), cut off at its links (`detached`, the
-/// same) or `stopped` commands nothing.
+/// same), deposed by a takeover (`deposed`, the same) or `stopped` commands nothing.
 fn claimed_strength(event: &Event) -> Option<Option<u8>> {
     match event {
         Event::Output { strength, .. } => Some(*strength),
         Event::Status { status } => Some(status.report.strength),
-        Event::Resumed { .. } | Event::Detached | Event::Stopped { .. } => Some(None),
+        Event::Resumed { .. } | Event::Detached | Event::Deposed | Event::Stopped { .. } => {
+            Some(None)
+        }
         _ => None,
     }
 }

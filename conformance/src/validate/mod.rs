@@ -96,9 +96,9 @@ impl Timing {
             // A stall shows as a new life (a restart); a cut as lost heartbeats.
             max_pauses: 0,
             max_isolations: 0,
-            // A rate-limited link shows as lost heartbeats: the implementation has no
-            // takeover (F17) yet.
-            max_starvations: 0,
+            // A starved link shows as lost heartbeats, and as a takeover (F17) where a
+            // Secondary reports the takeover strength: the search then starves the Primary.
+            max_starvations: 1,
             dead_after_rounds: self.dead_after_rounds,
             window_rounds: self.window_rounds,
             settle_within_rounds: model::Config::default().settle_within_rounds,

@@ -31,18 +31,23 @@ pub(super) struct Branch {
 
 /// What one controller's heartbeat carries (and whether it is up): all a receiver's next
 /// state depends on: life, incarnation, phase, role, strength; agreed result and vote; the
-/// result's epoch and standing and the established strength.
+/// result's epoch and standing, the established strength and the life it took over from.
 pub(super) type Visible = (
     (Life, u8, Phase, Option<model::Role>, Option<u8>),
     (Option<Assignment>, Option<Assignment>),
-    (u32, bool, Option<u8>),
+    (u32, bool, Option<u8>, Option<(ControllerId, u8)>),
 );
 
 pub(super) fn visible(c: &Controller) -> Visible {
     (
         (c.life, c.incarnation, c.phase, c.role, c.output),
         (c.agreed, c.vote),
-        (c.epoch, c.provisional, c.established_strength()),
+        (
+            c.epoch,
+            c.provisional,
+            c.established_strength(),
+            c.took_over_from,
+        ),
     )
 }
 
@@ -232,8 +237,77 @@ impl<'a> Search<'a> {
         Ok(next)
     }
 
-    /// The environment's choices for round `round` (joins, restarts, crashes), applied.
+    /// The environment's choices for round `round` (joins, restarts, crashes, and a starved
+    /// Primary where a takeover is reported at its end), applied.
     pub(super) fn lifecycles(&self, round: u64, branch: &Branch) -> Vec<Branch> {
+        let mut out = self.process_lifecycles(round, branch);
+        if self.reports_takeover(round + 1) {
+            let starved: Vec<Branch> = out.iter().flat_map(|b| self.starvations(b)).collect();
+            out.extend(starved);
+        }
+        out
+    }
+
+    /// Whether some life reports the takeover strength at boundary `boundary` (F17).
+    fn reports_takeover(&self, boundary: u64) -> bool {
+        let period_ms = self.timing.period_ms;
+        self.lives.iter().flatten().any(|life| {
+            life.start_round < boundary
+                && life.last_round + 1 >= boundary
+                && life
+                    .log
+                    .status_at_boundary(boundary, period_ms)
+                    .report
+                    .strength
+                    == Some(rl::core::types::TAKEOVER_STRENGTH)
+        })
+    }
+
+    /// `branch` with each Primary that commands at 30 starved in turn, where the model allows
+    /// it: its Secondary takes over (F17) in every candidate state it may be in.
+    fn starvations(&self, branch: &Branch) -> Vec<Branch> {
+        let state = representatives(branch);
+        if state.controllers.iter().any(|c| c.took_over_from.is_some()) {
+            return Vec::new();
+        }
+        let primaries = state
+            .controllers
+            .iter()
+            .filter(|c| c.is_up() && c.role == Some(model::Role::Primary))
+            .map(|c| c.id);
+        let mut out = Vec::new();
+        for primary in primaries {
+            let action = Action::Starve {
+                controller: primary,
+            };
+            let Some(starved) = step_model(&self.config, &state, action) else {
+                continue;
+            };
+            let mut next = branch.clone();
+            for (index, slot) in next.slots.iter_mut().enumerate() {
+                if starved.controllers[index] == state.controllers[index] {
+                    continue;
+                }
+                // The takeover changes the taker alone; apply it to each of its candidates.
+                *slot = slot
+                    .iter()
+                    .filter_map(|candidate| {
+                        let mut with = state.clone();
+                        with.controllers[index] = candidate.clone();
+                        step_model(&self.config, &with, action)
+                            .map(|s| s.controllers[index].clone())
+                    })
+                    .collect();
+            }
+            if next.slots.iter().all(|slot| !slot.is_empty()) {
+                out.push(next);
+            }
+        }
+        out
+    }
+
+    /// The process events of round `round` (joins, restarts, crashes), applied.
+    fn process_lifecycles(&self, round: u64, branch: &Branch) -> Vec<Branch> {
         let mut per_id: Vec<Vec<Lifecycle>> = Vec::new();
         for (index, slot) in branch.slots.iter().enumerate() {
             let id = (index + 1) as ControllerId;

@@ -1,7 +1,7 @@
 //! The state's invariants, asserted (in debug builds) at the end of every step.
 
 use crate::state::ControllerState;
-use crate::types::{Phase, Role, PROVISIONAL_PRIMARY_STRENGTH};
+use crate::types::{Phase, Role, PROVISIONAL_PRIMARY_STRENGTH, TAKEOVER_STRENGTH};
 
 /// Panics (debug builds only) when `c` breaks an invariant of the protocol state.
 pub fn debug_check(c: &ControllerState) {
@@ -33,13 +33,17 @@ pub fn debug_check(c: &ControllerState) {
     );
     // A strength is a role's or the provisional Primary's, never above its own role's: a held
     // Primary commands at 20 (F8), a provisional one at 15 (F11), and a standby whose raise
-    // waits for the roles above (F13) keeps its lower strength.
+    // waits for the roles above (F13) keeps its lower strength. The takeover strength goes
+    // with a takeover (F17), and with nothing else.
     debug_assert!(
-        c.output.is_none_or(
-            |strength| c.role.is_some_and(|role| strength <= role.strength()
-                && (Role::from_strength(strength).is_some()
-                    || strength == PROVISIONAL_PRIMARY_STRENGTH))
-        ),
+        c.output
+            .is_none_or(
+                |strength| (strength == TAKEOVER_STRENGTH) == c.took_over_from.is_some()
+                    && (strength == TAKEOVER_STRENGTH
+                        || c.role.is_some_and(|role| strength <= role.strength()
+                            && (Role::from_strength(strength).is_some()
+                                || strength == PROVISIONAL_PRIMARY_STRENGTH)))
+            ),
         "C{}: commands at {:?}, which is not a strength its role ({:?}) allows",
         c.id,
         c.output,

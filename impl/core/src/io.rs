@@ -3,7 +3,7 @@
 //! status view) is a function of [`crate::Status`] in the adapter.
 
 use crate::report::Heartbeat;
-use crate::types::{AlarmReason, ControllerId, Role, VoteRecord};
+use crate::types::{AlarmReason, Arrival, ControllerId, Role, VoteRecord};
 
 /// The core's timers. When several are due at once they run in this order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -36,6 +36,14 @@ pub enum Input {
     Timer(Timer),
     /// The application detected its own fault: fail now (stop commanding, announce FAILED).
     LocalFault,
+    /// How a peer's commands now arrive, when that changed (F17: a Secondary takes over from a
+    /// Primary whose commands arrive late while the Tertiary's arrive on time).
+    Commands {
+        /// The peer whose commands these are.
+        from: ControllerId,
+        /// How they arrive.
+        arrival: Arrival,
+    },
 }
 
 /// What the caller must do.
@@ -66,4 +74,7 @@ pub enum Command {
         /// The reason it was raised with.
         reason: AlarmReason,
     },
+    /// Start again as a new incarnation, silent until it has heard a round (as after a
+    /// stall): a peer took over from this controller, whose commands arrive late (F17).
+    StartAgain,
 }

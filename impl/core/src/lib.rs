@@ -157,6 +157,7 @@ impl Core {
             epoch: c.epoch,
             provisional: c.provisional,
             established_strength: c.established_strength(),
+            took_over_from: c.took_over_from,
         }
     }
 
@@ -200,6 +201,12 @@ impl Core {
             Input::LocalFault => {
                 if self.state.phase != Phase::Failed {
                     rules::fail_self(&mut self.state);
+                }
+            }
+            Input::Commands { from, arrival } => {
+                if let Some(peer) = self.state.peers.get_mut(&from) {
+                    peer.commands = arrival;
+                    rules::take_over_from_late(&mut self.state);
                 }
             }
         }
@@ -252,6 +259,9 @@ impl Core {
 
 /// The commands that follow from a state change.
 fn changes(before: &ControllerState, after: &ControllerState, commands: &mut Vec<Command>) {
+    if after.deposed && !before.deposed {
+        commands.push(Command::StartAgain);
+    }
     if before.vote != after.vote {
         commands.push(Command::PublishVote(VoteRecord {
             from: after.id,

@@ -1,7 +1,7 @@
 //! What a controller says of itself: one struct, sent as the heartbeat and shown as the
 //! status, so the two can never disagree on a field.
 
-use crate::types::{AlarmReason, Assignment, ControllerId, Incarnation, Phase, Role};
+use crate::types::{AlarmReason, Assignment, ControllerId, Holder, Incarnation, Phase, Role};
 use serde::{Deserialize, Serialize};
 
 /// A controller's own protocol state, as it announces it (paper: "the RLCHB topic should
@@ -32,6 +32,10 @@ pub struct SelfReport {
     /// writer created in this round is not reported until the next.
     #[serde(default)]
     pub established_strength: Option<u8>,
+    /// F17: the Primary life it took over from, whose commands arrived late. That life, on
+    /// hearing it, starts again as a new incarnation.
+    #[serde(default)]
+    pub took_over_from: Option<Holder>,
 }
 
 impl SelfReport {
@@ -48,6 +52,7 @@ impl SelfReport {
             epoch: 0,
             provisional: false,
             established_strength: None,
+            took_over_from: None,
         }
     }
 }

@@ -10,7 +10,9 @@ use crate::epochs;
 use crate::report::Heartbeat;
 use crate::state::{ControllerState, Peer};
 use crate::strength;
-use crate::types::{AlarmReason, Assignment, ControllerId, Holder, Phase, Role, ROLE_COUNT};
+use crate::types::{
+    AlarmReason, Arrival, Assignment, ControllerId, Holder, Phase, Role, ROLE_COUNT,
+};
 
 /// The end of a round: every heartbeat heard this round (the latest per peer) is taken in,
 /// silent peers are counted down, then the controller decides.
@@ -66,10 +68,67 @@ pub(crate) fn end_round(config: &CoreConfig, c: &mut ControllerState, heard: &[H
         c.provisional_rounds = 1;
     }
     epochs::confirm_provisional(c);
+    release_takeover(c);
     if c.is_active() {
         // The strength follows the role: a held Primary (F8) rises once uncontested, a raise
         // waits for the roles above (F13).
         strength::apply_output(c);
+    }
+}
+
+/// F17: a Secondary whose agreed Primary, commanding at 30, sends commands that arrive late
+/// while the agreed Tertiary's arrive on time takes over at once at the takeover strength:
+/// the actuator would otherwise go to it at the Primary's command deadline and back to the
+/// Primary with each late sample. Without a Tertiary on time to compare with, it cannot tell
+/// a late Primary from its own starved link, and does nothing. Taken as the measurement
+/// changes, not at a round's end: the takeover must come before the actuator's deadline.
+pub(crate) fn take_over_from_late(c: &mut ControllerState) {
+    if c.took_over_from.is_some()
+        || !c.is_active()
+        || c.role != Some(Role::Secondary)
+        || c.output.is_none()
+    {
+        return;
+    }
+    let Some(agreed) = c.agreed else {
+        return;
+    };
+    let (Some(primary), Some(tertiary)) = (
+        agreed.0[Role::Primary.rank()],
+        agreed.0[Role::Tertiary.rank()],
+    ) else {
+        return;
+    };
+    let is = |holder: Holder, arrival: Arrival| {
+        c.peers.get(&holder.id).is_some_and(|p| {
+            p.alive == Some(holder.incarnation) && !p.failed && p.commands == arrival
+        })
+    };
+    let commanding = c.peers.get(&primary.id).is_some_and(|p| p.claims_primary);
+    if commanding && is(primary, Arrival::Late) && is(tertiary, Arrival::OnTime) {
+        c.take_over(primary);
+    }
+}
+
+/// F17: the takeover strength is held until the taker has heard the deposed Primary no
+/// longer commanding at 30 (its next incarnation, or its life at a lower strength) and holds
+/// the Primary role of a backed result itself (a Secondary's or a provisional Primary's
+/// strength would hand the actuator to another). Not hearing it is not enough: samples its
+/// writer at 30 wrote may still be queued on the starved link, and would tie with the taker's
+/// 30 (measured: `lab run tbf-primary --seed 2`); a heartbeat that says otherwise left the
+/// same queue after them.
+fn release_takeover(c: &mut ControllerState) {
+    if let Some(deposed) = c.took_over_from {
+        let deposed_below = c.peers.get(&deposed.id).is_some_and(|p| match p.alive {
+            Some(heard) if heard == deposed.incarnation => !p.claims_primary,
+            Some(_) => true,
+            None => false,
+        });
+        let backed_primary =
+            c.phase == Phase::Steady && c.role == Some(Role::Primary) && !c.provisional;
+        if deposed_below && backed_primary {
+            c.took_over_from = None;
+        }
     }
 }
 
@@ -88,8 +147,11 @@ fn miss_heartbeat(config: &CoreConfig, c: &mut ControllerState, peer_id: Control
     }
     let was_member = !peer.failed;
     let alarm = peer.alarm.or(Some(AlarmReason::Lost));
+    // How its commands arrive is measured apart from its heartbeats, and outlives them.
+    let commands = peer.commands;
     *peer = Peer {
         alarm,
+        commands,
         ..Peer::default()
     };
     was_member
@@ -103,6 +165,9 @@ struct HeartbeatOutcome {
 /// Takes in a peer's heartbeat. A new incarnation retires the old one at once: its FAILED
 /// mark and slot belonged to a process that no longer exists (finding F3).
 fn receive_heartbeat(c: &mut ControllerState, heartbeat: &Heartbeat) -> HeartbeatOutcome {
+    // F17: a peer took over from this life: its commands arrive late, and what it still sends
+    // must not outrank the system it comes back to.
+    c.deposed |= heartbeat.took_over_from == Some(c.holder());
     let peer = c.peers.entry(heartbeat.id).or_default();
     let mut outcome = HeartbeatOutcome {
         membership_changed: false,

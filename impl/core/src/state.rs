@@ -2,7 +2,10 @@
 //! peer (the paper's RedundancyInfo). Field for field the model's `Controller` and `Peer`
 //! (`model/src/state.rs`), so the conformance abstraction is a plain mapping.
 
-use crate::types::{AlarmReason, Assignment, ControllerId, Holder, Incarnation, Phase, Role};
+use crate::types::{
+    AlarmReason, Arrival, Assignment, ControllerId, Holder, Incarnation, Phase, Role,
+    TAKEOVER_STRENGTH,
+};
 use std::collections::{BTreeMap, BTreeSet};
 
 /// What a controller knows of one peer.
@@ -31,6 +34,9 @@ pub struct Peer {
     pub heard_provisional: bool,
     /// The strength of its established command writer, as its last heartbeat reported it.
     pub heard_strength: Option<u8>,
+    /// How its commands arrive (F17), as the adapter last measured them: measured by id,
+    /// apart from its heartbeats, so kept when it is lost or starts a new life.
+    pub commands: Arrival,
 }
 
 impl Peer {
@@ -76,6 +82,12 @@ pub struct ControllerState {
     pub provisional_rounds: u32,
     /// Its command writers, as the DDS adapter runs them.
     pub writer: Writer,
+    /// F17: it took over from this Primary, whose commands arrived late, and commands at
+    /// [`TAKEOVER_STRENGTH`] until it no longer hears that life and holds a backed Primary
+    /// role itself.
+    pub took_over_from: Option<Holder>,
+    /// F17: it heard a peer that took over from it; it starts again as a new incarnation.
+    pub deposed: bool,
 }
 
 /// The command writers of one controller, as the DDS adapter keeps them. A raise creates a
@@ -110,6 +122,8 @@ impl ControllerState {
             provisional: false,
             provisional_rounds: 0,
             writer: Writer::default(),
+            took_over_from: None,
+            deposed: false,
         }
     }
 
@@ -123,19 +137,29 @@ impl ControllerState {
         }
     }
 
-    /// Changes the command strength as the DDS adapter does (see [`Writer`]).
+    /// Changes the command strength as the DDS adapter does (see [`Writer`]). Leaving the
+    /// takeover strength for another hands over like a raise (F17): the takeover writer owns
+    /// the actuator, and nobody else commands above 30 meanwhile.
     pub fn set_output(&mut self, strength: Option<u8>) {
         if strength == self.output {
             return;
         }
         let raise = matches!((self.output, strength), (Some(old), Some(new)) if new > old);
-        self.writer.retiring = if raise {
+        let from_takeover = self.output == Some(TAKEOVER_STRENGTH) && strength.is_some();
+        self.writer.retiring = if raise || from_takeover {
             self.output.max(self.writer.retiring)
         } else {
             None
         };
         self.output = strength;
         self.writer.fresh = strength.is_some();
+    }
+
+    /// F17: takes over from the Primary `from` at [`TAKEOVER_STRENGTH`], on the writer the
+    /// adapter keeps ready for this (the actuator already knows it).
+    pub fn take_over(&mut self, from: Holder) {
+        self.took_over_from = Some(from);
+        self.set_output(Some(TAKEOVER_STRENGTH));
     }
 
     /// A new round: the writers created in the last one are established and the retired

@@ -5,16 +5,21 @@
 //! actuator, moved with care: a Primary whose predecessor still claims Primary holds the
 //! Secondary strength (finding F8), a provisional Primary commands at 15 (F11) unless no side it lost could outrank it (F15), and a raise
 //! waits until every role above reports an established strength above the new one (F13), so a
-//! tie can never hand the actuator to a lower role. Lowering is at once. The model's rules of
+//! tie can never hand the actuator to a lower role. Lowering is at once. A Secondary that took
+//! over from a late Primary commands at 35 until the takeover is released (F17). The model's rules of
 //! the same names are in `model/src/protocol/agreement.rs`.
 
 use crate::epochs::{hears_majority, lost_could_outvote};
 use crate::state::ControllerState;
-use crate::types::{Phase, Role, PROVISIONAL_PRIMARY_STRENGTH};
+use crate::types::{Phase, Role, PROVISIONAL_PRIMARY_STRENGTH, TAKEOVER_STRENGTH};
 
 /// The strength its role and result entitle it to now; `None` before a Primary exists or
 /// without a role.
 pub(crate) fn entitled_strength(c: &ControllerState) -> Option<u8> {
+    if c.took_over_from.is_some() {
+        // F17: a takeover holds until it is released (crate::rules, `release_takeover`).
+        return Some(TAKEOVER_STRENGTH);
+    }
     let role = c.role?;
     if !matches!(c.phase, Phase::Voting | Phase::Steady) {
         return None;
@@ -33,7 +38,8 @@ pub(crate) fn entitled_strength(c: &ControllerState) -> Option<u8> {
         // still hear it (a link down one way). A promoted standby has no such claim and drops.
         let unoutranked = c.output == Some(Role::Primary.strength()) && !lost_could_outvote(c);
         if c.output.is_some() && (c.provisional_rounds == 0 || hears_majority(c) || unoutranked) {
-            return c.output;
+            // A takeover released meanwhile (F17) comes down to the Primary's strength.
+            return c.output.map(|kept| kept.min(Role::Primary.strength()));
         }
         return Some(PROVISIONAL_PRIMARY_STRENGTH);
     }

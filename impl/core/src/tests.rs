@@ -48,6 +48,7 @@ fn steady(id: ControllerId, agreed: Assignment) -> Heartbeat {
         epoch: 1,
         provisional: false,
         established_strength: role.map(Role::strength),
+        took_over_from: None,
     }
 }
 
@@ -134,6 +135,7 @@ fn the_first_heartbeat_goes_out_at_start_then_a_quarter_period_after_each_bounda
             epoch: 0,
             provisional: false,
             established_strength: None,
+            took_over_from: None,
         }),]
     );
     assert_eq!(
@@ -627,3 +629,5 @@ fn a_returning_primary_ranks_below_the_result_of_a_newer_epoch() {
     advance(&mut c, 1000);
     assert_eq!(c.state().vote, Some(assignment(&[(2, 0), (3, 0), (1, 0)])));
 }
+
+mod takeover;

@@ -23,6 +23,25 @@ pub const ROLE_COUNT: usize = 3;
 /// holds 20 (finding F11).
 pub const PROVISIONAL_PRIMARY_STRENGTH: u8 = 15;
 
+/// The strength a Secondary commands with when it takes over from a Primary whose commands
+/// arrive late (finding F17): above the Primary's 30, so none of the late Primary's samples
+/// still in flight can take the actuator back.
+pub const TAKEOVER_STRENGTH: u8 = 35;
+
+/// How a peer's commands reach this controller, as the adapter measures them: each sample's
+/// delay against the least delay seen from the same writer, so no clocks need agree (F17).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Arrival {
+    /// No recent command from it.
+    #[default]
+    Unheard,
+    /// Its recent commands arrive with their usual delay.
+    OnTime,
+    /// Its recent commands arrive later than its usual delay by more than the lateness bound.
+    Late,
+}
+
 /// A voted role. The order is the order of precedence: Primary drives the actuator.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]

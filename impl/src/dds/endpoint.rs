@@ -3,6 +3,7 @@
 
 use super::{qos, DdsError};
 use crate::config::Timing;
+use crate::core::types::TAKEOVER_STRENGTH;
 use crate::wire::{ServoControl, WireSample};
 use rustdds::{
     dds::{ReadError, WriteError},
@@ -337,6 +338,11 @@ where
 /// round, and until readers have discovered that controller's new writer, its retiring one
 /// holds the old strength, which the standby's new writer would tie (DDS then picks by GUID,
 /// and the actuator would blip to the standby and back). The Primary's raise is never delayed.
+///
+/// While it commands at the Secondary's strength it keeps a writer at the takeover strength
+/// ready, which writes nothing: a takeover from a late Primary (F17) moves to it at once, to
+/// a writer every reader has already discovered. Leaving the takeover strength for another
+/// hands over like a promotion: that writer owns the actuator, and retires as above.
 pub struct CommandWriter {
     publisher: Publisher,
     topic: Topic,
@@ -348,6 +354,8 @@ pub struct CommandWriter {
     /// A standby's raise waiting for the writers above it: the strength, and from when it
     /// may be created.
     waiting_raise: Option<(i32, Instant)>,
+    /// The takeover writer kept ready while it commands at the Secondary's strength.
+    ready: Option<RawCommandWriter>,
 }
 
 type RawCommandWriter = no_key::DataWriter<ServoControl, CDRSerializerAdapter<ServoControl>>;
@@ -367,6 +375,7 @@ impl CommandWriter {
             writer: None,
             retiring: None,
             waiting_raise: None,
+            ready: None,
         };
         // The strength asked for at creation is taken at once: no controller above is
         // retiring a writer because of it.
@@ -390,7 +399,9 @@ impl CommandWriter {
     /// Moves to `strength` now: a new writer (or none for `None`), the old one kept retiring
     /// on a raise.
     fn apply_strength(&mut self, strength: Option<i32>) -> Result<(), DdsError> {
-        let promotion = matches!((self.strength, strength), (Some(old), Some(new)) if new > old);
+        let takeover = i32::from(TAKEOVER_STRENGTH);
+        let promotion = matches!((self.strength, strength), (Some(old), Some(new)) if new > old)
+            || (self.strength == Some(takeover) && strength.is_some());
         let old = self.writer.take();
         self.strength = None;
         self.retiring = match (promotion, old) {
@@ -403,21 +414,37 @@ impl CommandWriter {
             _ => None,
         };
         if let Some(strength) = strength {
-            let writer = self
-                .publisher
-                .create_datawriter_no_key::<ServoControl, CDRSerializerAdapter<ServoControl>>(
-                    &self.topic,
-                    Some(qos::command_writer(&self.timing, strength)),
-                )
-                .map_err(|e| DdsError::Create {
-                    what: "command writer",
-                    topic: self.topic.name(),
-                    reason: e.to_string(),
-                })?;
+            let writer = match self.ready.take() {
+                Some(ready) if strength == takeover => ready,
+                _ => self.create(strength)?,
+            };
             self.writer = Some(writer);
             self.strength = Some(strength);
         }
+        let secondary = i32::from(crate::core::types::Role::Secondary.strength());
+        if self.strength != Some(secondary) {
+            self.ready = None;
+        } else if self.ready.is_none() {
+            // Without it a takeover creates its writer then, which readers discover later.
+            self.ready = self
+                .create(takeover)
+                .inspect_err(|error| warn!("no takeover writer kept ready: {error}"))
+                .ok();
+        }
         Ok(())
+    }
+
+    fn create(&self, strength: i32) -> Result<RawCommandWriter, DdsError> {
+        self.publisher
+            .create_datawriter_no_key::<ServoControl, CDRSerializerAdapter<ServoControl>>(
+                &self.topic,
+                Some(qos::command_writer(&self.timing, strength)),
+            )
+            .map_err(|e| DdsError::Create {
+                what: "command writer",
+                topic: self.topic.name(),
+                reason: e.to_string(),
+            })
     }
 
     pub fn strength(&self) -> Option<i32> {

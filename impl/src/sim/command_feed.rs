@@ -1,6 +1,6 @@
 //! The commands a simulated actuator obeys: `pixy/servo_control` read through the ownership
 //! arbiter (crate::arbiter, DDS exclusive ownership on the reading side) and the command trust
-//! (crate::sim::command_trust: only a live controller's writers, at most at strength 30). The
+//! (crate::sim::command_trust: only a live controller's writers, at most at the takeover strength 35). The
 //! camera simulator's gimbal follows it, as the real pan-tilt follows the owner's commands.
 
 use crate::arbiter::Arbiter;

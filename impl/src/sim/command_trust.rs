@@ -1,19 +1,23 @@
-//! Which command writers the actuator obeys: only a controller's, at most at the Primary's
+//! Which command writers the actuator obeys: only a controller's, at most at the takeover
 //! strength.
 //!
 //! DDS exclusive ownership gives the actuator to the strongest live writer, whoever it is: a
 //! writer announcing strength 100 from anywhere on the LAN would own the servo. So the servo
 //! takes a command only from a writer whose participant speaks for a controller (its
 //! heartbeats come from that participant and no other has taken the id since,
-//! crate::identity) and whose strength is at most the Primary's (30). Silence alone does not
-//! end the trust: on a lossy link two heartbeats in a row go missing while the commands, ten
-//! times as frequent, keep coming, and refusing them would move the actuator where the peers
-//! (whose minority grace rides out the same loss) move no role. A writer's liveness is the
+//! crate::identity) and whose strength is at most the takeover strength (35: a Secondary that
+//! took over from a Primary whose commands arrive late, F17, is the only controller above
+//! 30). Silence alone does not end the trust: on a lossy link two heartbeats in a row go
+//! missing while the commands, ten times as frequent, keep coming, and refusing them would
+//! move the actuator where the peers (whose minority grace rides out the same loss) move no
+//! role. A writer's liveness is the
 //! command deadline's to judge. A forger that also forges heartbeats for a controller
 //! that is down, at a role's strength, is stopped only by DDS Security (docs/protocol.md, "Hostile input").
 //! `rl servo --any-writer` turns this off (plain DDS semantics, for other tools' writers).
 
-use crate::core::types::{ControllerId, Role};
+#[cfg(test)]
+use crate::core::types::Role;
+use crate::core::types::{ControllerId, TAKEOVER_STRENGTH};
 use crate::core::Heartbeat;
 use crate::dds::{ParticipantKey, Received, GUID};
 use crate::identity::{Admission, Identities};
@@ -24,7 +28,7 @@ use std::collections::BTreeSet;
 pub enum Refusal {
     /// Its participant speaks for no controller (never heard, or the id has moved on).
     NotAController,
-    /// Above the Primary's strength.
+    /// Above the takeover strength.
     TooStrong { strength: i32 },
 }
 
@@ -36,8 +40,8 @@ impl std::fmt::Display for Refusal {
             ),
             Refusal::TooStrong { strength } => write!(
                 f,
-                "strength {strength} is above the Primary's {}",
-                Role::Primary.strength()
+                "strength {strength} is above the takeover strength {}",
+                TAKEOVER_STRENGTH
             ),
         }
     }
@@ -83,7 +87,7 @@ impl CommandTrust {
             return Ok(controller.unwrap_or(0));
         }
         let controller = controller.ok_or(Refusal::NotAController)?;
-        if strength > i32::from(Role::Primary.strength()) {
+        if strength > i32::from(TAKEOVER_STRENGTH) {
             return Err(Refusal::TooStrong { strength });
         }
         Ok(controller)
@@ -124,6 +128,7 @@ mod tests {
                 epoch: 1,
                 provisional: false,
                 established_strength: Some(Role::Primary.strength()),
+                took_over_from: None,
             },
             writer: GUID::from_bytes(heartbeat_writer),
             source_timestamp: None,
@@ -153,9 +158,14 @@ mod tests {
     }
 
     #[test]
-    fn a_writer_above_the_primarys_strength_is_refused_unless_any_writer() {
+    fn a_writer_above_the_takeover_strength_is_refused_unless_any_writer() {
         let mut trust = CommandTrust::new(PEER_DEADLINE_MS, false);
         trust.heartbeat(&heartbeat_from(1, 1, 7), 0);
+        assert_eq!(trust.admit(writer(1), 35), Ok(1));
+        assert_eq!(
+            trust.admit(writer(1), 36),
+            Err(Refusal::TooStrong { strength: 36 })
+        );
         assert_eq!(
             trust.admit(writer(1), 100),
             Err(Refusal::TooStrong { strength: 100 })

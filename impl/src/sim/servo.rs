@@ -53,8 +53,8 @@ pub struct ServoArgs {
     pub domain: Option<u16>,
     /// Take commands from any writer, as plain DDS exclusive ownership does. By default only
     /// a controller's writers are obeyed (its participant sends that controller's heartbeats)
-    /// and none above the Primary's strength (30): a stray writer at strength 100 cannot take
-    /// the servo.
+    /// and none above the takeover strength (35, a Secondary taking over from a late Primary):
+    /// a stray writer at strength 100 cannot take the servo.
     #[arg(long)]
     pub any_writer: bool,
     /// Exit after this many milliseconds (default: run until SIGINT/SIGTERM).

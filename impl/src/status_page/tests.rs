@@ -17,6 +17,7 @@ fn hb(id: ControllerId, role: Option<Role>, ranked: &[ControllerId]) -> Heartbea
         epoch: 1,
         provisional: false,
         established_strength: role.map(Role::strength),
+        took_over_from: None,
     }
 }
 

@@ -1,12 +1,13 @@
 //! The controller heartbeat: each controller's phase, role, commanding strength, agreed
-//! assignment with its epoch and standing, vote, and established strength, every round.
+//! assignment with its epoch and standing, vote, established strength, and the Primary life it
+//! took over from (F17), every round.
 
-use super::assignment::{decode_optional, encode_optional, WireAssignment};
+use super::assignment::{decode_optional, encode_optional, HolderSlot, WireAssignment};
 use super::codes::{
     controller_id, phase_code, phase_from_code, role_code, role_from_code, STRENGTH_NONE,
 };
 use super::{WireError, WireSample};
-use crate::core::types::{Phase, Role, PROVISIONAL_PRIMARY_STRENGTH};
+use crate::core::types::{Holder, Phase, Role, PROVISIONAL_PRIMARY_STRENGTH, TAKEOVER_STRENGTH};
 use crate::core::Heartbeat;
 use rustdds::Keyed;
 use serde::{Deserialize, Serialize};
@@ -38,6 +39,8 @@ pub struct HeartbeatSample {
     /// The strength of its established command writer (what every reader knows by now);
     /// 0 = none.
     pub established_strength: u8,
+    /// The Primary life it took over from, whose commands arrived late (F17); id 0 = none.
+    pub took_over_from: HolderSlot,
 }
 
 impl Keyed for HeartbeatSample {
@@ -55,14 +58,36 @@ impl WireSample for HeartbeatSample {
         let from = controller_id("heartbeat.from_id", self.from_id)?;
         let phase = phase_from_code("heartbeat.phase", self.phase)?;
         let role = role_from_code("heartbeat.role", self.role)?;
-        let strength = strength_from_code("heartbeat.strength", self.strength, role, phase)?;
+        let took_over_from = took_over_from(&self.took_over_from, from)?;
+        let taking_over = took_over_from.is_some();
+        let strength = strength_from_code(
+            "heartbeat.strength",
+            self.strength,
+            role,
+            phase,
+            taking_over,
+        )?;
+        // The round after a takeover is released its writer still retires at the takeover
+        // strength, above the one it now commands with (F17: the hand-over goes as a raise).
+        let handing_over =
+            !taking_over && strength.is_some() && self.established_strength == TAKEOVER_STRENGTH;
         let established_strength = strength_from_code(
             "heartbeat.established_strength",
             self.established_strength,
             role,
             phase,
+            taking_over || handing_over,
         )?;
-        if established_strength > strength {
+        if taking_over && strength != Some(TAKEOVER_STRENGTH) {
+            return Err(WireError::new(
+                "heartbeat.took_over_from",
+                format!(
+                    "names a takeover but it commands at {} (a takeover commands at {TAKEOVER_STRENGTH})",
+                    self.strength
+                ),
+            ));
+        }
+        if established_strength > strength && !handing_over {
             return Err(WireError::new(
                 "heartbeat.established_strength",
                 format!(
@@ -84,6 +109,7 @@ impl WireSample for HeartbeatSample {
             epoch: self.epoch,
             provisional: self.provisional,
             established_strength,
+            took_over_from,
         })
     }
 
@@ -103,23 +129,72 @@ impl WireSample for HeartbeatSample {
             epoch: heartbeat.epoch,
             provisional: heartbeat.provisional,
             established_strength: heartbeat.established_strength.unwrap_or(STRENGTH_NONE),
+            took_over_from: heartbeat
+                .took_over_from
+                .map_or(HolderSlot::default(), |holder| HolderSlot {
+                    id: holder.id,
+                    incarnation: holder.incarnation,
+                }),
         }
     }
+}
+
+/// The life a takeover names (F17): empty (id 0, incarnation 0), or a controller other than
+/// the sender.
+fn took_over_from(slot: &HolderSlot, from: u8) -> Result<Option<Holder>, WireError> {
+    const FIELD: &str = "heartbeat.took_over_from";
+    if slot.id == 0 {
+        if slot.incarnation != 0 {
+            return Err(WireError::new(
+                FIELD,
+                format!(
+                    "names no controller but carries incarnation {}",
+                    slot.incarnation
+                ),
+            ));
+        }
+        return Ok(None);
+    }
+    let id = controller_id(FIELD, slot.id)?;
+    if id == from {
+        return Err(WireError::new(FIELD, "names the sender itself"));
+    }
+    Ok(Some(Holder {
+        id,
+        incarnation: slot.incarnation,
+    }))
 }
 
 /// A strength a heartbeat reports (`FIELD` names which). Rules beyond the code: a strength
 /// needs a role, is one of the role strengths or the provisional Primary's, never above the
 /// role's own (a new Primary commands at 20 during a hand-over, a standby keeps its lower
 /// strength until the roles above have raised theirs), and only a voting or steady controller
-/// commands.
+/// commands. The takeover strength goes with a takeover (`taking_over`, F17) and needs only
+/// a voting or steady controller.
 fn strength_from_code(
     field: &'static str,
     code: u8,
     role: Option<Role>,
     phase: Phase,
+    taking_over: bool,
 ) -> Result<Option<u8>, WireError> {
     if code == STRENGTH_NONE {
         return Ok(None);
+    }
+    if code == TAKEOVER_STRENGTH {
+        if !taking_over {
+            return Err(WireError::new(
+                field,
+                format!("{code} is the takeover strength, but it names no takeover"),
+            ));
+        }
+        if !matches!(phase, Phase::Voting | Phase::Steady) {
+            return Err(WireError::new(
+                field,
+                format!("commands at {code} while {phase}"),
+            ));
+        }
+        return Ok(Some(code));
     }
     if Role::from_strength(code).is_none() && code != PROVISIONAL_PRIMARY_STRENGTH {
         return Err(WireError::new(

@@ -22,7 +22,8 @@
 //! struct WireAssignment { HolderSlot slots[3]; };                   // Primary, Secondary, Tertiary
 //! struct HeartbeatSample { @key octet from_id; unsigned long long incarnation; octet phase;
 //!   octet role; octet strength; boolean agreed_valid; WireAssignment agreed;
-//!   boolean vote_valid; WireAssignment vote; };
+//!   boolean vote_valid; WireAssignment vote; unsigned long epoch; boolean provisional;
+//!   octet established_strength; HolderSlot took_over_from; };      // id 0 = no takeover
 //! struct VoteSample { @key octet from_id; unsigned long long incarnation; boolean vote_valid;
 //!   WireAssignment vote; };
 //! struct AlarmSample { octet reporter_id; unsigned long long reporter_incarnation;

@@ -14,7 +14,7 @@ mod strategies;
 
 use self::strategies::*;
 use super::*;
-use crate::core::types::{Phase, Role};
+use crate::core::types::{Phase, Role, TAKEOVER_STRENGTH};
 use proptest::collection::vec;
 use proptest::prelude::*;
 use proptest::sample::{select, Index};
@@ -69,6 +69,7 @@ impl Checked for HeartbeatSample {
         "heartbeat.established_strength",
         "heartbeat.agreed",
         "heartbeat.vote",
+        "heartbeat.took_over_from",
     ];
 }
 
@@ -277,20 +278,32 @@ proptest! {
 }
 
 /// The heartbeat generator covers exactly what the decoder accepts: every phase, role,
-/// strength and established-strength code, all 4 x 256 x 256 x 256 of them, decode iff the
-/// generator's rule allows them.
+/// strength and established-strength code, all 4 x 4 x 256 x 256 of them, without a takeover
+/// and with one, decode iff the generator's rule allows them.
 #[test]
 fn the_strength_rule_of_the_generator_is_the_decoders() {
     let base = HeartbeatSample::encode(&crate::core::Heartbeat::initial(1, 1));
     let mut accepted = 0usize;
-    for phase in Phase::ALL {
+    let took_over = HolderSlot {
+        id: 2,
+        incarnation: 7,
+    };
+    for (took_over_from, phase) in [HolderSlot::default(), took_over]
+        .into_iter()
+        .flat_map(|slot| Phase::ALL.map(|phase| (slot, phase)))
+    {
         for role in [
             None,
             Some(Role::Primary),
             Some(Role::Secondary),
             Some(Role::Tertiary),
         ] {
-            let allowed = strengths_allowed(role, phase);
+            let (strengths_ok, established_ok) = if took_over_from.id == 0 {
+                let allowed = strengths_allowed(role, phase);
+                (allowed.clone(), allowed)
+            } else {
+                strengths_allowed_taking_over(role, phase)
+            };
             for strength in 0..=u8::MAX {
                 for established_strength in 0..=u8::MAX {
                     let sample = HeartbeatSample {
@@ -298,14 +311,19 @@ fn the_strength_rule_of_the_generator_is_the_decoders() {
                         role: role_code(role),
                         strength,
                         established_strength,
+                        took_over_from,
                         ..base
                     };
                     let as_option = |code| (code != STRENGTH_NONE).then_some(code);
                     let (strength, established) =
                         (as_option(strength), as_option(established_strength));
-                    let expected = allowed.contains(&strength)
-                        && allowed.contains(&established)
-                        && established <= strength;
+                    // The takeover writer retires above the strength it hands over to.
+                    let handing_over = took_over_from.id == 0
+                        && strength.is_some()
+                        && established == Some(TAKEOVER_STRENGTH);
+                    let expected = strengths_ok.contains(&strength)
+                        && (handing_over
+                            || established_ok.contains(&established) && established <= strength);
                     assert_eq!(sample.decode().is_ok(), expected, "{sample:?}");
                     accepted += usize::from(expected);
                 }
@@ -315,6 +333,13 @@ fn the_strength_rule_of_the_generator_is_the_decoders() {
     // Initializing and failed: (none, none) for each of the 4 roles. Voting and steady: the
     // ordered pairs e <= s of none and the role's strengths: 1 without a role, 15 for the
     // Primary (none, 10, 15, 20, 30), 10 for the Secondary (none, 10, 15, 20), 3 for the
-    // Tertiary (none, 10).
-    assert_eq!(accepted, 2 * 4 + 2 * (1 + 15 + 10 + 3));
+    // Tertiary (none, 10); and each strength a role commands with beside an established 35
+    // (a released takeover's writer retiring): 4 for the Primary, 3 for the Secondary, 1 for
+    // the Tertiary. With a takeover, voting and steady only: commanding at 35, the
+    // established writer none, 35, or a strength the role allows: 2 without a role, 6 for
+    // the Primary, 5 for the Secondary, 3 for the Tertiary.
+    assert_eq!(
+        accepted,
+        2 * 4 + 2 * (1 + 15 + 10 + 3) + 2 * (4 + 3 + 1) + 2 * (2 + 6 + 5 + 3)
+    );
 }

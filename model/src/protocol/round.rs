@@ -113,16 +113,23 @@ pub fn round_step(config: &Config, before: &State, next: &mut State, id: Id) {
     }
 }
 
-/// F17: the takeover strength is held until the deposed Primary is heard as its next
-/// incarnation (until then its old writer may still be writing at 30) and the taker holds the
-/// Primary role of a backed result: a Secondary's or a provisional Primary's strength would
-/// hand the actuator to another.
+/// F17: the takeover strength is held until the taker has heard the deposed Primary no
+/// longer commanding at 30 (its next incarnation, or its life at a lower strength) and holds
+/// the Primary role of a backed result itself (a Secondary's or a provisional Primary's
+/// strength would hand the actuator to another). Not hearing it is not enough: samples its
+/// writer at 30 wrote may still be queued on the starved link, and would tie with the taker's
+/// 30; a heartbeat that says otherwise left the same queue after them.
 fn release_takeover(c: &mut Controller) {
     if let Some((deposed, incarnation)) = c.took_over_from {
-        let deposed_gone = c.peer(deposed).alive != Some(incarnation);
+        let peer = c.peer(deposed);
+        let deposed_below = match peer.alive {
+            Some(heard) if heard == incarnation => !peer.claims_primary,
+            Some(_) => true,
+            None => false,
+        };
         let backed_primary =
             c.phase == Phase::Steady && c.role == Some(Role::Primary) && !c.provisional;
-        if deposed_gone && backed_primary {
+        if deposed_below && backed_primary {
             c.took_over_from = None;
         }
     }

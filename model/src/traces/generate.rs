@@ -55,7 +55,7 @@ impl TraceScope {
 }
 
 /// The trace set `traces` writes: the configured scope, the persistent link failure, the
-/// returns, the counterexamples of the paper variant's findings, and the coverage scopes
+/// returns, the starved link (F17), the counterexamples of the paper variant's findings, and the coverage scopes
 /// (`Config::coverage_scopes`) that only widen the reachable set.
 pub fn standard(scope: Config) -> Vec<TraceScope> {
     let mut scopes = vec![
@@ -66,6 +66,7 @@ pub fn standard(scope: Config) -> Vec<TraceScope> {
             "link-failure",
         ),
         TraceScope::new(Config::returns(), Contribution::Everything, "returns"),
+        TraceScope::new(Config::starved(), Contribution::Everything, "starved"),
     ];
     scopes.extend(Config::paper_findings().into_iter().map(|(fix, config)| {
         let name = format!("paper-{}", fix.label().to_lowercase());

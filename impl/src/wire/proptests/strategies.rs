@@ -5,7 +5,7 @@
 use crate::core::network::{AlarmSubject, Hearing, LinkState, Network, NetworkHeartbeat};
 use crate::core::types::{
     AlarmReason, Assignment, Holder, Incarnation, Phase, Role, VoteRecord,
-    PROVISIONAL_PRIMARY_STRENGTH, ROLE_COUNT,
+    PROVISIONAL_PRIMARY_STRENGTH, ROLE_COUNT, TAKEOVER_STRENGTH,
 };
 use crate::core::Heartbeat;
 use crate::wire::{
@@ -35,6 +35,21 @@ pub fn strengths_allowed(role: Option<Role>, phase: Phase) -> Vec<Option<u8>> {
         );
     }
     allowed
+}
+
+/// The strengths a controller that took over from a late Primary (F17) may report: it
+/// commands at the takeover strength, voting or steady, with any role or none; its
+/// established writer is the takeover writer or the one it had before.
+pub fn strengths_allowed_taking_over(
+    role: Option<Role>,
+    phase: Phase,
+) -> (Vec<Option<u8>>, Vec<Option<u8>>) {
+    if !matches!(phase, Phase::Voting | Phase::Steady) {
+        return (Vec::new(), Vec::new());
+    }
+    let mut established = strengths_allowed(role, phase);
+    established.push(Some(TAKEOVER_STRENGTH));
+    (vec![Some(TAKEOVER_STRENGTH)], established)
 }
 
 /// Any controller id (0 is none), mostly the three real ones.
@@ -88,6 +103,7 @@ pub fn heartbeat() -> impl Strategy<Value = Heartbeat> {
         proptest::option::of(assignment()),
         any::<u32>(),
         any::<bool>(),
+        proptest::option::of((1..=u8::MAX, incarnation())),
     )
         .prop_map(
             |(
@@ -100,12 +116,28 @@ pub fn heartbeat() -> impl Strategy<Value = Heartbeat> {
                 vote,
                 epoch,
                 provisional,
+                takeover,
             )| {
-                let allowed = strengths_allowed(role, phase);
-                let strength = *strength_pick.get(&allowed);
-                // Established is at most what it commands with (`None` below any `Some`).
-                let established: Vec<Option<u8>> =
-                    allowed.into_iter().filter(|&s| s <= strength).collect();
+                // A takeover names another controller, and needs a voting or steady one.
+                let took_over_from = takeover
+                    .filter(|(from, _)| *from != id)
+                    .filter(|_| matches!(phase, Phase::Voting | Phase::Steady))
+                    .map(|(id, incarnation)| Holder { id, incarnation });
+                let (strengths, established) = match took_over_from {
+                    Some(_) => strengths_allowed_taking_over(role, phase),
+                    None => (
+                        strengths_allowed(role, phase),
+                        strengths_allowed(role, phase),
+                    ),
+                };
+                let strength = *strength_pick.get(&strengths);
+                // Established is at most what it commands with (`None` below any `Some`), but
+                // for the takeover writer retiring after a takeover was released.
+                let mut established: Vec<Option<u8>> =
+                    established.into_iter().filter(|&s| s <= strength).collect();
+                if took_over_from.is_none() && strength.is_some() {
+                    established.push(Some(TAKEOVER_STRENGTH));
+                }
                 Heartbeat {
                     id,
                     incarnation,
@@ -117,6 +149,7 @@ pub fn heartbeat() -> impl Strategy<Value = Heartbeat> {
                     epoch,
                     provisional,
                     established_strength: *established_pick.get(&established),
+                    took_over_from,
                 }
             },
         )
@@ -277,14 +310,16 @@ fn wire_incarnation() -> impl Strategy<Value = u64> {
     prop_oneof![Just(0), Just(1), any::<u64>()]
 }
 
+fn wire_holder_slot() -> impl Strategy<Value = HolderSlot> {
+    (code(), wire_incarnation()).prop_map(|(id, incarnation)| HolderSlot { id, incarnation })
+}
+
 fn wire_assignment() -> impl Strategy<Value = WireAssignment> {
-    let slot = || {
-        (code(), wire_incarnation()).prop_map(|(id, incarnation)| HolderSlot { id, incarnation })
-    };
     prop_oneof![
         Just(WireAssignment::default()),
         assignment().prop_map(|a| WireAssignment::encode(&a)),
-        [slot(), slot(), slot()].prop_map(|slots| WireAssignment { slots }),
+        [wire_holder_slot(), wire_holder_slot(), wire_holder_slot()]
+            .prop_map(|slots| WireAssignment { slots }),
     ]
 }
 
@@ -307,33 +342,39 @@ where
 /// Heartbeat samples with any field values.
 pub fn heartbeat_sample() -> BoxedStrategy<HeartbeatSample> {
     let any_fields = (
-        code(),
-        wire_incarnation(),
-        code(),
-        code(),
-        code(),
-        any::<bool>(),
-        wire_assignment(),
-        any::<bool>(),
-        wire_assignment(),
-        any::<u32>(),
-        any::<bool>(),
-        code(),
+        (
+            code(),
+            wire_incarnation(),
+            code(),
+            code(),
+            code(),
+            any::<bool>(),
+            wire_assignment(),
+            any::<bool>(),
+            wire_assignment(),
+            any::<u32>(),
+            any::<bool>(),
+            code(),
+        ),
+        wire_holder_slot(),
     )
         .prop_map(
             |(
-                from_id,
-                incarnation,
-                phase,
-                role,
-                strength,
-                agreed_valid,
-                agreed,
-                vote_valid,
-                vote,
-                epoch,
-                provisional,
-                established_strength,
+                (
+                    from_id,
+                    incarnation,
+                    phase,
+                    role,
+                    strength,
+                    agreed_valid,
+                    agreed,
+                    vote_valid,
+                    vote,
+                    epoch,
+                    provisional,
+                    established_strength,
+                ),
+                took_over_from,
             )| HeartbeatSample {
                 from_id,
                 incarnation,
@@ -347,6 +388,7 @@ pub fn heartbeat_sample() -> BoxedStrategy<HeartbeatSample> {
                 epoch,
                 provisional,
                 established_strength,
+                took_over_from,
             },
         );
     sample_of(heartbeat(), any_fields)

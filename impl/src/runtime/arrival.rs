@@ -1,0 +1,148 @@
+//! How each peer's commands arrive: the measurement behind the core's `Input::Commands`, by
+//! which a Secondary tells a Primary whose link is starved (its commands delayed, as behind a
+//! rate-limited link) from one that is merely silent (finding F17).
+//!
+//! A sample's delay is this controller's wall clock at its arrival minus the writer's source
+//! timestamp. Two controllers' clocks need not agree: each writer's delays are compared with
+//! the least delay seen from that writer within the last [`BASELINE_MS`], so a constant offset
+//! cancels, and a clock running fast or slow moves that baseline by its drift over the window
+//! only (a crystal 1 % off: 20 ms; a Pi's, about 100 ppm: 0.2 ms). A sample later than its
+//! writer's baseline by more than the lateness bound (half the command deadline) is late. A
+//! controller's commands are late while the last sample of any of its writers heard within a
+//! command deadline was (a writer it replaced may still have samples queued), on time while
+//! none was, and unheard when no writer of its was heard for a command deadline. The core
+//! decides what follows (`rl_core::rules`).
+//!
+//! What each verdict can cost is bounded by the model, not by this measurement: the model's
+//! `Starve` may hit any controller at any time, so a verdict that is wrong (a wall clock that
+//! steps back on the Primary, a burst of delay on a healthy link) costs what a starved link
+//! costs there, one owner change, and never two writers at the top.
+
+use crate::core::types::{Arrival, ControllerId};
+use crate::dds::GUID;
+use std::collections::{BTreeMap, VecDeque};
+
+/// How far back a writer's least delay is taken from.
+pub const BASELINE_MS: u64 = 2_000;
+
+/// One writer's recent samples.
+#[derive(Debug)]
+struct WriterDelays {
+    /// The controller it writes for.
+    controller: ControllerId,
+    /// (arrival on the loop clock, delay) of the samples of the last [`BASELINE_MS`].
+    recent: VecDeque<(u64, i64)>,
+    /// Its last sample was late.
+    late: bool,
+}
+
+impl WriterDelays {
+    /// Takes in one delay; returns how much later it came than the writer's baseline.
+    fn lateness_ms(&mut self, now_ms: u64, delay_ms: i64) -> i64 {
+        while self
+            .recent
+            .front()
+            .is_some_and(|(at_ms, _)| now_ms.saturating_sub(*at_ms) > BASELINE_MS)
+        {
+            self.recent.pop_front();
+        }
+        self.recent.push_back((now_ms, delay_ms));
+        let baseline = self
+            .recent
+            .iter()
+            .map(|(_, delay)| *delay)
+            .min()
+            .unwrap_or(delay_ms);
+        delay_ms - baseline
+    }
+
+    fn last_ms(&self) -> Option<u64> {
+        self.recent.back().map(|(at_ms, _)| *at_ms)
+    }
+}
+
+/// Every peer's commands, as they arrive.
+#[derive(Debug)]
+pub struct ArrivalWatch {
+    late_after_ms: i64,
+    unheard_after_ms: u64,
+    writers: BTreeMap<GUID, WriterDelays>,
+    /// The verdict last reported per controller.
+    reported: BTreeMap<ControllerId, Arrival>,
+}
+
+impl ArrivalWatch {
+    /// For a command deadline of `command_deadline_ms`: late beyond half of it, unheard after
+    /// all of it.
+    pub fn new(command_deadline_ms: u64) -> ArrivalWatch {
+        ArrivalWatch {
+            late_after_ms: i64::try_from(command_deadline_ms / 2).unwrap_or(i64::MAX),
+            unheard_after_ms: command_deadline_ms,
+            writers: BTreeMap::new(),
+            reported: BTreeMap::new(),
+        }
+    }
+
+    /// A sample of controller `from`'s writer `writer` arrived at `now_ms` (the loop clock),
+    /// `delay_ms` after its source timestamp (the two wall clocks). Returns the controller's
+    /// new verdict when it changed.
+    pub fn sample(
+        &mut self,
+        from: ControllerId,
+        writer: GUID,
+        delay_ms: i64,
+        now_ms: u64,
+    ) -> Option<Arrival> {
+        let delays = self.writers.entry(writer).or_insert(WriterDelays {
+            controller: from,
+            recent: VecDeque::new(),
+            late: false,
+        });
+        delays.controller = from;
+        delays.late = delays.lateness_ms(now_ms, delay_ms) > self.late_after_ms;
+        self.report(from, now_ms)
+    }
+
+    /// The controllers whose verdict changed with time alone: every writer of theirs silent
+    /// for a command deadline (unheard), or a late writer gone quiet beside one on time.
+    /// Writers silent for the baseline window are forgotten (a re-created writer is a new
+    /// GUID).
+    pub fn silence(&mut self, now_ms: u64) -> Vec<(ControllerId, Arrival)> {
+        self.writers.retain(|_, delays| {
+            delays
+                .last_ms()
+                .is_some_and(|at_ms| now_ms.saturating_sub(at_ms) <= BASELINE_MS)
+        });
+        let ids: Vec<ControllerId> = self.reported.keys().copied().collect();
+        ids.into_iter()
+            .filter_map(|id| self.report(id, now_ms).map(|arrival| (id, arrival)))
+            .collect()
+    }
+
+    /// Controller `id`'s verdict from its writers heard within a command deadline: late if
+    /// any of them is (samples of a writer it has since replaced may still be queued on a
+    /// starved link), on time if they all are, unheard without any. Returns it when it
+    /// changed.
+    fn report(&mut self, id: ControllerId, now_ms: u64) -> Option<Arrival> {
+        let mut arrival = Arrival::Unheard;
+        for delays in self.writers.values().filter(|d| d.controller == id) {
+            let recent = delays
+                .last_ms()
+                .is_some_and(|at_ms| now_ms.saturating_sub(at_ms) <= self.unheard_after_ms);
+            if recent {
+                arrival = match (arrival, delays.late) {
+                    (_, true) | (Arrival::Late, _) => Arrival::Late,
+                    _ => Arrival::OnTime,
+                };
+            }
+        }
+        let before = self
+            .reported
+            .insert(id, arrival)
+            .unwrap_or(Arrival::Unheard);
+        (before != arrival).then_some(arrival)
+    }
+}
+
+#[cfg(test)]
+mod tests;
