@@ -9,6 +9,9 @@
 //! - `tests/fixtures/lab-restart-within-a-round/`: a fault-lab recording in which C3 stopped and
 //!   its next life started within one heartbeat period, after C1 had heard the old life in
 //!   that round; accepted (tolerance 3 of `conformance::validate`);
+//! - `tests/fixtures/lab-takeover-stale-heartbeat/`: a fault-lab recording of a takeover from a
+//!   starved Primary (F17) in which the taker heard the deposed Primary's heartbeat a round
+//!   late; accepted (tolerance 4);
 //! - a fresh `rl demo --record` run on DDS domain 198, validated as it comes.
 //!
 //! The DDS-level replays validate their own recordings (tests/dds_replay.rs).
@@ -110,6 +113,20 @@ fn a_restart_within_one_round_is_a_behaviour_of_the_model() {
     assert_eq!(accepted.controllers, 3);
     assert_eq!(accepted.lives, 6, "C1, C2 and four lives of C3");
     assert!(accepted.rounds_checked > 100, "{accepted}");
+}
+
+#[test]
+fn a_takeover_that_hears_a_round_old_heartbeat_is_a_behaviour_of_the_model() {
+    // `lab run tbf-primary --seed 1`: C2 took over from the starved C1 at 35, then lost it;
+    // the heartbeat of C1 it heard next had waited a round in the link's queue and said 30,
+    // where C1 had lowered to 15, so C2 held 35 a round longer. Rejected at round 18 without
+    // tolerance 4.
+    let accepted =
+        check(&fixture("lab-takeover-stale-heartbeat")).unwrap_or_else(|r| panic!("{r}"));
+    println!("{accepted}");
+    assert_eq!(accepted.controllers, 3);
+    assert_eq!(accepted.lives, 3);
+    assert!(accepted.rounds_checked > 80, "{accepted}");
 }
 
 /// `rl demo --record` on domain 198: three controllers, camera and servo, the Primary killed

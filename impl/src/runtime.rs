@@ -361,7 +361,10 @@ impl Voting {
                 config.id
             ),
         }
-        self.core = Core::new(config, now_ms);
+        self.core = match why {
+            Restart::Deposed => Core::start_again(config, now_ms),
+            Restart::Stalled(_) | Restart::Detached => Core::new(config, now_ms),
+        };
         self.pending_exit = None;
         // What arrives before the next boundary may be up to a stall old: the kernel kept the
         // datagrams that came while the process stood still (or dropped the newest ones when

@@ -25,8 +25,8 @@
 //!   `Unplug` cuts it off from the actuator too and starts a new core with the next
 //!   incarnation, as the runtime does when every link loses its carrier
 //!   (impl/src/link_watch.rs).
-//! - `Starve { controller }`: every live core learns that its commands arrive late and every
-//!   other live peer's on time (`Input::Commands`, what the runtime measures,
+//! - `Starve { controller }`: every live core learns that its commands arrive late, then
+//!   every other live peer's on time (`Input::Commands`, what the runtime measures,
 //!   impl/src/runtime/arrival.rs); a takeover's writer is one every reader knows already.
 //!   `Lag` / `CatchUp`: the actuator stops and starts counting its writers. A core that says
 //!   `StartAgain` (deposed) is replaced by a new core with the next incarnation at the round's

@@ -385,8 +385,8 @@ impl<'a> CoreNetwork<'a> {
     }
 
     /// Every live core learns how each live peer's commands arrive: late from a starved
-    /// controller, on time from the others (the on-time ones first, as a Secondary has heard
-    /// its Tertiary's commands before its Primary's turn late).
+    /// controller, then on time from the others (a Tertiary's command arriving on time after
+    /// the Primary's late one is what lets a Secondary take over).
     fn arrivals(&mut self, log: &mut StepLog) {
         let at_ms = self.boundary_ms() + DELIVERY_OFFSET_MS;
         let live: Vec<ControllerId> = self
@@ -397,13 +397,13 @@ impl<'a> CoreNetwork<'a> {
             .collect();
         let mut order: Vec<(ControllerId, Arrival)> = live
             .iter()
-            .filter(|id| !self.starved.contains(id))
-            .map(|id| (*id, Arrival::OnTime))
+            .filter(|id| self.starved.contains(id))
+            .map(|id| (*id, Arrival::Late))
             .collect();
         order.extend(
             live.iter()
-                .filter(|id| self.starved.contains(id))
-                .map(|id| (*id, Arrival::Late)),
+                .filter(|id| !self.starved.contains(id))
+                .map(|id| (*id, Arrival::OnTime)),
         );
         for slot in &mut self.slots {
             let to = slot.id;

@@ -45,7 +45,9 @@
 //! replaces a life which stopped cleanly in the same round (a restart within one heartbeat
 //! period) may start one round late: the old life's heartbeat timer may have fired in that
 //! round before it stopped, and its peers heard it, which the model shows as the old life
-//! lasting the round.
+//! lasting the round. (4) A controller that took over from a starved Primary (F17) may hear,
+//! instead of that Primary's heartbeat of the round, the one of the round before: a starved
+//! link delays what it carries, and the model's heartbeats are lost but never late.
 
 mod compare;
 mod rejection;

@@ -46,7 +46,16 @@ impl Search<'_> {
             let mut outcomes: Vec<(Controller, u16)> = Vec::new();
             let mut seen: HashSet<Controller> = HashSet::new();
             for candidate in slot {
-                for (next, lost) in round_end_of(&self.config, &reps, id, candidate, &senders) {
+                let mut ends = round_end_of(&self.config, &reps, id, candidate, &senders);
+                ends.extend(stale_deposed_ends(
+                    &self.config,
+                    &reps,
+                    &branch.previous,
+                    id,
+                    candidate,
+                    &senders,
+                ));
+                for (next, lost) in ends {
                     self.stats.states_explored += 1;
                     if seen.insert(next.clone()) {
                         outcomes.push((next, lost));
@@ -93,7 +102,7 @@ impl Search<'_> {
             self.stats.candidates_max = self.stats.candidates_max.max(kept.len());
             slots.push(group_by_heartbeat(kept));
         }
-        Ok(RoundEnd::Survivors(combine(slots)))
+        Ok(RoundEnd::Survivors(combine(slots, &reps.controllers)))
     }
 }
 
@@ -113,8 +122,11 @@ fn group_by_heartbeat(kept: Vec<Controller>) -> Vec<Vec<Controller>> {
 }
 
 /// Every combination of one group per controller: the branches the round leaves.
-fn combine(slots: Vec<Vec<Vec<Controller>>>) -> Vec<Branch> {
-    let mut out = vec![Branch { slots: Vec::new() }];
+fn combine(slots: Vec<Vec<Vec<Controller>>>, previous: &[Controller]) -> Vec<Branch> {
+    let mut out = vec![Branch {
+        slots: Vec::new(),
+        previous: previous.to_vec(),
+    }];
     for groups in slots {
         let mut expanded = Vec::new();
         for partial in &out {
@@ -168,6 +180,34 @@ pub fn round_end_of(
         out.push((ended.controllers[index].clone(), lost));
     }
     out
+}
+
+/// Tolerance 4: a controller that took over from a starved Primary (F17) may hear, instead
+/// of that Primary's heartbeat of this round, the one of the round before, which waited in the
+/// starved link's queue (the model's heartbeats are lost, never late). Its ends of the round
+/// with the deposed Primary as it was at the previous boundary, the same life still up.
+fn stale_deposed_ends(
+    config: &model::Config,
+    reps: &State,
+    previous: &[Controller],
+    id: ControllerId,
+    candidate: &Controller,
+    senders: &[ControllerId],
+) -> Vec<(Controller, u16)> {
+    let Some((deposed, incarnation)) = candidate.took_over_from else {
+        return Vec::new();
+    };
+    let index = usize::from(deposed) - 1;
+    let (Some(was), Some(now)) = (previous.get(index), reps.controllers.get(index)) else {
+        return Vec::new();
+    };
+    let same_life = was.is_up() && now.is_up() && was.incarnation == now.incarnation;
+    if !same_life || was.incarnation != incarnation || was == now {
+        return Vec::new();
+    }
+    let mut stale = reps.clone();
+    stale.controllers[index] = was.clone();
+    round_end_of(config, &stale, id, candidate, senders)
 }
 
 /// The model lets the round end here (no initialization window or durable vote is due first).

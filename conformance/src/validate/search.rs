@@ -27,6 +27,9 @@ pub(super) struct LifeRounds {
 #[derive(Clone, Debug)]
 pub(super) struct Branch {
     pub(super) slots: Vec<Vec<Controller>>,
+    /// Each controller's representative state at the previous boundary: what a heartbeat
+    /// that waited a round on a starved link carries (tolerance 4).
+    pub(super) previous: Vec<Controller>,
 }
 
 /// What one controller's heartbeat carries (and whether it is up): all a receiver's next
@@ -180,6 +183,7 @@ impl<'a> Search<'a> {
         // One round early: a process may join the round before its `started` event's.
         let begin = first_start.saturating_sub(1);
         let initial = Branch {
+            previous: Vec::new(),
             slots: self
                 .config
                 .ids()

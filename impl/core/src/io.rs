@@ -36,8 +36,9 @@ pub enum Input {
     Timer(Timer),
     /// The application detected its own fault: fail now (stop commanding, announce FAILED).
     LocalFault,
-    /// How a peer's commands now arrive, when that changed (F17: a Secondary takes over from a
-    /// Primary whose commands arrive late while the Tertiary's arrive on time).
+    /// How a peer's commands now arrive: when that changed, and each on-time command while
+    /// another peer's are late (F17: a Secondary takes over from a Primary whose commands
+    /// arrive late when a command of the Tertiary then arrives on time).
     Commands {
         /// The peer whose commands these are.
         from: ControllerId,

@@ -101,6 +101,18 @@ impl Core {
         }
     }
 
+    /// A controller starting again at `now_ms` as a new life of the same process, after a peer
+    /// took over from it (F17), which it learns at a round's end: its first heartbeat goes at
+    /// the round's heartbeat slot rather than at once, so a peer whose round ends at the same
+    /// instant counts it in the next round, as the model's restart at a round's end has it.
+    pub fn start_again(config: CoreConfig, now_ms: u64) -> Core {
+        let mut core = Core::new(config, now_ms);
+        let period_ms = config.heartbeat_period_ms.max(1);
+        let round_start_ms = now_ms / period_ms * period_ms;
+        core.heartbeat_due_ms = (round_start_ms + config.heartbeat_offset_ms()).max(now_ms);
+        core
+    }
+
     /// Its identity and timing.
     pub fn config(&self) -> &CoreConfig {
         &self.config
@@ -206,7 +218,9 @@ impl Core {
             Input::Commands { from, arrival } => {
                 if let Some(peer) = self.state.peers.get_mut(&from) {
                     peer.commands = arrival;
-                    rules::take_over_from_late(&mut self.state);
+                    if arrival == Arrival::OnTime {
+                        rules::take_over_from_late(&mut self.state, from);
+                    }
                 }
             }
         }

@@ -77,12 +77,16 @@ pub(crate) fn end_round(config: &CoreConfig, c: &mut ControllerState, heard: &[H
 }
 
 /// F17: a Secondary whose agreed Primary, commanding at 30, sends commands that arrive late
-/// while the agreed Tertiary's arrive on time takes over at once at the takeover strength:
-/// the actuator would otherwise go to it at the Primary's command deadline and back to the
-/// Primary with each late sample. Without a Tertiary on time to compare with, it cannot tell
-/// a late Primary from its own starved link, and does nothing. Taken as the measurement
-/// changes, not at a round's end: the takeover must come before the actuator's deadline.
-pub(crate) fn take_over_from_late(c: &mut ControllerState) {
+/// takes over at once at the takeover strength when a command of the agreed Tertiary then
+/// arrives on time (`on_time_from`, the input that triggers it): the actuator would otherwise
+/// go to it at the Primary's command deadline and back to the Primary with each late sample.
+/// Only a Tertiary sample that arrives on time after the Primary's late one shows its own
+/// link is not the starved one (measured: with the Secondary's own link starved, the
+/// Primary's first delayed sample came before the Tertiary's, whose last verdict was still
+/// "on time", `lab run random --seed 5`). Without it, it cannot tell a late Primary from its
+/// own starved link, and does nothing. Taken as the measurement comes, not at a round's end:
+/// the takeover must come before the actuator's deadline.
+pub(crate) fn take_over_from_late(c: &mut ControllerState, on_time_from: ControllerId) {
     if c.took_over_from.is_some()
         || !c.is_active()
         || c.role != Some(Role::Secondary)
@@ -105,7 +109,8 @@ pub(crate) fn take_over_from_late(c: &mut ControllerState) {
         })
     };
     let commanding = c.peers.get(&primary.id).is_some_and(|p| p.claims_primary);
-    if commanding && is(primary, Arrival::Late) && is(tertiary, Arrival::OnTime) {
+    let fresh = on_time_from == tertiary.id;
+    if fresh && commanding && is(primary, Arrival::Late) && is(tertiary, Arrival::OnTime) {
         c.take_over(primary);
     }
 }

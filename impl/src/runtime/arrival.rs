@@ -85,7 +85,9 @@ impl ArrivalWatch {
 
     /// A sample of controller `from`'s writer `writer` arrived at `now_ms` (the loop clock),
     /// `delay_ms` after its source timestamp (the two wall clocks). Returns the controller's
-    /// new verdict when it changed.
+    /// verdict when it changed, and "on time" for each sample on time while another
+    /// controller's are late: that a sample arrives on time after the late one is what tells
+    /// a late peer from this controller's own starved link (`rl_core`, F17).
     pub fn sample(
         &mut self,
         from: ControllerId,
@@ -100,7 +102,13 @@ impl ArrivalWatch {
         });
         delays.controller = from;
         delays.late = delays.lateness_ms(now_ms, delay_ms) > self.late_after_ms;
-        self.report(from, now_ms)
+        let changed = self.report(from, now_ms);
+        let another_late = self
+            .reported
+            .iter()
+            .any(|(id, arrival)| *id != from && *arrival == Arrival::Late);
+        let on_time = self.reported.get(&from) == Some(&Arrival::OnTime);
+        changed.or((on_time && another_late).then_some(Arrival::OnTime))
     }
 
     /// The controllers whose verdict changed with time alone: every writer of theirs silent

@@ -18,9 +18,9 @@ fn a_secondary_takes_over_at_35_when_the_primary_is_late_and_the_tertiary_on_tim
     let mut c2 = formed_c(2);
     assert_eq!(c2.state().output, Some(20));
     let t = FORMED_AT_MS + 10;
-    assert_eq!(c2.step(arrival(3, Arrival::OnTime), t), vec![]);
+    assert_eq!(c2.step(arrival(1, Arrival::Late), t), vec![]);
     assert_eq!(
-        c2.step(arrival(1, Arrival::Late), t + 5),
+        c2.step(arrival(3, Arrival::OnTime), t + 5),
         vec![Command::SetOutput {
             role: Some(Role::Secondary),
             strength: Some(TAKEOVER_STRENGTH)
@@ -47,31 +47,41 @@ fn without_a_tertiary_on_time_a_late_primary_is_left_alone() {
     for tertiary in [Arrival::Unheard, Arrival::Late] {
         let mut c2 = formed_c(2);
         let t = FORMED_AT_MS + 10;
-        c2.step(arrival(3, tertiary), t);
-        assert_eq!(
-            c2.step(arrival(1, Arrival::Late), t),
-            vec![],
-            "{tertiary:?}"
-        );
+        c2.step(arrival(1, Arrival::Late), t);
+        assert_eq!(c2.step(arrival(3, tertiary), t), vec![], "{tertiary:?}");
         assert_eq!(c2.state().output, Some(20));
         assert_eq!(c2.state().took_over_from, None);
     }
 }
 
 #[test]
+fn a_tertiary_on_time_before_the_primarys_late_sample_proves_nothing() {
+    // The Secondary's own link starved (`lab run random --seed 5`): the Primary's sample is
+    // the first to come late, while the Tertiary's last came before the queue built up.
+    let mut c2 = formed_c(2);
+    let t = FORMED_AT_MS + 10;
+    c2.step(arrival(3, Arrival::OnTime), t);
+    assert_eq!(c2.step(arrival(1, Arrival::Late), t + 5), vec![]);
+    assert_eq!(c2.state().took_over_from, None);
+    // The Tertiary's next sample comes late too: still nothing.
+    assert_eq!(c2.step(arrival(3, Arrival::Late), t + 20), vec![]);
+    assert_eq!(c2.state().output, Some(20));
+}
+
+#[test]
 fn only_the_secondary_takes_over_and_only_from_the_primary() {
     // The Tertiary sees the Primary late and the Secondary on time: not its call.
     let mut c3 = formed_c(3);
-    c3.step(arrival(2, Arrival::OnTime), FORMED_AT_MS + 10);
+    c3.step(arrival(1, Arrival::Late), FORMED_AT_MS + 10);
     assert_eq!(
-        c3.step(arrival(1, Arrival::Late), FORMED_AT_MS + 10),
+        c3.step(arrival(2, Arrival::OnTime), FORMED_AT_MS + 10),
         vec![]
     );
     // The Secondary sees the Tertiary late: nothing to take over.
     let mut c2 = formed_c(2);
-    c2.step(arrival(1, Arrival::OnTime), FORMED_AT_MS + 10);
+    c2.step(arrival(3, Arrival::Late), FORMED_AT_MS + 10);
     assert_eq!(
-        c2.step(arrival(3, Arrival::Late), FORMED_AT_MS + 10),
+        c2.step(arrival(1, Arrival::OnTime), FORMED_AT_MS + 10),
         vec![]
     );
 }
@@ -103,8 +113,8 @@ fn a_primary_that_hears_a_takeover_from_its_life_starts_again() {
 #[test]
 fn the_takeover_is_released_once_the_old_life_is_gone_and_the_taker_is_the_backed_primary() {
     let mut c2 = formed_c(2);
-    c2.step(arrival(3, Arrival::OnTime), FORMED_AT_MS + 10);
     c2.step(arrival(1, Arrival::Late), FORMED_AT_MS + 10);
+    c2.step(arrival(3, Arrival::OnTime), FORMED_AT_MS + 10);
     // C1 starts again as a new life (incarnation 5): the old one is retired at once, and the
     // new one joins below. C2 and C3 agree P=2 S=3 T=1#5.
     let mut t = FORMED_AT_MS;
@@ -162,8 +172,8 @@ fn the_takeover_is_held_while_the_deposed_primary_is_lost_and_released_when_hear
     // C1 and come down to 30. A heartbeat of C1 that says it no longer commands at 30 left
     // the same queue after them.
     let mut c2 = formed_c(2);
-    c2.step(arrival(3, Arrival::OnTime), FORMED_AT_MS + 10);
     c2.step(arrival(1, Arrival::Late), FORMED_AT_MS + 10);
+    c2.step(arrival(3, Arrival::OnTime), FORMED_AT_MS + 10);
     // C1's heartbeats stop: lost after two silent rounds, C2 and C3 agree P=2 S=3.
     let new_result = assignment(&[(2, 0), (3, 0)]);
     let c3_after = Heartbeat {
@@ -235,4 +245,20 @@ fn the_takeover_is_held_while_the_deposed_primary_is_lost_and_released_when_hear
     assert_eq!(c2.state().took_over_from, None);
     assert_eq!(c2.state().role, Some(Role::Primary));
     assert_eq!(c2.state().output, Some(30));
+}
+
+#[test]
+fn a_deposed_life_starting_again_at_a_boundary_speaks_at_the_rounds_heartbeat_slot() {
+    let config = CoreConfig::new(1, 9, PERIOD_MS, rounds());
+    let at_boundary = Core::start_again(config, 1_000);
+    assert_eq!(
+        at_boundary.next_deadline(),
+        Deadline {
+            at_ms: 1_062,
+            timer: Timer::Heartbeat
+        }
+    );
+    // Later in a round, past the slot: at once, as any start.
+    let late = Core::start_again(config, 1_100);
+    assert_eq!(late.next_deadline().at_ms, 1_100);
 }

@@ -45,6 +45,20 @@ fn the_rate_limited_primarys_second_delayed_sample_is_late() {
 }
 
 #[test]
+fn while_one_controller_is_late_each_on_time_sample_of_another_is_reported() {
+    let mut w = watch();
+    assert_eq!(w.sample(3, writer(3), 5, 0), Some(Arrival::OnTime));
+    assert_eq!(w.sample(3, writer(3), 6, 10), None);
+    w.sample(1, writer(1), 5, 12);
+    assert_eq!(w.sample(1, writer(1), 90, 20), Some(Arrival::Late));
+    assert_eq!(w.sample(3, writer(3), 5, 30), Some(Arrival::OnTime));
+    assert_eq!(w.sample(3, writer(3), 5, 40), Some(Arrival::OnTime));
+    // C1 on time again: C3's samples are news no more.
+    assert_eq!(w.sample(1, writer(1), 5, 45), Some(Arrival::OnTime));
+    assert_eq!(w.sample(3, writer(3), 5, 50), None);
+}
+
+#[test]
 fn a_late_writer_keeps_its_controller_late_beside_a_new_one_on_time() {
     // C1 lowered to 15 (a new writer, on time from its first sample) while samples of its
     // writer at 30 still come out of the starved link's queue.
