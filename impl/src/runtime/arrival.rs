@@ -25,6 +25,13 @@ use std::collections::{BTreeMap, VecDeque};
 /// How far back a writer's least delay is taken from.
 pub const BASELINE_MS: u64 = 2_000;
 
+/// How long a writer must have been heard before its samples say anything: a new writer's
+/// first sample is its own baseline, so it would always be "on time" (measured: a Tertiary
+/// that had just joined, whose first samples made a Secondary take over from a Primary
+/// delayed by a loaded host, `lab soak --seed 14`). The model offers a starved link only
+/// once the system has settled, its writers established, too.
+pub const ESTABLISHED_MS: u64 = 500;
+
 /// One writer's recent samples.
 #[derive(Debug)]
 struct WriterDelays {
@@ -34,6 +41,8 @@ struct WriterDelays {
     recent: VecDeque<(u64, i64)>,
     /// Its last sample was late.
     late: bool,
+    /// When it was first heard (the loop clock).
+    first_ms: u64,
 }
 
 impl WriterDelays {
@@ -99,6 +108,7 @@ impl ArrivalWatch {
             controller: from,
             recent: VecDeque::new(),
             late: false,
+            first_ms: now_ms,
         });
         delays.controller = from;
         delays.late = delays.lateness_ms(now_ms, delay_ms) > self.late_after_ms;
@@ -127,13 +137,19 @@ impl ArrivalWatch {
             .collect()
     }
 
-    /// Controller `id`'s verdict from its writers heard within a command deadline: late if
-    /// any of them is (samples of a writer it has since replaced may still be queued on a
+    /// Controller `id`'s verdict from its established writers heard within a command
+    /// deadline: late if any of them is (samples of a writer it has since replaced may still be queued on a
     /// starved link), on time if they all are, unheard without any. Returns it when it
     /// changed.
     fn report(&mut self, id: ControllerId, now_ms: u64) -> Option<Arrival> {
         let mut arrival = Arrival::Unheard;
-        for delays in self.writers.values().filter(|d| d.controller == id) {
+        let established = |d: &&WriterDelays| now_ms.saturating_sub(d.first_ms) >= ESTABLISHED_MS;
+        for delays in self
+            .writers
+            .values()
+            .filter(|d| d.controller == id)
+            .filter(established)
+        {
             let recent = delays
                 .last_ms()
                 .is_some_and(|at_ms| now_ms.saturating_sub(at_ms) <= self.unheard_after_ms);

@@ -18,10 +18,39 @@ fn watch() -> ArrivalWatch {
     ArrivalWatch::new(100)
 }
 
+/// A watch that has heard `writers` of controllers 1 to 9 (writer n for controller n) on time
+/// for [`ESTABLISHED_MS`], ending at `at_ms`.
+fn established(writers: &[u8], at_ms: u64) -> ArrivalWatch {
+    let mut w = watch();
+    let mut t = at_ms - ESTABLISHED_MS;
+    while t < at_ms {
+        for n in writers {
+            w.sample(*n, writer(*n), 5, t);
+        }
+        t += EVERY_MS;
+    }
+    for n in writers {
+        w.sample(*n, writer(*n), 5, at_ms);
+    }
+    w
+}
+
+#[test]
+fn a_new_writer_says_nothing_until_it_is_established() {
+    // C3 has just joined: its first samples are their own baseline.
+    let mut w = established(&[1], 1_000);
+    assert_eq!(w.sample(1, writer(1), 90, 1_010), Some(Arrival::Late));
+    assert_eq!(w.sample(3, writer(3), 5, 1_020), None);
+    assert_eq!(w.sample(3, writer(3), 5, 1_400), None);
+    // Established: its on-time samples count, and with C1 late each is reported.
+    w.sample(1, writer(1), 90, 1_500);
+    assert_eq!(w.sample(3, writer(3), 5, 1_530), Some(Arrival::OnTime));
+}
+
 #[test]
 fn the_rate_limited_primarys_second_delayed_sample_is_late() {
-    let mut w = watch();
-    let mut t = 1_000;
+    let mut w = established(&[1], 1_000);
+    let mut t = 1_000 + EVERY_MS;
     let mut verdicts = Vec::new();
     for delay_ms in [4, 12, 3, 7, 5, 23, 79, 148] {
         verdicts.push(w.sample(1, writer(1), delay_ms, t));
@@ -30,7 +59,7 @@ fn the_rate_limited_primarys_second_delayed_sample_is_late() {
     assert_eq!(
         verdicts,
         [
-            Some(Arrival::OnTime),
+            None,
             None,
             None,
             None,
@@ -46,30 +75,37 @@ fn the_rate_limited_primarys_second_delayed_sample_is_late() {
 
 #[test]
 fn while_one_controller_is_late_each_on_time_sample_of_another_is_reported() {
-    let mut w = watch();
-    assert_eq!(w.sample(3, writer(3), 5, 0), Some(Arrival::OnTime));
-    assert_eq!(w.sample(3, writer(3), 6, 10), None);
-    w.sample(1, writer(1), 5, 12);
-    assert_eq!(w.sample(1, writer(1), 90, 20), Some(Arrival::Late));
-    assert_eq!(w.sample(3, writer(3), 5, 30), Some(Arrival::OnTime));
-    assert_eq!(w.sample(3, writer(3), 5, 40), Some(Arrival::OnTime));
+    let mut w = established(&[1, 3], 1_000);
+    assert_eq!(w.sample(3, writer(3), 6, 1_010), None);
+    assert_eq!(w.sample(1, writer(1), 90, 1_020), Some(Arrival::Late));
+    assert_eq!(w.sample(3, writer(3), 5, 1_030), Some(Arrival::OnTime));
+    assert_eq!(w.sample(3, writer(3), 5, 1_040), Some(Arrival::OnTime));
     // C1 on time again: C3's samples are news no more.
-    assert_eq!(w.sample(1, writer(1), 5, 45), Some(Arrival::OnTime));
-    assert_eq!(w.sample(3, writer(3), 5, 50), None);
+    assert_eq!(w.sample(1, writer(1), 5, 1_045), Some(Arrival::OnTime));
+    assert_eq!(w.sample(3, writer(3), 5, 1_050), None);
 }
 
 #[test]
 fn a_late_writer_keeps_its_controller_late_beside_a_new_one_on_time() {
     // C1 lowered to 15 (a new writer, on time from its first sample) while samples of its
     // writer at 30 still come out of the starved link's queue.
-    let mut w = watch();
-    w.sample(1, writer(1), 5, 0);
-    assert_eq!(w.sample(1, writer(1), 300, 33), Some(Arrival::Late));
-    assert_eq!(w.sample(1, writer(7), 250, 40), None);
-    assert_eq!(w.sample(1, writer(7), 250, 73), None);
-    // The old writer's queue is empty: a command deadline later, on time.
-    assert_eq!(w.silence(133), vec![]);
-    assert_eq!(w.sample(1, writer(7), 250, 140), Some(Arrival::OnTime));
+    let mut w = established(&[1], 1_000);
+    assert_eq!(w.sample(1, writer(1), 300, 1_033), Some(Arrival::Late));
+    assert_eq!(w.sample(1, writer(7), 250, 1_040), None);
+    assert_eq!(w.sample(1, writer(7), 250, 1_073), None);
+    // The old writer's queue is empty: a command deadline later the new one, once
+    // established, says on time.
+    assert_eq!(w.silence(1_133), vec![]);
+    let mut t = 1_140;
+    while t < 1_040 + ESTABLISHED_MS {
+        assert_ne!(
+            w.sample(1, writer(7), 250, t),
+            Some(Arrival::Late),
+            "at {t}"
+        );
+        t += EVERY_MS;
+    }
+    assert_eq!(w.sample(1, writer(7), 250, t), Some(Arrival::OnTime));
 }
 
 #[test]
@@ -97,24 +133,31 @@ fn a_clock_an_hour_off_is_on_time_and_so_is_one_running_a_percent_fast() {
 
 #[test]
 fn a_delay_is_judged_against_its_own_writers_baseline() {
-    let mut w = watch();
     // C1's writer at 20 always takes 60 ms (a slow path); its new writer starts fresh.
-    assert_eq!(w.sample(1, writer(1), 60, 0), Some(Arrival::OnTime));
-    assert_eq!(w.sample(1, writer(1), 65, 33), None);
-    assert_eq!(w.sample(1, writer(9), 5, 66), None);
-    assert_eq!(w.sample(1, writer(9), 70, 99), Some(Arrival::Late));
+    let mut w = watch();
+    let mut t = 0;
+    while t <= ESTABLISHED_MS + EVERY_MS {
+        w.sample(1, writer(1), 60, t);
+        t += EVERY_MS;
+    }
+    assert_eq!(w.reported.get(&1), Some(&Arrival::OnTime));
+    let start = t;
+    while t <= start + ESTABLISHED_MS + EVERY_MS {
+        w.sample(1, writer(9), 5, t);
+        t += EVERY_MS;
+    }
+    assert_eq!(w.sample(1, writer(9), 70, t), Some(Arrival::Late));
 }
 
 #[test]
 fn commands_that_stop_for_a_deadline_are_unheard() {
-    let mut w = watch();
-    w.sample(2, writer(2), 5, 1_000);
+    let mut w = established(&[2, 3], 1_000);
     w.sample(3, writer(3), 5, 1_050);
     assert_eq!(w.silence(1_100), vec![]);
     assert_eq!(w.silence(1_101), vec![(2, Arrival::Unheard)]);
     assert_eq!(w.silence(1_151), vec![(3, Arrival::Unheard)]);
     assert_eq!(w.silence(1_200), vec![]);
-    // Heard again: on time.
+    // Heard again, within the baseline window: on time.
     assert_eq!(w.sample(2, writer(2), 5, 1_300), Some(Arrival::OnTime));
 }
 
