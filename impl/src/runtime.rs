@@ -141,6 +141,7 @@ pub(crate) fn spawn(
                 identities,
                 impostor_alarms: Vec::new(),
                 arrival,
+                watching_arrivals: false,
                 deposed: false,
             };
             voting.run()
@@ -245,8 +246,10 @@ struct Voting {
     identities: crate::identity::Identities,
     /// Ids with an impostor alarm raised.
     impostor_alarms: Vec<ControllerId>,
-    /// How each peer's commands arrive (F17).
+    /// How each peer's commands arrive (F17), measured while `watching_arrivals`.
     arrival: ArrivalWatch,
+    /// The command reader is registered and measured (crate::runtime::commands_in).
+    watching_arrivals: bool,
     /// The core asked to start again (a peer took over from this life, F17).
     deposed: bool,
 }
@@ -260,7 +263,6 @@ impl Voting {
         };
         register(&self.endpoints.heartbeats_in, HEARTBEATS)?;
         register(&self.endpoints.votes_in, VOTES)?;
-        register(&self.endpoints.commands_in, COMMANDS)?;
         if let Some(fd) = self.links.fd() {
             register(&rustdds::mio::unix::EventedFd(&fd), LINKS)?;
         }
@@ -292,6 +294,7 @@ impl Voting {
             // Samples first: a heartbeat that arrived before a round boundary belongs to the
             // round that ends there.
             self.take_samples();
+            self.follow_arrivals(&poll)?;
             self.take_commands();
             if self.shared.fault.swap(false, Ordering::SeqCst) {
                 self.step(Input::LocalFault);
@@ -461,34 +464,6 @@ impl Voting {
         self.clear_silent_impostors();
     }
 
-    /// Drains the command reader: how each peer's commands arrive, and which stopped (F17).
-    fn take_commands(&mut self) {
-        let now_ms = self.clock.now_ms();
-        let arrived = rustdds::Timestamp::now();
-        let own_id = self.core.config().id;
-        let mut changed = Vec::new();
-        for command in self.endpoints.commands_in.take() {
-            let Some(written) = command.source_timestamp else {
-                continue;
-            };
-            let participant = crate::dds::ParticipantKey::of(command.writer);
-            let Some(from) = self.identities.speaks_for(participant) else {
-                continue;
-            };
-            if from == own_id {
-                continue;
-            }
-            let delay_ms = (arrived - written).to_nanoseconds() / 1_000_000;
-            if let Some(arrival) = self.arrival.sample(from, command.writer, delay_ms, now_ms) {
-                changed.push((from, arrival));
-            }
-        }
-        changed.extend(self.arrival.silence(now_ms));
-        for (from, arrival) in changed {
-            self.step(Input::Commands { from, arrival });
-        }
-    }
-
     fn step(&mut self, input: Input) {
         let now = self.clock.now_ms();
         let vote_before = self.core.state().vote;
@@ -592,6 +567,7 @@ impl Voting {
 }
 
 mod arrival;
+mod commands_in;
 #[cfg(feature = "fault-injection")]
 mod fault_injection;
 mod impostors;

@@ -123,6 +123,14 @@ impl Core {
         &self.state
     }
 
+    /// Whether the adapter should measure how its peers' commands arrive
+    /// ([`Input::Commands`]): only a Secondary can take over from a starved Primary (F17), so
+    /// only a Secondary needs them. A controller that stops measuring reports every peer
+    /// unheard, so no verdict outlives the measurement behind it.
+    pub fn watches_arrivals(&self) -> bool {
+        self.state.role == Some(Role::Secondary)
+    }
+
     /// Durable vote records received, by peer id.
     pub fn durable_votes(&self) -> &BTreeMap<ControllerId, VoteRecord> {
         &self.durable_votes

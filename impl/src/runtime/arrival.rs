@@ -137,6 +137,20 @@ impl ArrivalWatch {
             .collect()
     }
 
+    /// The command deadline it was made for.
+    pub fn command_deadline_ms(&self) -> u64 {
+        self.unheard_after_ms
+    }
+
+    /// Measuring stops: every controller whose last verdict was not "unheard", now unheard.
+    pub fn stop(self) -> Vec<(ControllerId, Arrival)> {
+        self.reported
+            .into_iter()
+            .filter(|(_, arrival)| *arrival != Arrival::Unheard)
+            .map(|(id, _)| (id, Arrival::Unheard))
+            .collect()
+    }
+
     /// Controller `id`'s verdict from its established writers heard within a command
     /// deadline: late if any of them is (samples of a writer it has since replaced may still be queued on a
     /// starved link), on time if they all are, unheard without any. Returns it when it

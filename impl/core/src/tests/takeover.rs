@@ -87,6 +87,13 @@ fn only_the_secondary_takes_over_and_only_from_the_primary() {
 }
 
 #[test]
+fn only_the_secondary_watches_arrivals() {
+    let watches: Vec<bool> = (1..=3).map(|id| formed_c(id).watches_arrivals()).collect();
+    assert_eq!(watches, vec![false, true, false]);
+    assert!(!core(2, 0, 0).watches_arrivals());
+}
+
+#[test]
 fn a_primary_that_hears_a_takeover_from_its_life_starts_again() {
     let mut c1 = formed_c(1);
     advance(&mut c1, FORMED_AT_MS + 62);

@@ -168,3 +168,14 @@ fn a_writer_silent_for_the_window_is_forgotten() {
     w.silence(BASELINE_MS + 1);
     assert!(w.writers.is_empty());
 }
+
+#[test]
+fn stopping_reports_every_controller_heard_as_unheard() {
+    let mut w = established(&[1, 3], 1_000);
+    w.sample(1, writer(1), 90, 1_010);
+    w.sample(3, writer(3), 5, 1_020);
+    let mut silent = established(&[1], 1_000);
+    silent.silence(1_000 + 2 * BASELINE_MS);
+    assert_eq!(w.stop(), vec![(1, Arrival::Unheard), (3, Arrival::Unheard)]);
+    assert_eq!(silent.stop(), vec![]);
+}
