@@ -137,7 +137,7 @@ impl Observations {
         let Ok(value) = serde_json::from_str::<serde_json::Value>(&line.text) else {
             return;
         };
-        if let (Some(t_ms), Some(guid)) = (value["t_ms"].as_f64(), value["writer_guid"].as_str()) {
+        if let (Some(t_ms), Some(guid)) = (reception_ms(&value), value["writer_guid"].as_str()) {
             self.connext.push(ActuatorSample {
                 at_ms: clock.of_wall_ms(t_ms),
                 participant: participant_of(guid),
@@ -217,6 +217,13 @@ pub fn largest_gap(samples: &[ActuatorSample], from_ms: f64, to_ms: f64) -> (f64
         )
 }
 
+/// When the Connext reader received a sample: the reception time Connext recorded (`rx_ms`),
+/// or, from a reader that does not print it, when the script handled it (`t_ms`, which adds
+/// the Python process's scheduling, up to 10 ms on an idle machine).
+fn reception_ms(value: &serde_json::Value) -> Option<f64> {
+    value["rx_ms"].as_f64().or_else(|| value["t_ms"].as_f64())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -256,6 +263,16 @@ mod tests {
         assert_eq!(largest_gap(&samples, 400.0, 820.0), (210.0, 810.0));
         // From the window's start to the first sample in it.
         assert_eq!(largest_gap(&samples, 250.0, 820.0), (250.0, 500.0));
+    }
+
+    #[test]
+    fn the_connext_reader_is_timed_by_its_reception_time() {
+        let line = |text: &str| serde_json::from_str::<serde_json::Value>(text).unwrap();
+        let both = line(r#"{"t_ms": 1000.9, "rx_ms": 1000.2, "writer_guid": "ab"}"#);
+        assert_eq!(reception_ms(&both), Some(1000.2));
+        let older = line(r#"{"t_ms": 1000.9, "writer_guid": "ab"}"#);
+        assert_eq!(reception_ms(&older), Some(1000.9));
+        assert_eq!(reception_ms(&line(r#"{"writer_guid": "ab"}"#)), None);
     }
 
     #[test]

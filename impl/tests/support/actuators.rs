@@ -263,8 +263,7 @@ impl ConnextReader {
             let Ok(value) = serde_json::from_str::<serde_json::Value>(&line) else {
                 continue;
             };
-            if let (Some(t_ms), Some(guid)) =
-                (value["t_ms"].as_f64(), value["writer_guid"].as_str())
+            if let (Some(t_ms), Some(guid)) = (reception_ms(&value), value["writer_guid"].as_str())
             {
                 self.samples.push(ConnextSample {
                     at_ms: t_ms - self.wall_at_start_ms,
@@ -333,4 +332,11 @@ impl fmt::Display for Timeline {
 /// Milliseconds from `since` to `at`.
 pub fn ms_between(since: Instant, at: Instant) -> f64 {
     at.saturating_duration_since(since).as_secs_f64() * 1000.0
+}
+
+/// When the Connext reader received a sample: the reception time Connext recorded (`rx_ms`),
+/// or, from a reader that does not print it, when the script handled it (`t_ms`, which adds
+/// the Python process's scheduling, up to 10 ms on an idle machine).
+fn reception_ms(value: &serde_json::Value) -> Option<f64> {
+    value["rx_ms"].as_f64().or_else(|| value["t_ms"].as_f64())
 }
