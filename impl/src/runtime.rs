@@ -142,6 +142,7 @@ pub(crate) fn spawn(
                 impostor_alarms: Vec::new(),
                 arrival,
                 watching_arrivals: false,
+                command_wakes: crate::dds::WakeSwitch::new(),
                 deposed: false,
             };
             voting.run()
@@ -248,8 +249,10 @@ struct Voting {
     impostor_alarms: Vec<ControllerId>,
     /// How each peer's commands arrive (F17), measured while `watching_arrivals`.
     arrival: ArrivalWatch,
-    /// The command reader is registered and measured (crate::runtime::commands_in).
+    /// The command reader is measured (crate::runtime::commands_in).
     watching_arrivals: bool,
+    /// Whether the command reader wakes the loop (registered once, switched after).
+    command_wakes: crate::dds::WakeSwitch,
     /// The core asked to start again (a peer took over from this life, F17).
     deposed: bool,
 }

@@ -89,11 +89,18 @@ pub fn write_report(out: &mut impl Write, result: &BenchResult) -> std::io::Resu
     )?;
     writeln!(
         out,
-        "controller resources over {} s (network monitor on): max RSS {} kB, CPU {:.2}% of one core",
+        "controller resources over {} s (network monitor on), the worst of three: max RSS {} kB, CPU {:.2}% of one core",
         result.resources.seconds,
         result.resources.rss_kb_max,
         result.resources.cpu_percent_of_one_core
     )?;
+    for controller in &result.resources.controllers {
+        writeln!(
+            out,
+            "    C{}: max RSS {} kB, CPU {:.2}% of one core",
+            controller.id, controller.rss_kb_max, controller.cpu_percent_of_one_core
+        )?;
+    }
     if let Some(secured) = &result.security {
         let f = &secured.failover;
         writeln!(

@@ -1,6 +1,8 @@
-//! Resources: RSS and CPU of one controller at 4 Hz heartbeats and 30 Hz commands (the
-//! camera simulator at 30 Hz), read from `/proc`, with its network monitor on as deployed
-//! (both networks on loopback: the monitor's two DDS participants cost the same there).
+//! Resources: RSS and CPU of each of the three controllers at 4 Hz heartbeats and 30 Hz
+//! commands (the camera simulator at 30 Hz), read from `/proc`, with their network monitors
+//! on as deployed (both networks on loopback: the monitor's two DDS participants cost the same
+//! there). The headline figures are the worst controller's: the targets hold per controller,
+//! and the roles do not cost the same (only the Secondary measures its peers' commands, F17).
 
 use super::{BenchError, Setup};
 use serde::Serialize;
@@ -10,14 +12,26 @@ use std::time::{Duration, Instant};
 /// networks): the network monitor runs its two participants.
 const NETWORK_MONITOR_ON_LOOPBACK: &[&str] = &["--network-a", "127.0.0.1", "--network-b", "lo"];
 
-/// The controller measured.
-const MEASURED: crate::core::ControllerId = 1;
+/// The controllers measured: C1, C2 and C3 (Primary, Secondary and Tertiary once formed).
+const MEASURED: [crate::core::ControllerId; 3] = [1, 2, 3];
 
 #[derive(Clone, Debug, Serialize)]
 pub struct ResourceResult {
+    /// The largest of the controllers' maximum RSS.
     pub rss_kb_max: u64,
+    /// The largest of the controllers' CPU shares.
     pub cpu_percent_of_one_core: f64,
     pub seconds: u64,
+    /// Each controller's own figures.
+    pub controllers: Vec<ControllerUsage>,
+}
+
+/// One controller's resources over the run.
+#[derive(Clone, Debug, Serialize)]
+pub struct ControllerUsage {
+    pub id: crate::core::ControllerId,
+    pub rss_kb_max: u64,
+    pub cpu_percent_of_one_core: f64,
 }
 
 /// utime + stime of a process, in clock ticks, and its resident set in kB.
@@ -73,24 +87,44 @@ pub fn resources(setup: &Setup, seconds: u64) -> Result<ResourceResult, BenchErr
         });
     }
     watch.pump(Duration::from_secs(1));
-    let pid = fleet
-        .pid(MEASURED)
-        .ok_or(BenchError::NotRunning { id: MEASURED })?;
-    let (ticks_before, mut rss_max) = proc_usage(pid)?;
+    let mut pids = Vec::new();
+    for id in MEASURED {
+        pids.push(fleet.pid(id).ok_or(BenchError::NotRunning { id })?);
+    }
+    let mut before = Vec::new();
+    for pid in &pids {
+        before.push(proc_usage(*pid)?);
+    }
+    let mut rss_max: Vec<u64> = before.iter().map(|(_, rss)| *rss).collect();
     let started = Instant::now();
     while started.elapsed() < Duration::from_secs(seconds) {
         watch.pump(Duration::from_millis(500));
-        rss_max = rss_max.max(proc_usage(pid)?.1);
+        for (pid, rss) in pids.iter().zip(rss_max.iter_mut()) {
+            *rss = (*rss).max(proc_usage(*pid)?.1);
+        }
     }
-    let (ticks_after, _) = proc_usage(pid)?;
-    let cpu = ticks_after.saturating_sub(ticks_before) as f64
-        / ticks_per_second()
-        / started.elapsed().as_secs_f64();
+    let elapsed_s = started.elapsed().as_secs_f64();
+    let mut controllers = Vec::new();
+    for (((id, pid), (ticks_before, _)), rss_kb_max) in
+        MEASURED.iter().zip(&pids).zip(&before).zip(&rss_max)
+    {
+        let (ticks_after, _) = proc_usage(*pid)?;
+        let cpu = ticks_after.saturating_sub(*ticks_before) as f64 / ticks_per_second() / elapsed_s;
+        controllers.push(ControllerUsage {
+            id: *id,
+            rss_kb_max: *rss_kb_max,
+            cpu_percent_of_one_core: cpu * 100.0,
+        });
+    }
     fleet.stop_all();
     Ok(ResourceResult {
-        rss_kb_max: rss_max,
-        cpu_percent_of_one_core: cpu * 100.0,
+        rss_kb_max: controllers.iter().map(|c| c.rss_kb_max).max().unwrap_or(0),
+        cpu_percent_of_one_core: controllers
+            .iter()
+            .map(|c| c.cpu_percent_of_one_core)
+            .fold(0.0, f64::max),
         seconds,
+        controllers,
     })
 }
 

@@ -29,11 +29,13 @@ mod endpoint;
 mod network;
 pub mod qos;
 mod ros;
+mod wake_switch;
 
 pub use endpoint::{guid_hex, CommandWriter, Reader, Received, Writer};
 pub use network::NetworkParticipant;
 pub use ros::StatusPublisher;
 pub use rustdds::{mio, GUID};
+pub use wake_switch::WakeSwitch;
 
 use crate::config::{Dds, Timing};
 use crate::core::{types::ControllerId, Heartbeat};

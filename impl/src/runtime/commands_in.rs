@@ -7,7 +7,7 @@
 use super::arrival::ArrivalWatch;
 use super::{Voting, COMMANDS};
 use crate::core::Input;
-use rustdds::mio::{Poll, PollOpt, Ready};
+use rustdds::mio::Poll;
 
 impl Voting {
     /// Starts or stops measuring as the core's role asks. Starting drops what the reader
@@ -22,10 +22,12 @@ impl Voting {
         let reader = &mut self.endpoints.commands_in;
         if wanted {
             drop(reader.take());
-            poll.register(reader, COMMANDS, Ready::readable(), PollOpt::edge())
+            self.command_wakes
+                .on(poll, reader, COMMANDS)
                 .map_err(|e| crate::Error::io("registering the command reader", e))
         } else {
-            poll.deregister(reader)
+            self.command_wakes
+                .off(poll, reader)
                 .map_err(|e| crate::Error::io("deregistering the command reader", e))?;
             let command_deadline_ms = self.arrival.command_deadline_ms();
             let stopped =
