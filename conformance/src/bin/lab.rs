@@ -171,6 +171,15 @@ fn execute(cli: &Cli) -> Result<ExitCode, LabError> {
             for failure in &failures {
                 eprintln!("lab soak: FAILED {failure}");
             }
+            // The verdict last, so a long run's end says it without reading back.
+            if failures.is_empty() {
+                eprintln!("lab soak (seed {seed}, {minutes} min): PASS");
+            } else {
+                eprintln!(
+                    "lab soak (seed {seed}, {minutes} min): FAIL, {} failure(s) above",
+                    failures.len()
+                );
+            }
             failures.is_empty()
         }
         Command::List { .. } | Command::Clean => true,
