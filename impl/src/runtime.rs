@@ -1,7 +1,8 @@
 //! The voting thread: runs the pure core over DDS. It takes heartbeats and votes from their
 //! readers, fires the core's timers, and performs the commands it returns (publish heartbeat,
 //! vote and alarms, update the shared status the application reads, LEDs, console, ROS 2
-//! status, JSON events).
+//! status, JSON events). While the core watches command arrivals (the Secondary, F17) it also
+//! takes the peers' commands and measures how late they come (`commands_in`, `arrival`).
 //!
 //! The LEDs go to the bank `leds.backend` names: GPIO lines on a Pi (after a lamp test), or a
 //! console line. GPIO that cannot be opened (no chip, a busy line, no permission) is one

@@ -1,5 +1,6 @@
 //! Everything that knows DDS: the participant, the topics, their QoS, typed readers and
-//! writers, and the ROS 2 node that shares the participant.
+//! writers, the ROS 2 node that shares the participant, and [`WakeSwitch`], which turns a
+//! reader's wake-ups of a poll on and off (a reader registers with a poll only once).
 //!
 //! A [`Session`] is one DDS participant on the configured domain, created through a ros2-client
 //! `Context` so a ROS 2 node ([`Session::ros_node`]) lives on the same participant. All of a
