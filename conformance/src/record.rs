@@ -3,7 +3,7 @@
 //!
 //! A recording is what `rl demo --record DIR` and the DDS-level replay leave behind: one log
 //! per process (`C1.log`, `C3#1.log`, ...) whose controller events are `started`, `status`,
-//! `output`, `vote`, `alarm`, `leds`, `stopped` (and `heartbeat_dropped` from a
+//! `output`, `vote`, `alarm`, `leds`, `stopped`, `heartbeat_late` (and `heartbeat_dropped` from a
 //! fault-injection build), each with `t_ms` (the controller's round
 //! clock: wall-clock milliseconds, rounds are multiples of the heartbeat period), `id` and
 //! `incarnation` (docs/architecture.md). Other lines (servo and camera events, log text) are
@@ -304,6 +304,9 @@ pub fn describe_event(event: &EventLine, number: Option<u8>) -> String {
             strength.map_or("silent".to_string(), |v| v.to_string())
         ),
         Event::HeartbeatDropped { from } => format!("from C{from}"),
+        Event::HeartbeatLate { from, waited_ms } => {
+            format!("from C{from}, waited {waited_ms} ms")
+        }
         Event::Resumed { stalled_ms } => format!("after a {stalled_ms} ms stall"),
         Event::Detached => "every link without a carrier".to_string(),
         Event::Deposed => "a peer took over from its late commands".to_string(),

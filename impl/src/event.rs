@@ -74,6 +74,10 @@ pub enum Event {
     /// `fault-injection` build only): the DDS-level replay checks every loss it injects
     /// against these, so an injected loss is told apart from a real one.
     HeartbeatDropped { from: ControllerId },
+    /// A heartbeat of peer `from` arrived a round late (it waited `waited_ms` beyond the
+    /// fastest delivery from that peer, past its round's end) and was dropped as lost
+    /// (`rl_core::Core::sent_before_this_round`).
+    HeartbeatLate { from: ControllerId, waited_ms: u64 },
     /// The voting loop did not run for `stalled_ms` (at least a peer deadline: a SIGSTOP, a
     /// frozen machine): the controller starts again as the incarnation of this line, silent
     /// until it has heard a round and joined below the controllers that kept running.
@@ -112,6 +116,7 @@ impl Event {
             Event::NetworkAlarm { .. } => "network_alarm",
             Event::NetworkConclusion { .. } => "network_conclusion",
             Event::HeartbeatDropped { .. } => "heartbeat_dropped",
+            Event::HeartbeatLate { .. } => "heartbeat_late",
             Event::Resumed { .. } => "resumed",
             Event::Detached => "detached",
             Event::Deposed => "deposed",
@@ -288,6 +293,10 @@ mod tests {
                 leds: "[P:off S:green T:off | own:green]".into(),
             },
             Event::HeartbeatDropped { from: 3 },
+            Event::HeartbeatLate {
+                from: 3,
+                waited_ms: 300,
+            },
             Event::NetworkAlarm {
                 network: Network::B,
                 controller: None,

@@ -137,6 +137,7 @@ pub(crate) fn spawn(
                 pending_exit: None,
                 stale_heartbeats_until_ms: None,
                 heartbeat_woke: false,
+                delays: heartbeat_delay::HeartbeatDelays::default(),
                 links,
                 links_woke: false,
                 identities,
@@ -240,6 +241,8 @@ struct Voting {
     stale_heartbeats_until_ms: Option<u64>,
     /// The last wait ended because a heartbeat arrived.
     heartbeat_woke: bool,
+    /// How long peers' heartbeats waited on the way (late ones are lost).
+    delays: heartbeat_delay::HeartbeatDelays,
     /// Whether this controller's links have a carrier (crate::link_watch).
     links: LinkWatch,
     /// The last wait ended because a link changed.
@@ -452,7 +455,7 @@ impl Voting {
                 });
                 continue;
             }
-            if !self.admit_heartbeat(&heartbeat) {
+            if !self.admit_heartbeat(&heartbeat) || self.arrived_late(&heartbeat) {
                 continue;
             }
             if on_time == Some(number) {
@@ -574,5 +577,6 @@ mod arrival;
 mod commands_in;
 #[cfg(feature = "fault-injection")]
 mod fault_injection;
+mod heartbeat_delay;
 mod impostors;
 mod output;

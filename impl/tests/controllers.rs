@@ -501,3 +501,74 @@ fn a_status_started_after_an_alarm_shows_it_with_who_raised_it_and_since_when() 
         "{table}"
     );
 }
+
+/// A heartbeat that waited in a queue past the end of the round it was sent in says what its
+/// sender decided rounds ago: every controller drops it as lost (the model delivers a
+/// heartbeat in its round or never) and logs `heartbeat_late`; the same sender's heartbeats
+/// sent on time are taken. The ninth controller's heartbeats go out right after C1's, so
+/// inside every controller's round, and one of them carries a stamp 600 ms old.
+#[test]
+fn a_heartbeat_sent_rounds_before_it_arrives_is_dropped_as_late() {
+    let mut cluster = Cluster::new("late", 215, "");
+    formed_three(&mut cluster);
+    let config = rl::config::Config {
+        dds: rl::config::Dds {
+            domain: 215,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let session = rl::dds::Session::new(&config.dds, &config.timing).unwrap();
+    let writer = session.heartbeat_writer().unwrap();
+    let mut heartbeats = session.heartbeat_reader().unwrap();
+    wait_for_heartbeats_from_all(&mut cluster, &mut heartbeats);
+    const ROUNDS: usize = 16;
+    const QUEUED_ROUND: usize = 10;
+    const QUEUED_MS: u64 = 600;
+    let mut round = 0;
+    let until = std::time::Instant::now() + Duration::from_secs(10);
+    while round < ROUNDS && std::time::Instant::now() < until {
+        cluster.pump(Duration::from_millis(5));
+        if !heartbeats.take().iter().any(|h| h.value.id == 1) {
+            continue;
+        }
+        let stamp = rl::wire::sender_clock_ms();
+        let sent_ms = if round == QUEUED_ROUND {
+            stamp - QUEUED_MS
+        } else {
+            stamp
+        };
+        writer
+            .write_sample(rl::wire::HeartbeatSample {
+                from_id: 9,
+                incarnation: 1,
+                phase: rl::wire::PHASE_INITIALIZING,
+                sent_ms,
+                ..Default::default()
+            })
+            .unwrap();
+        round += 1;
+    }
+    assert_eq!(round, ROUNDS, "C1's heartbeats stopped");
+    cluster.pump(Duration::from_millis(500));
+    for id in 1..=3 {
+        let late: Vec<u64> = cluster
+            .events
+            .iter()
+            .filter_map(|(_, e)| match e.event {
+                Event::HeartbeatLate { from: 9, waited_ms } if e.id == id => Some(waited_ms),
+                _ => None,
+            })
+            .collect();
+        eprintln!("C{id} dropped the ninth's heartbeats that waited {late:?} ms");
+        assert!(
+            late.iter().any(|&waited_ms| waited_ms >= QUEUED_MS - 50),
+            "C{id} took the heartbeat stamped {QUEUED_MS} ms before it was written: {late:?}"
+        );
+        // Those written at once arrive within the round they were written in.
+        assert!(
+            late.iter().all(|&waited_ms| waited_ms >= 150),
+            "C{id} dropped on-time heartbeats as late: {late:?}"
+        );
+    }
+}

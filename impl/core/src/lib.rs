@@ -17,6 +17,9 @@
 //! peer); at the round's end ([`Timer::RoundEnd`]) the controller takes them in and decides,
 //! and a quarter period later ([`Timer::Heartbeat`]) it publishes its heartbeat carrying what
 //! it decided, so the heartbeat lands inside every peer's same round even with some clock skew.
+//! The model delivers a heartbeat in the round it was sent or never, so a heartbeat sent
+//! before the round now running ([`Core::sent_before_this_round`]: one that waited in a
+//! queue on a starved link) is dropped by the adapter as lost, never counted late.
 //!
 //! The adapter's loop:
 //!
@@ -129,6 +132,15 @@ impl Core {
     /// unheard, so no verdict outlives the measurement behind it.
     pub fn watches_arrivals(&self) -> bool {
         self.state.role == Some(Role::Secondary)
+    }
+
+    /// Whether a heartbeat sent at `sent_ms` (on the caller's clock) was sent before the round
+    /// now running began: it is late, and the caller drops it as lost. The model's rounds are
+    /// synchronous (a heartbeat arrives in its own round or never), and a late heartbeat says
+    /// what its sender decided rounds ago: counting it would decide on a stale state.
+    pub fn sent_before_this_round(&self, sent_ms: u64) -> bool {
+        let period_ms = self.config.heartbeat_period_ms.max(1);
+        sent_ms < self.round_end_ms.saturating_sub(period_ms)
     }
 
     /// Durable vote records received, by peer id.

@@ -548,5 +548,19 @@ fn a_caller_that_fell_behind_runs_one_round_end() {
     );
 }
 
+#[test]
+fn a_heartbeat_sent_before_this_round_began_is_late() {
+    let mut c = core(1, 7, 0);
+    // The round that ends at 250 began at 0: anything sent from 0 on belongs to it.
+    assert!(!c.sent_before_this_round(0));
+    assert!(!c.sent_before_this_round(249));
+    advance(&mut c, 300);
+    // Now the round 250..500 runs: sent at 249 is a round late, at 250 on time.
+    assert!(c.sent_before_this_round(249));
+    assert!(c.sent_before_this_round(62));
+    assert!(!c.sent_before_this_round(250));
+    assert!(!c.sent_before_this_round(312));
+}
+
 mod takeover;
 mod v2;

@@ -24,6 +24,9 @@ pub struct Received<T> {
     /// The writer's GUID; its prefix is the writing participant's.
     pub writer: GUID,
     pub source_timestamp: Option<Timestamp>,
+    /// When the sender wrote it, on the sender's clock, for the types that carry it
+    /// ([`WireSample::sent_ms`]).
+    pub sent_ms: Option<u64>,
 }
 
 /// A sample as RustDDS delivers it, before validation.
@@ -149,11 +152,13 @@ where
                 Ok(samples) if samples.is_empty() => break,
                 Ok(samples) => {
                     for raw in samples {
+                        let sent_ms = raw.sample.sent_ms();
                         match raw.sample.decode() {
                             Ok(value) => received.push(Received {
                                 value,
                                 writer: raw.writer,
                                 source_timestamp: raw.source_timestamp,
+                                sent_ms,
                             }),
                             Err(error) => self.reject(&format!(
                                 "invalid sample from writer {}: {error}",

@@ -132,6 +132,7 @@ mod tests {
             },
             writer: GUID::from_bytes(heartbeat_writer),
             source_timestamp: None,
+            sent_ms: None,
         }
     }
 

@@ -1,6 +1,6 @@
 //! The controller heartbeat: each controller's phase, role, commanding strength, agreed
 //! assignment with its epoch and standing, vote, established strength, and the Primary life it
-//! took over from (F17), every round.
+//! took over from (F17), every round, stamped with when it was written.
 
 use super::assignment::{decode_optional, encode_optional, HolderSlot, WireAssignment};
 use super::codes::{
@@ -11,6 +11,8 @@ use crate::core::types::{Holder, Phase, Role, PROVISIONAL_PRIMARY_STRENGTH, TAKE
 use crate::core::Heartbeat;
 use rustdds::Keyed;
 use serde::{Deserialize, Serialize};
+use std::sync::OnceLock;
+use std::time::Instant;
 
 /// DDS type name of the heartbeat topic.
 pub const HEARTBEAT_TYPE_NAME: &str = "rl::HeartbeatSample";
@@ -41,6 +43,19 @@ pub struct HeartbeatSample {
     pub established_strength: u8,
     /// The Primary life it took over from, whose commands arrived late (F17); id 0 = none.
     pub took_over_from: HolderSlot,
+    /// When it was written, in milliseconds on the sender's monotonic clock
+    /// ([`sender_clock_ms`]; any origin: a receiver compares only differences). Not
+    /// validated: a receiver learns each sender's offset (`runtime::heartbeat_delay`).
+    pub sent_ms: u64,
+}
+
+/// Milliseconds since this process first asked, on the monotonic clock: what a heartbeat is
+/// stamped with when written, and what a receiver measures its arrival on. Never moved by
+/// the round phase, a wall-clock step or a time server.
+pub fn sender_clock_ms() -> u64 {
+    static ORIGIN: OnceLock<Instant> = OnceLock::new();
+    let origin = *ORIGIN.get_or_init(Instant::now);
+    u64::try_from(origin.elapsed().as_millis()).unwrap_or(u64::MAX)
 }
 
 impl Keyed for HeartbeatSample {
@@ -135,7 +150,16 @@ impl WireSample for HeartbeatSample {
                     id: holder.id,
                     incarnation: holder.incarnation,
                 }),
+            sent_ms: sender_clock_ms(),
         }
+    }
+
+    fn sent_ms(&self) -> Option<u64> {
+        Some(self.sent_ms)
+    }
+
+    fn unstamped(self) -> HeartbeatSample {
+        HeartbeatSample { sent_ms: 0, ..self }
     }
 }
 

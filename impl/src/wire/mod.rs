@@ -23,7 +23,8 @@
 //! struct HeartbeatSample { @key octet from_id; unsigned long long incarnation; octet phase;
 //!   octet role; octet strength; boolean agreed_valid; WireAssignment agreed;
 //!   boolean vote_valid; WireAssignment vote; unsigned long epoch; boolean provisional;
-//!   octet established_strength; HolderSlot took_over_from; };      // id 0 = no takeover
+//!   octet established_strength; HolderSlot took_over_from;          // id 0 = no takeover
+//!   unsigned long long sent_ms; };   // the sender's monotonic clock when it wrote the sample
 //! struct VoteSample { @key octet from_id; unsigned long long incarnation; boolean vote_valid;
 //!   WireAssignment vote; };
 //! struct AlarmSample { octet reporter_id; unsigned long long reporter_incarnation;
@@ -60,7 +61,7 @@ pub use self::codes::{
     PHASE_VOTING, REASON_FAILED, REASON_IMPOSTOR, REASON_LOST, ROLE_NONE, ROLE_PRIMARY,
     ROLE_SECONDARY, ROLE_TERTIARY, STRENGTH_NONE,
 };
-pub use self::heartbeat::{HeartbeatSample, HEARTBEAT_TYPE_NAME};
+pub use self::heartbeat::{sender_clock_ms, HeartbeatSample, HEARTBEAT_TYPE_NAME};
 pub use self::network::{
     fit_cause, Certainty, NetworkAlarm, NetworkAlarmKey, NetworkAlarmSample,
     NetworkHeartbeatSample, CAUSE_MAX_BYTES, LINK_FAIL, LINK_GOOD, LINK_UNKNOWN,
@@ -97,6 +98,16 @@ pub trait WireSample: Sized {
     const TYPE_NAME: &'static str;
     fn decode(self) -> Result<Self::Value, WireError>;
     fn encode(value: &Self::Value) -> Self;
+    /// When the sender wrote the sample, on the sender's own monotonic clock, for the types
+    /// that carry it (the heartbeat: a receiver tells a late one by it).
+    fn sent_ms(&self) -> Option<u64> {
+        None
+    }
+    /// The sample without what encoding stamps and decoding does not read (the heartbeat's
+    /// `sent_ms`): two encodings of one value are equal unstamped.
+    fn unstamped(self) -> Self {
+        self
+    }
 }
 
 /// `std_msgs/msg/String`: the controller's status line on the ROS 2 topic `status`.

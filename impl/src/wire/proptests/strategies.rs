@@ -357,6 +357,7 @@ pub fn heartbeat_sample() -> BoxedStrategy<HeartbeatSample> {
             code(),
         ),
         wire_holder_slot(),
+        any::<u64>(),
     )
         .prop_map(
             |(
@@ -375,6 +376,7 @@ pub fn heartbeat_sample() -> BoxedStrategy<HeartbeatSample> {
                     established_strength,
                 ),
                 took_over_from,
+                sent_ms,
             )| HeartbeatSample {
                 from_id,
                 incarnation,
@@ -389,6 +391,7 @@ pub fn heartbeat_sample() -> BoxedStrategy<HeartbeatSample> {
                 provisional,
                 established_strength,
                 took_over_from,
+                sent_ms,
             },
         );
     sample_of(heartbeat(), any_fields)
