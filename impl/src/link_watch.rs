@@ -26,6 +26,14 @@
 //! 0 bytes (`unres_qlen_bytes = 0`, the package's sysctl.d file), with which Linux keeps only
 //! the newest datagram, a moment old while the controller keeps sending; [`LinkWatch::new`] warns at
 //! start for every watched link that keeps one.
+//!
+//! The same holds after a dead switch (a net that carries nothing while carriers stay up): the
+//! neighbour entries of the hosts it reached go unresolved, and Linux probes an unresolved
+//! neighbour once per `retrans_time_ms`, 1000 ms by default. Every unicast datagram before the
+//! probe after the heal is answered is dropped, discovery's repairs included, so a reader
+//! cannot match a writer created meanwhile for up to a second (measured: `both-networks-down`
+//! waited 590 ms past the heal, docs/faults.md). RL's hosts probe every
+//! [`NEIGHBOUR_PROBE_MS`], and [`LinkWatch::new`] warns for a watched link that probes slower.
 
 use crate::config::{NetworkName, Networks};
 use nix::ifaddrs::getifaddrs;
@@ -162,6 +170,16 @@ impl LinkWatch {
                      (docs/deploy-pi.md)"
                 );
             }
+            if let Some(probe_ms) =
+                neighbour_probe_ms(interface).filter(|ms| *ms > NEIGHBOUR_PROBE_MS)
+            {
+                warn!(
+                    "{interface} probes an unresolved neighbour every {probe_ms} ms: after a \
+                     dead switch comes back, unicast (discovery's repairs) waits up to that \
+                     long; set net.ipv4.neigh.{interface}.retrans_time_ms = \
+                     {NEIGHBOUR_PROBE_MS} (docs/deploy-pi.md)"
+                );
+            }
         }
         watch
     }
@@ -219,6 +237,24 @@ pub fn detached(known: &BTreeSet<String>, links: &[Link]) -> Links {
     } else {
         Links::Attached
     }
+}
+
+/// How often, at most, RL's hosts probe an unresolved neighbour, in ms (`retrans_time_ms`,
+/// the package's sysctl.d file): the wait after a dead net comes back before unicast flows.
+pub const NEIGHBOUR_PROBE_MS: u64 = 50;
+
+/// Where Linux keeps how often an interface probes an unresolved neighbour.
+pub fn neighbour_probe_setting(interface: &str) -> String {
+    format!("/proc/sys/net/ipv4/neigh/{interface}/retrans_time_ms")
+}
+
+/// How often that interface probes, in ms, if it can be read.
+pub fn neighbour_probe_ms(interface: &str) -> Option<u64> {
+    std::fs::read_to_string(neighbour_probe_setting(interface))
+        .ok()?
+        .trim()
+        .parse()
+        .ok()
 }
 
 /// Where Linux keeps the size of an interface's queue for unresolved neighbours.

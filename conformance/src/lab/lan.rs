@@ -3,7 +3,7 @@
 //! net A and net B.
 //!
 //! Controllers' namespaces are set as RL's package sets a controller's host
-//! (`unres_qlen_bytes = 0`, impl/debian/60-rl.conf).
+//! (`unres_qlen_bytes = 0`, `retrans_time_ms = 50`, impl/debian/60-rl.conf).
 //!
 //! Every node has an address on both nets with the same host byte (net A 10.201.1.N/24 on
 //! `a0`, net B 10.202.1.N/24 on `b0`; controllers 1-3, actuator 10, camera 20), and multicast
@@ -189,9 +189,12 @@ impl Lan {
         }
         if let Node::Controller(_) = node {
             // As a controller's host is deployed (impl/debian/60-rl.conf): a datagram for an
-            // unresolved neighbour is dropped, not sent seconds late when the link is back.
+            // unresolved neighbour is dropped, not sent seconds late when the link is back,
+            // and an unresolved neighbour is probed every 50 ms, not every second.
             for net in Net::BOTH {
-                let setting = rl::link_watch::unresolved_queue_setting(&net.inside());
+                let queue = rl::link_watch::unresolved_queue_setting(&net.inside());
+                let probe = rl::link_watch::neighbour_probe_setting(&net.inside());
+                let probe_ms = rl::link_watch::NEIGHBOUR_PROBE_MS;
                 host::run(
                     "ip",
                     &[
@@ -200,7 +203,7 @@ impl Lan {
                         &ns,
                         "sh",
                         "-c",
-                        &format!("echo 0 > {setting}"),
+                        &format!("echo 0 > {queue} && echo {probe_ms} > {probe}"),
                     ],
                 )?;
             }
