@@ -1,11 +1,13 @@
 //! Interoperability with independent DDS implementations: an RTI Connext reader and an
 //! Eclipse Cyclone DDS reader, both EXCLUSIVE, receive only the Primary's
-//! `pixy/servo_control` samples and switch to the Secondary after the Primary is killed.
+//! `pixy/servo_control` samples and switch to the Secondary after the Primary is killed; and
+//! Cyclone DDS reads RL's own heartbeats, votes and controller alarms through types checked
+//! against `docs/rl.idl`.
 //!
 //! The peers are the Python scripts in `tests/interop/` (PyPI `rticonnextdds-connector`,
 //! `cyclonedds`; `.ci/run` installs them), so the tests are ignored by default;
 //! `cargo test -- --include-ignored` runs them, and then a missing peer fails the test.
-//! Domains 211 and 212.
+//! Domains 211, 212 and 216.
 //!
 //! These tests fail without fix 1 of impl/vendor/rustdds/PATCHES.md: RustDDS would take the
 //! peers' "EXCLUSIVE without strength" for no ownership and never send them a sample.
@@ -155,4 +157,199 @@ fn cyclone_exclusive_reader_follows_the_primary() {
     require_peer("cyclonedds", "cyclonedds==11.0.1");
     // Cyclone fails over on the liveliness lease (300 ms), not the deadline.
     run_peer("cyclone_reader.py", 212, 900.0);
+}
+
+/// RL's own topics read by an independent implementation through types written from
+/// `docs/rl.idl` (`tests/interop/rl_topics_reader.py`, Cyclone DDS): the heartbeats, votes and
+/// controller alarms of a real formation and a kill decode to what the controllers reported.
+/// A field the IDL misplaces shifts every field after it, so the ids, incarnations, roles,
+/// strengths and agreed holders would not match. Domain 216.
+#[test]
+#[ignore = "needs python3 with cyclonedds (pip install cyclonedds==11.0.1)"]
+fn cyclone_decodes_rls_own_topics_with_types_from_the_idl() {
+    require_peer("cyclonedds", "cyclonedds==11.0.1");
+    let mut cluster = Cluster::new("rl-idl", 216, "");
+    for id in 1..=3 {
+        cluster.start(id);
+    }
+    cluster.wait_for("P=1 S=2 T=3", FORM, |c| {
+        c.steady_with(1, Some(Role::Primary))
+            && c.steady_with(2, Some(Role::Secondary))
+            && c.steady_with(3, Some(Role::Tertiary))
+    });
+    let incarnations: BTreeMap<u8, u64> = (1..=3)
+        .map(|id| (id, cluster.status[&id].report.incarnation))
+        .collect();
+    let epochs: BTreeMap<u8, u32> = (1..=3)
+        .map(|id| (id, cluster.status[&id].report.epoch))
+        .collect();
+    let script_path = format!(
+        "{}/tests/interop/rl_topics_reader.py",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let mut peer = Command::new("python3")
+        .arg(&script_path)
+        .args(["216", "--duration", "8"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start the peer");
+    let stdout = peer.stdout.take().expect("peer stdout");
+    let lines = std::thread::spawn(move || {
+        BufReader::new(stdout)
+            .lines()
+            .map_while(Result::ok)
+            .collect::<Vec<String>>()
+    });
+    cluster.pump(Duration::from_secs(3));
+    cluster.fleet.kill(3).unwrap();
+    cluster.wait_for("C1 alarms C3 lost", FORM, |c| {
+        c.events.iter().any(|(_, e)| {
+            e.id == 1
+                && matches!(
+                    e.event,
+                    rl::event::Event::Alarm {
+                        about: 3,
+                        raised: true,
+                        ..
+                    }
+                )
+        })
+    });
+    let output = lines.join().expect("peer output");
+    let status = peer.wait().expect("peer exit");
+    let mut stderr = String::new();
+    if let Some(mut err) = peer.stderr.take() {
+        use std::io::Read;
+        let _ = err.read_to_string(&mut stderr);
+    }
+    assert!(status.success(), "rl_topics_reader.py failed: {stderr}");
+    let samples: Vec<serde_json::Value> = output
+        .iter()
+        .filter_map(|line| serde_json::from_str(line).ok())
+        .collect();
+    let of = |topic: &'static str| samples.iter().filter(move |s| s["topic"] == topic);
+    let agreed = serde_json::json!([
+        [1, incarnations[&1]],
+        [2, incarnations[&2]],
+        [3, incarnations[&3]]
+    ]);
+    // Role codes 1-3 and their strengths (docs/rl.idl).
+    for (id, role, strength) in [(1u8, 1, 30), (2, 2, 20), (3, 3, 10)] {
+        let heard = of("heartbeat").any(|h| {
+            h["from_id"] == id
+                && h["incarnation"] == incarnations[&id]
+                && h["phase"] == 3
+                && h["role"] == role
+                && h["strength"] == strength
+                && h["agreed"] == agreed
+                && h["vote"] == agreed
+                && h["epoch"] == epochs[&id]
+                && h["provisional"] == false
+                && h["established_strength"] == strength
+                && h["took_over_from"] == serde_json::json!([0, 0])
+        });
+        assert!(
+            heard,
+            "no heartbeat of C{id} decoded as steady, role {role} at {strength}, agreeing \
+             {agreed}; decoded: {:?}",
+            of("heartbeat").rfind(|h| h["from_id"] == id)
+        );
+        let voted = of("vote").any(|v| {
+            v["from_id"] == id && v["incarnation"] == incarnations[&id] && v["vote"] == agreed
+        });
+        assert!(
+            voted,
+            "no vote of C{id} decoded as {agreed}: {:?}",
+            of("vote").collect::<Vec<_>>()
+        );
+    }
+    // The last member: each sender stamps its heartbeats on its own clock, one period apart.
+    for id in 1..=3u8 {
+        let mut sent: Vec<u64> = of("heartbeat")
+            .filter(|h| h["from_id"] == id)
+            .filter_map(|h| h["sent_ms"].as_u64())
+            .collect();
+        sent.dedup();
+        let mut steps: Vec<u64> = sent.windows(2).map(|w| w[1].wrapping_sub(w[0])).collect();
+        steps.sort_unstable();
+        let median = steps.get(steps.len() / 2).copied();
+        assert!(
+            median.is_some_and(|ms| (200..=300).contains(&ms)),
+            "C{id}'s heartbeats decoded with sent_ms steps {steps:?}, not a period apart"
+        );
+    }
+    let alarmed = of("alarm").any(|a| {
+        a["reporter_id"] == 1
+            && a["reporter_incarnation"] == incarnations[&1]
+            && a["about_id"] == 3
+            // RL's controller alarms name no incarnation of the controller they are about.
+            && a["about_incarnation"].is_null()
+            && a["reason"] == 1
+            && a["raised"] == true
+    });
+    assert!(
+        alarmed,
+        "no alarm of C1 about C3 lost decoded: {:?}",
+        of("alarm").collect::<Vec<_>>()
+    );
+    eprintln!(
+        "Cyclone decoded {} heartbeats, {} votes and {} alarms",
+        of("heartbeat").count(),
+        of("vote").count(),
+        of("alarm").count()
+    );
+}
+
+/// The reader above checks its types against `docs/rl.idl` before it joins DDS: an IDL whose
+/// members moved, changed type, lost a key or gained a member is refused, naming it.
+#[test]
+#[ignore = "needs python3 with cyclonedds (pip install cyclonedds==11.0.1)"]
+fn the_idl_reader_refuses_types_that_differ_from_the_idl() {
+    require_peer("cyclonedds", "cyclonedds==11.0.1");
+    let manifest = env!("CARGO_MANIFEST_DIR");
+    let idl = std::fs::read_to_string(format!("{manifest}/../docs/rl.idl")).unwrap();
+    let dir = support::tempdir::Dir::new("rl-idl");
+    for (from, to, named) in [
+        (
+            "    octet phase;\n    octet role;",
+            "    octet role;\n    octet phase;",
+            "HeartbeatSample: members",
+        ),
+        (
+            "    unsigned long epoch;",
+            "    octet epoch;",
+            "HeartbeatSample.epoch",
+        ),
+        (
+            "    @key octet reporter_id;",
+            "    octet reporter_id;",
+            "AlarmSample.reporter_id",
+        ),
+        (
+            "    boolean vote_valid;\n    WireAssignment vote;\n  };",
+            "    boolean vote_valid;\n    WireAssignment vote;\n    octet extra;\n  };",
+            "VoteSample: members",
+        ),
+    ] {
+        assert!(idl.contains(from), "docs/rl.idl no longer has {from:?}");
+        let changed = dir.0.join("changed.idl");
+        std::fs::write(&changed, idl.replacen(from, to, 1)).unwrap();
+        let out = Command::new("python3")
+            .arg(format!("{manifest}/tests/interop/rl_topics_reader.py"))
+            .args(["216", "--duration", "1", "--idl"])
+            .arg(&changed)
+            .output()
+            .expect("run the reader");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{to:?} accepted: {stderr}");
+        assert!(
+            stderr.contains(named),
+            "{to:?} refused without naming {named}: {stderr}"
+        );
+        assert!(
+            out.stdout.is_empty(),
+            "printed samples with types the IDL refuses"
+        );
+    }
 }

@@ -16,28 +16,11 @@
 //! One file per sample family (`camera`, `heartbeat`, `vote`, `alarm`, `network`), with `codes` (the
 //! enumerations' wire codes) and `assignment` (role slots) shared between them.
 //!
-//! Equivalent IDL of the RL topics (codes in `codes.rs`):
-//! ```text
-//! struct HolderSlot { octet id; unsigned long long incarnation; };   // id 0 = empty slot
-//! struct WireAssignment { HolderSlot slots[3]; };                   // Primary, Secondary, Tertiary
-//! struct HeartbeatSample { @key octet from_id; unsigned long long incarnation; octet phase;
-//!   octet role; octet strength; boolean agreed_valid; WireAssignment agreed;
-//!   boolean vote_valid; WireAssignment vote; unsigned long epoch; boolean provisional;
-//!   octet established_strength; HolderSlot took_over_from;          // id 0 = no takeover
-//!   unsigned long long sent_ms; };   // the sender's monotonic clock when it wrote the sample
-//! struct VoteSample { @key octet from_id; unsigned long long incarnation; boolean vote_valid;
-//!   WireAssignment vote; };
-//! struct AlarmSample { octet reporter_id; unsigned long long reporter_incarnation;
-//!   octet about_id; boolean about_incarnation_valid; unsigned long long about_incarnation;
-//!   octet reason; boolean raised; };
-//! struct NetworkHeartbeatSample { @key octet from_id; octet heard_on_a[3]; octet heard_on_b[3]; };
-//!   // what the sender hears of controllers 1..3 per network: 0 unknown, 1 good, 2 fail
-//! struct NetworkAlarmSample { @key octet reporter_id; @key octet network; // 0 = A, 1 = B
-//!   @key octet controller_id;   // 0 = the whole network, else that controller's transceiver
-//!   unsigned long long reporter_incarnation;
-//!   octet certainty;            // 0 = cleared, 1 concluded, 2 suspected, 3 unexplained
-//!   string<512> cause; };
-//! ```
+//! The IDL of every topic type, with the codes and the topics' QoS, is `docs/rl.idl`: what a
+//! second implementation compiles against. `impl/tests/interop.rs` reads RL's heartbeats,
+//! votes and controller alarms with Cyclone DDS through types written from it: a member the
+//! IDL misplaces or mistypes shifts the ones after it, and that test fails. Change both
+//! together.
 
 mod alarm;
 mod assignment;
