@@ -317,6 +317,15 @@ fn metrics_parse_with_the_prometheus_client() {
         value_of(&samples, "rl_alive", &[("controller", &about)]),
         Some(0.0)
     );
+    // The dead Primary's last announcement is not shown beside the live Primary's.
+    for family in ["rl_role", "rl_strength"] {
+        assert!(
+            samples
+                .iter()
+                .all(|s| !(s["name"] == family && s["labels"]["controller"] == about.as_str())),
+            "the killed C{primary} still exports {family}"
+        );
+    }
     assert!(value_of(&samples, "rl_commander_changes_total", &[]).is_some_and(|n| n >= 1.0));
     assert!(value_of(&samples, "rl_commander_last_gap_ms", &[]).is_some());
     cluster.pump(Duration::from_millis(10));

@@ -79,9 +79,11 @@ pub fn render(view: &StatusView, watch: &Watch) -> String {
         &mut out,
         "rl_role",
         "gauge",
-        "1 for the role the controller last announced (primary, secondary, tertiary, none).",
+        "1 for the role a live controller last announced (primary, secondary, tertiary, none).",
     );
-    for c in &view.controllers {
+    // A controller not heard for the dead-man deadline holds no role and commands nothing as
+    // far as anyone can tell: its last announcement is not exported beside the live ones.
+    for c in view.controllers.iter().filter(|c| c.alive) {
         for role in Role::ALL {
             let held = c.report.role == Some(role);
             f.sample(&[id(c.report.id), ("role", role.name().into())], flag(held));
@@ -95,9 +97,9 @@ pub fn render(view: &StatusView, watch: &Watch) -> String {
         &mut out,
         "rl_strength",
         "gauge",
-        "The ownership strength the controller commands with (0: it does not command).",
+        "The ownership strength a live controller commands with (0: it does not command).",
     );
-    for c in &view.controllers {
+    for c in view.controllers.iter().filter(|c| c.alive) {
         f.sample(&[id(c.report.id)], c.report.strength.unwrap_or(0));
     }
     let mut f = family(

@@ -145,6 +145,35 @@ fn metrics_are_the_text_format() {
 }
 
 #[test]
+fn a_silent_controller_exports_no_role_and_no_strength() {
+    let mut board = Board::default();
+    three_steady(&mut board, 0);
+    // C1 falls silent after 0; C2 and C3 go on, C2 now Primary.
+    for now in [300, 500, 601] {
+        board.heartbeat(hb(2, Some(Role::Primary), &[2, 3]), now);
+        board.heartbeat(hb(3, Some(Role::Secondary), &[2, 3]), now);
+    }
+    let text = metrics::render(&board.view(601, 500), &Watch::default());
+    let lines: Vec<&str> = text.lines().collect();
+    assert!(lines.contains(&"rl_alive{controller=\"1\"} 0"), "{text}");
+    assert!(
+        lines.contains(&"rl_role{controller=\"2\",role=\"primary\"} 1"),
+        "{text}"
+    );
+    assert!(
+        lines.contains(&"rl_strength{controller=\"2\"} 30"),
+        "{text}"
+    );
+    for line in &lines {
+        assert!(
+            !(line.starts_with("rl_role{controller=\"1\"")
+                || line.starts_with("rl_strength{controller=\"1\"")),
+            "the silent C1 still exports {line:?}:\n{text}"
+        );
+    }
+}
+
+#[test]
 fn answers_by_path() {
     let snapshot = Snapshot::of(&Board::default().view(0, 500), &Watch::default(), 0);
     let get = |path: &str| {
