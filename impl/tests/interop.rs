@@ -177,19 +177,45 @@ fn cyclone_decodes_rls_own_topics_with_types_from_the_idl() {
             && c.steady_with(2, Some(Role::Secondary))
             && c.steady_with(3, Some(Role::Tertiary))
     });
-    let incarnations: BTreeMap<u8, u64> = (1..=3)
-        .map(|id| (id, cluster.status[&id].report.incarnation))
-        .collect();
-    let epochs: BTreeMap<u8, u32> = (1..=3)
-        .map(|id| (id, cluster.status[&id].report.epoch))
-        .collect();
+    let reports: BTreeMap<u8, rl::core::SelfReport> =
+        (1..=3).map(|id| (id, cluster.status[&id].report)).collect();
+    let samples = read_rl_topics_while_c3_is_killed(&mut cluster, 216);
+    let of = |topic: &'static str| samples.iter().filter(move |s| s["topic"] == topic);
+    assert_heartbeats_and_votes_decode_as_reported(&samples, &reports);
+    assert_stamps_a_period_apart(&samples);
+    let alarmed = of("alarm").any(|a| {
+        a["reporter_id"] == 1
+            && a["reporter_incarnation"] == reports[&1].incarnation
+            && a["about_id"] == 3
+            // RL's controller alarms name no incarnation of the controller they are about.
+            && a["about_incarnation"].is_null()
+            && a["reason"] == 1
+            && a["raised"] == true
+    });
+    assert!(
+        alarmed,
+        "no alarm of C1 about C3 lost decoded: {:?}",
+        of("alarm").collect::<Vec<_>>()
+    );
+    eprintln!(
+        "Cyclone decoded {} heartbeats, {} votes and {} alarms",
+        of("heartbeat").count(),
+        of("vote").count(),
+        of("alarm").count()
+    );
+}
+
+/// Runs `rl_topics_reader.py` for 8 s, kills C3 3 s in, waits for C1's alarm about it, and
+/// returns every sample the reader printed.
+fn read_rl_topics_while_c3_is_killed(cluster: &mut Cluster, domain: u16) -> Vec<serde_json::Value> {
     let script_path = format!(
         "{}/tests/interop/rl_topics_reader.py",
         env!("CARGO_MANIFEST_DIR")
     );
     let mut peer = Command::new("python3")
         .arg(&script_path)
-        .args(["216", "--duration", "8"])
+        .arg(domain.to_string())
+        .args(["--duration", "8"])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -224,27 +250,35 @@ fn cyclone_decodes_rls_own_topics_with_types_from_the_idl() {
         let _ = err.read_to_string(&mut stderr);
     }
     assert!(status.success(), "rl_topics_reader.py failed: {stderr}");
-    let samples: Vec<serde_json::Value> = output
+    output
         .iter()
         .filter_map(|line| serde_json::from_str(line).ok())
-        .collect();
+        .collect()
+}
+
+/// Each controller's heartbeat decoded as it reported itself (steady, role code 1-3 at its
+/// strength, agreeing P=1 S=2 T=3, its epoch, no takeover), and its durable vote the same.
+fn assert_heartbeats_and_votes_decode_as_reported(
+    samples: &[serde_json::Value],
+    reports: &BTreeMap<u8, rl::core::SelfReport>,
+) {
     let of = |topic: &'static str| samples.iter().filter(move |s| s["topic"] == topic);
     let agreed = serde_json::json!([
-        [1, incarnations[&1]],
-        [2, incarnations[&2]],
-        [3, incarnations[&3]]
+        [1, reports[&1].incarnation],
+        [2, reports[&2].incarnation],
+        [3, reports[&3].incarnation]
     ]);
-    // Role codes 1-3 and their strengths (docs/rl.idl).
     for (id, role, strength) in [(1u8, 1, 30), (2, 2, 20), (3, 3, 10)] {
+        let report = &reports[&id];
         let heard = of("heartbeat").any(|h| {
             h["from_id"] == id
-                && h["incarnation"] == incarnations[&id]
+                && h["incarnation"] == report.incarnation
                 && h["phase"] == 3
                 && h["role"] == role
                 && h["strength"] == strength
                 && h["agreed"] == agreed
                 && h["vote"] == agreed
-                && h["epoch"] == epochs[&id]
+                && h["epoch"] == report.epoch
                 && h["provisional"] == false
                 && h["established_strength"] == strength
                 && h["took_over_from"] == serde_json::json!([0, 0])
@@ -256,7 +290,7 @@ fn cyclone_decodes_rls_own_topics_with_types_from_the_idl() {
             of("heartbeat").rfind(|h| h["from_id"] == id)
         );
         let voted = of("vote").any(|v| {
-            v["from_id"] == id && v["incarnation"] == incarnations[&id] && v["vote"] == agreed
+            v["from_id"] == id && v["incarnation"] == report.incarnation && v["vote"] == agreed
         });
         assert!(
             voted,
@@ -264,10 +298,15 @@ fn cyclone_decodes_rls_own_topics_with_types_from_the_idl() {
             of("vote").collect::<Vec<_>>()
         );
     }
-    // The last member: each sender stamps its heartbeats on its own clock, one period apart.
+}
+
+/// The heartbeat's last member: each sender stamps its heartbeats on its own clock, one
+/// period (250 ms) apart.
+fn assert_stamps_a_period_apart(samples: &[serde_json::Value]) {
     for id in 1..=3u8 {
-        let mut sent: Vec<u64> = of("heartbeat")
-            .filter(|h| h["from_id"] == id)
+        let mut sent: Vec<u64> = samples
+            .iter()
+            .filter(|h| h["topic"] == "heartbeat" && h["from_id"] == id)
             .filter_map(|h| h["sent_ms"].as_u64())
             .collect();
         sent.dedup();
@@ -279,26 +318,6 @@ fn cyclone_decodes_rls_own_topics_with_types_from_the_idl() {
             "C{id}'s heartbeats decoded with sent_ms steps {steps:?}, not a period apart"
         );
     }
-    let alarmed = of("alarm").any(|a| {
-        a["reporter_id"] == 1
-            && a["reporter_incarnation"] == incarnations[&1]
-            && a["about_id"] == 3
-            // RL's controller alarms name no incarnation of the controller they are about.
-            && a["about_incarnation"].is_null()
-            && a["reason"] == 1
-            && a["raised"] == true
-    });
-    assert!(
-        alarmed,
-        "no alarm of C1 about C3 lost decoded: {:?}",
-        of("alarm").collect::<Vec<_>>()
-    );
-    eprintln!(
-        "Cyclone decoded {} heartbeats, {} votes and {} alarms",
-        of("heartbeat").count(),
-        of("vote").count(),
-        of("alarm").count()
-    );
 }
 
 /// The reader above checks its types against `docs/rl.idl` before it joins DDS: an IDL whose
