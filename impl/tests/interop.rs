@@ -32,6 +32,55 @@ struct Received {
     participant: String,
 }
 
+/// A peer script of `tests/interop/` running for a number of seconds, its stdout lines
+/// collected as they come.
+struct Peer {
+    script: String,
+    child: std::process::Child,
+    lines: std::thread::JoinHandle<Vec<String>>,
+}
+
+impl Peer {
+    fn start(script: &str, domain: u16, seconds: u32) -> Peer {
+        let mut child = Command::new("python3")
+            .arg(format!(
+                "{}/tests/interop/{script}",
+                env!("CARGO_MANIFEST_DIR")
+            ))
+            .arg(domain.to_string())
+            .args(["--duration", &seconds.to_string()])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("start the peer");
+        let stdout = child.stdout.take().expect("peer stdout");
+        let lines = std::thread::spawn(move || {
+            BufReader::new(stdout)
+                .lines()
+                .map_while(Result::ok)
+                .collect::<Vec<String>>()
+        });
+        Peer {
+            script: script.into(),
+            child,
+            lines,
+        }
+    }
+
+    /// Waits for its end; its stdout lines and stderr. A peer that failed fails the test.
+    fn finish(mut self) -> (Vec<String>, String) {
+        let output = self.lines.join().expect("peer output");
+        let status = self.child.wait().expect("peer exit");
+        let mut stderr = String::new();
+        if let Some(mut err) = self.child.stderr.take() {
+            use std::io::Read;
+            let _ = err.read_to_string(&mut stderr);
+        }
+        assert!(status.success(), "{} failed: {stderr}", self.script);
+        (output, stderr)
+    }
+}
+
 /// Runs the peer script against a formed system, kills the Primary after `before`, and
 /// returns what the peer received, the kill time (Unix ms) and each controller's participant.
 fn run_peer(script: &str, domain: u16, switch_within_ms: f64) {
@@ -46,22 +95,7 @@ fn run_peer(script: &str, domain: u16, switch_within_ms: f64) {
             && c.steady_with(3, Some(Role::Tertiary))
     });
     cluster.wait_for("servo follows C1", FORM, |c| c.servo_commander() == Some(1));
-    let script_path = format!("{}/tests/interop/{script}", env!("CARGO_MANIFEST_DIR"));
-    let mut peer = Command::new("python3")
-        .arg(&script_path)
-        .arg(domain.to_string())
-        .args(["--duration", "12"])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("start the peer");
-    let stdout = peer.stdout.take().expect("peer stdout");
-    let lines = std::thread::spawn(move || {
-        BufReader::new(stdout)
-            .lines()
-            .map_while(Result::ok)
-            .collect::<Vec<String>>()
-    });
+    let peer = Peer::start(script, domain, 12);
     // Let the peer discover the writers and receive the Primary for a while.
     cluster.pump(Duration::from_secs(5));
     let killed_at_ms = rl::procs::wall_ms() as f64;
@@ -70,14 +104,7 @@ fn run_peer(script: &str, domain: u16, switch_within_ms: f64) {
         c.steady_with(2, Some(Role::Primary)) && c.steady_with(3, Some(Role::Secondary))
     });
     let settled_ms = rl::procs::wall_ms() as f64 + 500.0;
-    let output = lines.join().expect("peer output");
-    let status = peer.wait().expect("peer exit");
-    let mut stderr = String::new();
-    if let Some(mut err) = peer.stderr.take() {
-        use std::io::Read;
-        let _ = err.read_to_string(&mut stderr);
-    }
-    assert!(status.success(), "{script} failed: {stderr}");
+    let (output, stderr) = peer.finish();
     cluster.pump(Duration::from_millis(100));
     // Which participant is which controller: the servo simulator maps writers to ids.
     let mut controllers: BTreeMap<String, u8> = BTreeMap::new();
@@ -208,25 +235,7 @@ fn cyclone_decodes_rls_own_topics_with_types_from_the_idl() {
 /// Runs `rl_topics_reader.py` for 8 s, kills C3 3 s in, waits for C1's alarm about it, and
 /// returns every sample the reader printed.
 fn read_rl_topics_while_c3_is_killed(cluster: &mut Cluster, domain: u16) -> Vec<serde_json::Value> {
-    let script_path = format!(
-        "{}/tests/interop/rl_topics_reader.py",
-        env!("CARGO_MANIFEST_DIR")
-    );
-    let mut peer = Command::new("python3")
-        .arg(&script_path)
-        .arg(domain.to_string())
-        .args(["--duration", "8"])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("start the peer");
-    let stdout = peer.stdout.take().expect("peer stdout");
-    let lines = std::thread::spawn(move || {
-        BufReader::new(stdout)
-            .lines()
-            .map_while(Result::ok)
-            .collect::<Vec<String>>()
-    });
+    let peer = Peer::start("rl_topics_reader.py", domain, 8);
     cluster.pump(Duration::from_secs(3));
     cluster.fleet.kill(3).unwrap();
     cluster.wait_for("C1 alarms C3 lost", FORM, |c| {
@@ -242,14 +251,7 @@ fn read_rl_topics_while_c3_is_killed(cluster: &mut Cluster, domain: u16) -> Vec<
                 )
         })
     });
-    let output = lines.join().expect("peer output");
-    let status = peer.wait().expect("peer exit");
-    let mut stderr = String::new();
-    if let Some(mut err) = peer.stderr.take() {
-        use std::io::Read;
-        let _ = err.read_to_string(&mut stderr);
-    }
-    assert!(status.success(), "rl_topics_reader.py failed: {stderr}");
+    let (output, _) = peer.finish();
     output
         .iter()
         .filter_map(|line| serde_json::from_str(line).ok())
