@@ -3,7 +3,7 @@
 //! This is the one place that knows both crates. Every conformance check (the core-level
 //! replay here, the DDS-level replay) abstracts what it observes of RL with these functions
 //! and compares the result with the `traces::AbstractState` the model recorded, field for
-//! field. The input is what a controller reports of itself, `rl::core::Status` (the core's
+//! field. The input is what a controller reports of itself, `rl_layer::core::Status` (the core's
 //! `status()`, also what the status topic carries), plus the one fact a controller cannot
 //! report: whether its process runs.
 //!
@@ -33,7 +33,7 @@
 
 use model::traces::{AbstractController, AbstractState};
 use model::{Life, Phase, Role};
-use rl::core::{self as core, ControllerId, Incarnation, Status};
+use rl_layer::core::{self as core, ControllerId, Incarnation, Status};
 use std::collections::BTreeMap;
 use std::fmt;
 
@@ -263,7 +263,7 @@ pub fn render_assignment(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rl::core::{AlarmReason, Holder};
+    use rl_layer::core::{AlarmReason, Holder};
 
     fn status(id: ControllerId, incarnation: Incarnation) -> Status {
         let mut status = Status::initial(id, incarnation);

@@ -10,7 +10,7 @@
 //! - [`trace`]: reading the trace files and their index;
 //! - [`diff`]: the readable difference between the model's state and an observed one, one
 //!   format for every check, so a mismatch reads the same everywhere;
-//! - [`core_replay`]: the core-level replay: real `rl::core::Core`s on a simulated clock and
+//! - [`core_replay`]: the core-level replay: real `rl_layer::core::Core`s on a simulated clock and
 //!   network, one model action at a time, with a readable diff on a mismatch; its
 //!   [`transcript`](core_replay::transcript) module writes the readable per-trace transcripts
 //!   kept as golden snapshots, and its [`coverage`](core_replay::coverage) module counts which

@@ -17,8 +17,8 @@
 //! marked FAILED that is then lost leaves the membership unchanged, so `sees` and `failed`
 //! of the last status may still name it (trace validation allows exactly that).
 
-use rl::core::{ControllerId, Incarnation, Status};
-use rl::event::{Event, EventLine};
+use rl_layer::core::{ControllerId, Incarnation, Status};
+use rl_layer::event::{Event, EventLine};
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -272,7 +272,7 @@ pub fn describe_event(event: &EventLine, number: Option<u8>) -> String {
     };
     let detail = match &event.event {
         Event::Status { status: s } => {
-            let holders = |a: Option<rl::core::Assignment>| {
+            let holders = |a: Option<rl_layer::core::Assignment>| {
                 a.map_or("-".to_string(), |a| {
                     a.holders()
                         .map(|h| h.id.to_string())
@@ -347,8 +347,8 @@ mod tests {
         assert_eq!(numbers.number(2, 99), Some(0));
         assert_eq!(numbers.number(2, 77), Some(1));
         let status = lives[1].status_at_boundary(5, 250);
-        assert_eq!(status.alarms, vec![(1, rl::core::AlarmReason::Lost)]);
-        assert_eq!(status.report.phase, rl::core::Phase::Initializing);
+        assert_eq!(status.alarms, vec![(1, rl_layer::core::AlarmReason::Lost)]);
+        assert_eq!(status.report.phase, rl_layer::core::Phase::Initializing);
         assert!(lives[1].status_at_boundary(4, 250).alarms.is_empty());
     }
 

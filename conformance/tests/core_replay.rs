@@ -1,5 +1,5 @@
 //! The core-level conformance suite: every default-variant trace of `traces/` replayed against
-//! real `rl::core::Core`s (conformance/src/replay.rs), with the state and commands checked
+//! real `rl_layer::core::Core`s (conformance/src/replay.rs), with the state and commands checked
 //! after every step, the transition coverage counted, and one golden transcript per trace.
 //!
 //! A failure prints the trace file, the step, the action and the model-vs-core difference

@@ -24,7 +24,7 @@
 use conformance::dds_replay::{self, Need, Problem, ReplayError, Selected, Setup, CURATED};
 use conformance::diff::{NAME_WIDTH, VALUE_WIDTH};
 use conformance::trace;
-use rl::core::mutation::Mutation;
+use rl_layer::core::mutation::Mutation;
 use std::path::PathBuf;
 use std::sync::Mutex;
 use std::time::Instant;

@@ -27,7 +27,7 @@
 
 use conformance::dds_replay::fault_injection_rl;
 use conformance::lab::mutation::NAMES;
-use rl::core::mutation::Mutation;
+use rl_layer::core::mutation::Mutation;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

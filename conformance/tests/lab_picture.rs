@@ -9,8 +9,8 @@ use conformance::lab::judge::{FaultRecord, Metrics};
 use conformance::lab::observe::{ControllerEvent, Observations, OwnerSpan};
 use conformance::lab::procs::Life;
 use conformance::lab::run::Outcome;
-use rl::core::{Assignment, Holder, Phase, Role, SelfReport, Status};
-use rl::event::{Event, EventLine};
+use rl_layer::core::{Assignment, Holder, Phase, Role, SelfReport, Status};
+use rl_layer::event::{Event, EventLine};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 

@@ -1,5 +1,5 @@
 //! The mutation check: a suite that cannot fail proves nothing. Each test configures one
-//! deliberate break of a voting rule in the core (`rl::core::mutation`, feature `mutation`),
+//! deliberate break of a voting rule in the core (`rl_layer::core::mutation`, feature `mutation`),
 //! replays every default-variant trace, and asserts that the replay fails with a readable
 //! diff showing the broken field, model value against core value, and that at least one
 //! committed transcript (the insta snapshots) differs from what the mutated core did.
@@ -10,8 +10,8 @@
 use conformance::core_replay::{self as replay, transcript, Failure, Replayed};
 use conformance::diff::{NAME_WIDTH, VALUE_WIDTH};
 use conformance::trace::{self, Trace};
-use rl::core::mutation::Mutation;
-use rl::core::CoreConfig;
+use rl_layer::core::mutation::Mutation;
+use rl_layer::core::CoreConfig;
 
 fn traces() -> Vec<Trace> {
     trace::read_dir(&trace::default_dir()).expect("the trace set is readable")

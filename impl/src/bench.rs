@@ -19,8 +19,8 @@ pub mod security;
 pub mod stats;
 mod watch;
 
-use crate::core::ControllerId;
 use crate::procs::Fleet;
+use rl_layer::core::ControllerId;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
@@ -62,56 +62,7 @@ pub struct BenchArgs {
     pub security: bool,
 }
 
-/// Why `rl bench` failed.
-#[derive(Debug, thiserror::Error)]
-pub enum BenchError {
-    /// The controllers of a run did not all become steady in time.
-    #[error("bench: no formation of three controllers in the {run} within {timeout_s} s")]
-    NoFormation { run: String, timeout_s: u64 },
-    /// A child process could not be started or killed, or a file not written.
-    #[error("bench: {context}: {source}")]
-    Io {
-        context: String,
-        #[source]
-        source: std::io::Error,
-    },
-    /// A controller's `/proc` entries could not be read or parsed.
-    #[error("bench: /proc/{pid}/stat or /proc/{pid}/status unreadable")]
-    ProcUnreadable { pid: u32 },
-    /// The controller to measure is not running.
-    #[error("bench: controller {id} is not running")]
-    NotRunning { id: ControllerId },
-    /// The bench's own DDS reader (formation) could not be set up.
-    #[error("bench: {0}")]
-    Dds(#[from] crate::dds::DdsError),
-    /// The results could not be encoded.
-    #[error("bench: encoding the results as JSON: {0}")]
-    Json(#[from] serde_json::Error),
-    /// Some kills or formations failed; every figure was printed before.
-    #[error(
-        "bench: {failed_kills} of {kills} kills and {failed_formations} of {formations} formations failed (seed {seed})"
-    )]
-    Failed {
-        failed_kills: u32,
-        kills: u32,
-        failed_formations: u32,
-        formations: u32,
-        seed: u64,
-    },
-}
-
-impl BenchError {
-    fn io(context: impl Into<String>, source: std::io::Error) -> BenchError {
-        BenchError::Io {
-            context: context.into(),
-            source,
-        }
-    }
-
-    fn spawn(source: std::io::Error) -> BenchError {
-        BenchError::io("starting a child process", source)
-    }
-}
+pub use crate::error::BenchError;
 
 /// Everything one run measured: the JSON document of `--json`.
 #[derive(Clone, Debug, Serialize)]
@@ -248,7 +199,7 @@ fn run_bench(args: BenchArgs) -> Result<(), BenchError> {
         exe,
         dir,
         domain: args.domain,
-        heartbeat_period_ms: crate::config::Timing::default().heartbeat_period_ms,
+        heartbeat_period_ms: rl_layer::config::Timing::default().heartbeat_period_ms,
         keystores: None,
     };
     let measured = measure(&setup, &args, seed);

@@ -6,19 +6,20 @@
 //! takes the gimbal's position from them, so that a takeover is bumpless.
 //!
 //! Under systemd it reports readiness once DDS is joined and the voting thread runs, and its
-//! loop pings the watchdog while the voting loop also goes round (crate::service).
+//! loop pings the watchdog while the voting loop also goes round (rl_layer::service).
 
-use crate::api::{Options, Redundancy};
-use crate::config::Config;
-use crate::core::types::ControllerId;
-use crate::dds::ParticipantKey;
-use crate::network_monitor::{MonitorOptions, NetworkMonitor};
-use crate::service::{LoopProgress, Notifier};
+use crate::cli::{load_config, stop_on_signals};
 use crate::sim::command_feed::CommandFeed;
 use crate::tracker::PanTiltController;
-use crate::wire::ServoControl;
+use rl_layer::api::{Options, Redundancy};
+use rl_layer::config::Config;
+use rl_layer::core::types::ControllerId;
+use rl_layer::dds::ParticipantKey;
+use rl_layer::network_monitor::{MonitorOptions, NetworkMonitor};
+use rl_layer::service::{LoopProgress, Notifier};
+use rl_layer::wire::ServoControl;
 use rustdds::mio::{Events, Poll, PollOpt, Ready, Token};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -54,32 +55,6 @@ pub struct ControllerArgs {
     pub duration_ms: Option<u64>,
 }
 
-/// Loads the configuration named on the command line (defaults without one) and applies a
-/// `--domain` override, validating the result.
-pub fn load_config(path: Option<&Path>, domain: Option<u16>) -> Result<Config, crate::Error> {
-    let mut config = match path {
-        Some(path) => Config::load(path)?,
-        None => Config::default(),
-    };
-    if let Some(domain) = domain {
-        config.dds.domain = domain;
-        config.validate().map_err(|invalid| {
-            crate::Error::Usage(format!("--domain {domain}: {}", invalid.rule))
-        })?;
-    }
-    Ok(config)
-}
-
-/// SIGINT and SIGTERM set the returned flag.
-pub fn stop_on_signals() -> Result<Arc<AtomicBool>, crate::Error> {
-    let stop = Arc::new(AtomicBool::new(false));
-    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-        signal_hook::flag::register(signal, Arc::clone(&stop))
-            .map_err(|e| crate::Error::io("installing a signal handler", e))?;
-    }
-    Ok(stop)
-}
-
 const CAMERA: Token = Token(0);
 
 /// Runs `rl controller`.
@@ -98,7 +73,7 @@ pub fn run(args: ControllerArgs) -> Result<(), crate::Error> {
     let stop = stop_on_signals()?;
     let voting_progress = Arc::new(LoopProgress::new());
     let mut notifier = Notifier::new(
-        crate::service::watchdog_from_env(),
+        rl_layer::service::watchdog_from_env(),
         Arc::clone(&voting_progress),
     );
     let rl = Redundancy::start(
@@ -117,7 +92,7 @@ pub fn run(args: ControllerArgs) -> Result<(), crate::Error> {
     drop(network_monitor);
     notifier.stopping();
     let stopped = rl.stop();
-    result.and(stopped)
+    result.and(stopped.map_err(crate::Error::from))
 }
 
 /// The network monitor, when `[networks]` names both networks (none otherwise).
@@ -169,7 +144,7 @@ fn track(
     duration_ms: Option<u64>,
     notifier: &mut Notifier,
 ) -> Result<(), crate::Error> {
-    let dds = |e: crate::dds::DdsError| crate::Error::Dds(e.to_string());
+    let dds = |e: rl_layer::dds::DdsError| crate::Error::Dds(e.to_string());
     let mut camera = rl.session().camera_reader().map_err(dds)?;
     // The commanding controller's commands, to follow while standing by.
     let mut owner_commands = CommandFeed::open(

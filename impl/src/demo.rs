@@ -6,14 +6,13 @@
 //! live line says how far off, in pixels). `--record DIR` keeps every child's output (JSON
 //! events) for later checking.
 
-use crate::core::{ControllerId, Phase, Role};
-use crate::event::{Event, EventLine};
 use crate::procs::{parse_servo_event, Fleet, Line, ServoEvent};
 use crate::sim::shapes::CameraFrame;
+use rl_layer::core::{ControllerId, Phase, Role};
+use rl_layer::event::{Event, EventLine};
 use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::PathBuf;
-use std::process::ExitStatus;
 use std::sync::atomic::Ordering;
 use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
@@ -44,17 +43,7 @@ pub struct DemoArgs {
     pub status_page: String,
 }
 
-/// Why the demo stopped early.
-#[derive(Debug, thiserror::Error)]
-pub enum DemoError {
-    /// A controller the demo did not kill exited (its last stderr line says why).
-    #[error("C{id} exited ({status}){}", last_words.as_deref().map(|w| format!(": {w}")).unwrap_or_default())]
-    ControllerExited {
-        id: ControllerId,
-        status: ExitStatus,
-        last_words: Option<String>,
-    },
-}
+pub use crate::error::DemoError;
 
 /// What the demo knows of one controller, from its events.
 #[derive(Clone, Debug, Default)]
@@ -78,7 +67,7 @@ fn spawn_error(e: std::io::Error) -> crate::Error {
 }
 
 pub fn run(args: DemoArgs) -> Result<(), crate::Error> {
-    let stop = crate::controller::stop_on_signals()?;
+    let stop = crate::cli::stop_on_signals()?;
     let exe = std::env::current_exe().map_err(|e| crate::Error::io("locating rl", e))?;
     if let Some(dir) = &args.record {
         std::fs::create_dir_all(dir)

@@ -1,37 +1,36 @@
-//! The crate's top-level error: what a command reports before it exits, and with which code.
+//! The `rl` command's errors: what a command reports before it exits, and with which code.
+//! The benchmark's and the demo's own errors live here too, so every command module depends
+//! on this one and this one on none of them.
 
 /// A failure of an `rl` command.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
-    /// The configuration file is unreadable or invalid (names the field).
+    /// What the RL library reported: a bad configuration (names the field), DDS, a controller
+    /// that failed itself and left to be restarted, a bad mutation name.
     #[error(transparent)]
-    Config(#[from] crate::config::ConfigError),
+    Layer(#[from] rl_layer::Error),
     /// A bad command-line value (names the flag).
     #[error("{0}")]
     Usage(String),
-    /// DDS could not be set up or used.
+    /// DDS, used directly by a tool (a simulator's or the status table's own participant),
+    /// could not be set up or used.
     #[error("DDS: {0}")]
     Dds(String),
     /// An operating-system operation failed.
     #[error("{context}: {source}")]
     Io {
+        /// What the command was doing.
         context: String,
+        /// What the system said.
         #[source]
         source: std::io::Error,
     },
-    /// `RL_MUTATION` names no mutation (a `mutation` build only).
-    #[error("RL_MUTATION={name} is not a mutation; known: {known}")]
-    Mutation { name: String, known: String },
     /// A benchmark failed, or measured failed kills or formations.
     #[error(transparent)]
-    Bench(#[from] crate::bench::BenchError),
+    Bench(#[from] BenchError),
     /// The demo stopped early.
     #[error(transparent)]
-    Demo(#[from] crate::demo::DemoError),
-    /// The controller failed itself (outvoted, or its application reported a fault) and
-    /// left, to be restarted as a new incarnation (crate::failed_exit).
-    #[error("{0}; exits with status {status} to be restarted", status = crate::failed_exit::EXIT_STATUS)]
-    Failed(Box<crate::failed_exit::Failure>),
+    Demo(#[from] DemoError),
     /// Anything else that ends a command.
     #[error("{0}")]
     Runtime(String),
@@ -42,12 +41,13 @@ impl Error {
     /// service manager restarts it), 1 for everything else.
     pub fn exit_code(&self) -> u8 {
         match self {
-            Error::Config(_) | Error::Usage(_) | Error::Mutation { .. } => 2,
-            Error::Failed(_) => crate::failed_exit::EXIT_STATUS,
+            Error::Layer(error) => error.exit_code(),
+            Error::Usage(_) => 2,
             _ => 1,
         }
     }
 
+    /// An operating-system error with what the command was doing.
     pub fn io(context: impl Into<String>, source: std::io::Error) -> Error {
         Error::Io {
             context: context.into(),
@@ -56,8 +56,86 @@ impl Error {
     }
 }
 
-impl From<crate::dds::DdsError> for Error {
-    fn from(error: crate::dds::DdsError) -> Error {
-        Error::Dds(error.to_string())
+impl From<rl_layer::config::ConfigError> for Error {
+    fn from(error: rl_layer::config::ConfigError) -> Error {
+        Error::Layer(error.into())
     }
+}
+
+impl From<rl_layer::dds::DdsError> for Error {
+    fn from(error: rl_layer::dds::DdsError) -> Error {
+        match error {
+            rl_layer::dds::DdsError::Keystore(keystore) => Error::Layer(keystore.into()),
+            other => Error::Dds(other.to_string()),
+        }
+    }
+}
+
+impl From<rl_layer::security::KeystoreError> for Error {
+    fn from(error: rl_layer::security::KeystoreError) -> Error {
+        Error::Layer(error.into())
+    }
+}
+
+/// Why `rl bench` failed.
+#[derive(Debug, thiserror::Error)]
+pub enum BenchError {
+    /// The controllers of a run did not all become steady in time.
+    #[error("bench: no formation of three controllers in the {run} within {timeout_s} s")]
+    NoFormation { run: String, timeout_s: u64 },
+    /// A child process could not be started or killed, or a file not written.
+    #[error("bench: {context}: {source}")]
+    Io {
+        context: String,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A controller's `/proc` entries could not be read or parsed.
+    #[error("bench: /proc/{pid}/stat or /proc/{pid}/status unreadable")]
+    ProcUnreadable { pid: u32 },
+    /// The controller to measure is not running.
+    #[error("bench: controller {id} is not running")]
+    NotRunning { id: rl_layer::core::ControllerId },
+    /// The bench's own DDS reader (formation) could not be set up.
+    #[error("bench: {0}")]
+    Dds(#[from] rl_layer::dds::DdsError),
+    /// The results could not be encoded.
+    #[error("bench: encoding the results as JSON: {0}")]
+    Json(#[from] serde_json::Error),
+    /// Some kills or formations failed; every figure was printed before.
+    #[error(
+        "bench: {failed_kills} of {kills} kills and {failed_formations} of {formations} formations failed (seed {seed})"
+    )]
+    Failed {
+        failed_kills: u32,
+        kills: u32,
+        failed_formations: u32,
+        formations: u32,
+        seed: u64,
+    },
+}
+
+impl BenchError {
+    pub(crate) fn io(context: impl Into<String>, source: std::io::Error) -> BenchError {
+        BenchError::Io {
+            context: context.into(),
+            source,
+        }
+    }
+
+    pub(crate) fn spawn(source: std::io::Error) -> BenchError {
+        BenchError::io("starting a child process", source)
+    }
+}
+
+/// Why the demo stopped early.
+#[derive(Debug, thiserror::Error)]
+pub enum DemoError {
+    /// A controller the demo did not kill exited (its last stderr line says why).
+    #[error("C{id} exited ({status}){}", last_words.as_deref().map(|w| format!(": {w}")).unwrap_or_default())]
+    ControllerExited {
+        id: rl_layer::core::ControllerId,
+        status: std::process::ExitStatus,
+        last_words: Option<String>,
+    },
 }

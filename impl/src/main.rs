@@ -47,7 +47,7 @@ enum Command {
     /// Failover, promotion, formation and resource benchmarks (docs/performance.md).
     Bench(rl::bench::BenchArgs),
     /// DDS Security keystores: a CA, then one per controller or application (docs/security.md).
-    Keys(rl::security::KeysArgs),
+    Keys(rl::keys::KeysArgs),
     /// Check a configuration file and print the effective configuration.
     CheckConfig {
         /// The TOML file to check.
@@ -83,7 +83,7 @@ fn parse() -> Result<Cli, clap::Error> {
 }
 
 fn main() -> ExitCode {
-    let one_arena = rl::malloc::limit_arenas();
+    let one_arena = rl_layer::malloc::limit_arenas();
     let cli = match parse() {
         Ok(cli) => cli,
         Err(error) => {
@@ -97,7 +97,7 @@ fn main() -> ExitCode {
             };
         }
     };
-    rl::logging::init();
+    rl_layer::logging::init();
     if !one_arena {
         tracing::warn!("glibc refused mallopt(M_ARENA_MAX, 1): memory use may be higher");
     }
@@ -108,8 +108,8 @@ fn main() -> ExitCode {
         Command::Status(args) => rl::status::run(args),
         Command::Demo(args) => rl::demo::run(args),
         Command::Bench(args) => rl::bench::run(args),
-        Command::Keys(args) => rl::security::run(args),
-        Command::CheckConfig { path } => rl::config::Config::load(&path)
+        Command::Keys(args) => rl::keys::run(args),
+        Command::CheckConfig { path } => rl_layer::config::Config::load(&path)
             .map(|config| print!("{}", toml::to_string(&config).unwrap_or_default()))
             .map_err(rl::Error::from),
     };

@@ -1,7 +1,7 @@
 //! Child processes for the demo, the benchmarks and the tests: controllers started and killed
 //! for real (`kill -9`, SIGSTOP/SIGCONT), and the servo simulator's JSON event stream.
 
-use crate::core::types::ControllerId;
+use rl_layer::core::types::ControllerId;
 use std::collections::BTreeMap;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};

@@ -21,7 +21,7 @@
 
 mod support;
 
-use rl::core::{Phase, Role};
+use rl_layer::core::{Phase, Role};
 use std::collections::BTreeMap;
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
@@ -393,7 +393,7 @@ fn kill_restart_cycles_one_owner_change_each() {
 /// deadline, so the gap must stay within the deadline and two re-publish periods (the
 /// Secondary's next command after the deadline, and the scheduling of both sides).
 fn connext_gaps(judged: &Judged, kills: &[Kill]) -> Vec<String> {
-    let republish_ms = rl::config::Timing::default().command_republish_ms as f64;
+    let republish_ms = rl_layer::config::Timing::default().command_republish_ms as f64;
     let limit_ms = CONNEXT_DEADLINE_MS as f64 + 2.0 * republish_ms;
     let mut gaps = Vec::new();
     let mut wrong = Vec::new();

@@ -4,7 +4,7 @@
 //! Security can stop an attack the test says so and shows it (docs/protocol.md, "Hostile
 //! input").
 //!
-//! The forger is this test process: its own DDS participant (`rl::dds::Session`) writes
+//! The forger is this test process: its own DDS participant (`rl_layer::dds::Session`) writes
 //! well-formed samples that name a controller it is not. The fragment tests need root (a memory
 //! cgroup), so they are ignored by default:
 //! `cargo test --release -p rl --test adversary -- --include-ignored`.

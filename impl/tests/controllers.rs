@@ -5,9 +5,9 @@
 
 mod support;
 
-use rl::core::{AlarmReason, Phase, Role};
-use rl::event::Event;
 use rl::procs::ServoEvent;
+use rl_layer::core::{AlarmReason, Phase, Role};
+use rl_layer::event::Event;
 use std::time::Duration;
 use support::Cluster;
 
@@ -56,7 +56,7 @@ fn a_single_controller_becomes_primary_after_the_window() {
             s.report.phase == Phase::Steady
                 && s.report.role == P
                 && s.report.provisional
-                && s.report.strength == Some(rl::core::PROVISIONAL_PRIMARY_STRENGTH)
+                && s.report.strength == Some(rl_layer::core::PROVISIONAL_PRIMARY_STRENGTH)
         })
     });
 }
@@ -224,14 +224,14 @@ fn a_restarted_primary_comes_back_in_the_lowest_role() {
 fn malformed_heartbeats_are_dropped_and_nothing_crashes() {
     let mut cluster = Cluster::new("malformed", 209, "");
     formed_three(&mut cluster);
-    let config = rl::config::Config {
-        dds: rl::config::Dds {
+    let config = rl_layer::config::Config {
+        dds: rl_layer::config::Dds {
             domain: 209,
             ..Default::default()
         },
         ..Default::default()
     };
-    let session = rl::dds::Session::new(&config.dds, &config.timing).unwrap();
+    let session = rl_layer::dds::Session::new(&config.dds, &config.timing).unwrap();
     let writer = session.heartbeat_writer().unwrap();
     let mut heartbeats = session.heartbeat_reader().unwrap();
     let garbage = garbage_heartbeats();
@@ -293,20 +293,20 @@ fn malformed_heartbeats_are_dropped_and_nothing_crashes() {
 /// no role's), and one valid heartbeat from a ninth controller nobody votes for. None under a
 /// live controller's id: heartbeat readers keep the last sample per id, so those would replace
 /// that controller's own heartbeats before the reader takes them.
-fn garbage_heartbeats() -> [rl::wire::HeartbeatSample; 3] {
+fn garbage_heartbeats() -> [rl_layer::wire::HeartbeatSample; 3] {
     [
-        rl::wire::HeartbeatSample {
+        rl_layer::wire::HeartbeatSample {
             from_id: 0,
             ..Default::default()
         },
-        rl::wire::HeartbeatSample {
+        rl_layer::wire::HeartbeatSample {
             from_id: 7,
             phase: 200,
             role: 9,
             strength: 77,
             ..Default::default()
         },
-        rl::wire::HeartbeatSample {
+        rl_layer::wire::HeartbeatSample {
             from_id: 9,
             phase: 2,
             role: 1,
@@ -320,7 +320,7 @@ fn garbage_heartbeats() -> [rl::wire::HeartbeatSample; 3] {
 /// 3 s (fewer ids when some stay silent).
 fn wait_for_heartbeats_from_all(
     cluster: &mut Cluster,
-    heartbeats: &mut rl::dds::Reader<rl::wire::HeartbeatSample>,
+    heartbeats: &mut rl_layer::dds::Reader<rl_layer::wire::HeartbeatSample>,
 ) -> std::collections::BTreeMap<u8, u64> {
     let mut heard = std::collections::BTreeMap::new();
     let until = std::time::Instant::now() + Duration::from_secs(3);
@@ -511,14 +511,14 @@ fn a_status_started_after_an_alarm_shows_it_with_who_raised_it_and_since_when() 
 fn a_heartbeat_sent_rounds_before_it_arrives_is_dropped_as_late() {
     let mut cluster = Cluster::new("late", 215, "");
     formed_three(&mut cluster);
-    let config = rl::config::Config {
-        dds: rl::config::Dds {
+    let config = rl_layer::config::Config {
+        dds: rl_layer::config::Dds {
             domain: 215,
             ..Default::default()
         },
         ..Default::default()
     };
-    let session = rl::dds::Session::new(&config.dds, &config.timing).unwrap();
+    let session = rl_layer::dds::Session::new(&config.dds, &config.timing).unwrap();
     let writer = session.heartbeat_writer().unwrap();
     let mut heartbeats = session.heartbeat_reader().unwrap();
     wait_for_heartbeats_from_all(&mut cluster, &mut heartbeats);
@@ -532,17 +532,17 @@ fn a_heartbeat_sent_rounds_before_it_arrives_is_dropped_as_late() {
         if !heartbeats.take().iter().any(|h| h.value.id == 1) {
             continue;
         }
-        let stamp = rl::wire::sender_clock_ms();
+        let stamp = rl_layer::wire::sender_clock_ms();
         let sent_ms = if round == QUEUED_ROUND {
             stamp - QUEUED_MS
         } else {
             stamp
         };
         writer
-            .write_sample(rl::wire::HeartbeatSample {
+            .write_sample(rl_layer::wire::HeartbeatSample {
                 from_id: 9,
                 incarnation: 1,
-                phase: rl::wire::PHASE_INITIALIZING,
+                phase: rl_layer::wire::PHASE_INITIALIZING,
                 sent_ms,
                 ..Default::default()
             })

@@ -1,4 +1,4 @@
-//! Real DDS on this machine, in one process: every endpoint of `rl::dds` against real RustDDS
+//! Real DDS on this machine, in one process: every endpoint of `rl_layer::dds` against real RustDDS
 //! participants (one per simulated controller, as in production), no mocks.
 //!
 //! Isolation: each test has its own DDS domain so tests running in parallel (and other test
@@ -6,12 +6,12 @@
 //! 101 ownership failover, 102 strength re-creation, 103 heartbeat/vote round trip,
 //! 104 transient-local votes, 105 malformed samples, 106 ROS 2 status, 107 heartbeat bursts.
 
-use rl::arbiter::Arbiter;
-use rl::config::{Dds, Timing};
-use rl::core::types::{Assignment, Holder, Phase, Role, VoteRecord};
-use rl::core::Heartbeat;
-use rl::dds::{mio, ControllerDirectory, ParticipantKey, Session, GUID};
-use rl::wire::{HeartbeatSample, RosString, ServoControl, WireSample, HEARTBEAT_TYPE_NAME};
+use rl_layer::arbiter::Arbiter;
+use rl_layer::config::{Dds, Timing};
+use rl_layer::core::types::{Assignment, Holder, Phase, Role, VoteRecord};
+use rl_layer::core::Heartbeat;
+use rl_layer::dds::{mio, ControllerDirectory, ParticipantKey, Session, GUID};
+use rl_layer::wire::{HeartbeatSample, RosString, ServoControl, WireSample, HEARTBEAT_TYPE_NAME};
 use rustdds::{
     policy::{Durability, History, Reliability},
     serialization::CDRSerializerAdapter,
@@ -125,14 +125,14 @@ impl Drop for Publisher {
 /// A command reader driven by a mio poll, with the arbiter applied.
 struct Actuator {
     session: Session,
-    reader: rl::dds::Reader<ServoControl>,
+    reader: rl_layer::dds::Reader<ServoControl>,
     poll: mio::Poll,
     events: mio::Events,
     arbiter: Arbiter<GUID>,
     start: Instant,
     /// (t_ms, writer, accepted)
     log: Vec<(u64, GUID, bool)>,
-    changes: Vec<rl::arbiter::OwnerChange<GUID>>,
+    changes: Vec<rl_layer::arbiter::OwnerChange<GUID>>,
 }
 
 impl Actuator {

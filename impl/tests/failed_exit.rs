@@ -12,9 +12,9 @@
 
 mod support;
 
-use rl::core::{Phase, Role};
-use rl::event::{Event, EventLine};
-use rl::failed_exit::{FailureCause, EXIT_STATUS};
+use rl_layer::core::{Phase, Role};
+use rl_layer::event::{Event, EventLine};
+use rl_layer::failed_exit::{FailureCause, EXIT_STATUS};
 use std::io::Write;
 use std::time::{Duration, Instant};
 use support::Cluster;

@@ -16,8 +16,8 @@ mod support;
 
 use support::actuators::{participant_of, require_peer};
 
-use rl::core::Role;
 use rl::procs::ServoEvent;
+use rl_layer::core::Role;
 use std::collections::BTreeMap;
 use std::io::{BufRead, BufReader};
 use std::process::{Command, Stdio};
@@ -204,7 +204,7 @@ fn cyclone_decodes_rls_own_topics_with_types_from_the_idl() {
             && c.steady_with(2, Some(Role::Secondary))
             && c.steady_with(3, Some(Role::Tertiary))
     });
-    let reports: BTreeMap<u8, rl::core::SelfReport> =
+    let reports: BTreeMap<u8, rl_layer::core::SelfReport> =
         (1..=3).map(|id| (id, cluster.status[&id].report)).collect();
     let samples = read_rl_topics_while_c3_is_killed(&mut cluster, 216);
     let of = |topic: &'static str| samples.iter().filter(move |s| s["topic"] == topic);
@@ -243,7 +243,7 @@ fn read_rl_topics_while_c3_is_killed(cluster: &mut Cluster, domain: u16) -> Vec<
             e.id == 1
                 && matches!(
                     e.event,
-                    rl::event::Event::Alarm {
+                    rl_layer::event::Event::Alarm {
                         about: 3,
                         raised: true,
                         ..
@@ -262,7 +262,7 @@ fn read_rl_topics_while_c3_is_killed(cluster: &mut Cluster, domain: u16) -> Vec<
 /// strength, agreeing P=1 S=2 T=3, its epoch, no takeover), and its durable vote the same.
 fn assert_heartbeats_and_votes_decode_as_reported(
     samples: &[serde_json::Value],
-    reports: &BTreeMap<u8, rl::core::SelfReport>,
+    reports: &BTreeMap<u8, rl_layer::core::SelfReport>,
 ) {
     let of = |topic: &'static str| samples.iter().filter(move |s| s["topic"] == topic);
     let agreed = serde_json::json!([

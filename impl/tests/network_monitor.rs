@@ -16,7 +16,7 @@
 mod lan;
 
 use lan::{MulticastRoute, Net, TwoBridgeLan};
-use rl::event::{Event, EventLine};
+use rl_layer::event::{Event, EventLine};
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Stdio};
 use std::sync::mpsc::{channel, Receiver};

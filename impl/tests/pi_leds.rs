@@ -6,10 +6,10 @@
 //! One process test runs a real controller configured for GPIO on a machine without the chip
 //! (DDS domain 184).
 
-use rl::config::Config;
-use rl::core::{Command, ControllerId, Core, CoreConfig, Input, Phase, Role, Rounds};
-use rl::leds::gpio::{GpioChip, GpioFault, GpioLeds, OutputLines};
-use rl::leds::{LedBank, LedPattern};
+use rl_layer::config::Config;
+use rl_layer::core::{Command, ControllerId, Core, CoreConfig, Input, Phase, Role, Rounds};
+use rl_layer::leds::gpio::{GpioChip, GpioFault, GpioLeds, OutputLines};
+use rl_layer::leds::{LedBank, LedPattern};
 use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -199,7 +199,7 @@ impl Bench {
         let unit = self.units.get_mut(&id).unwrap();
         let commands = unit.core.step(input, now);
         // The adapter's rule: the LEDs follow the status.
-        let pattern = rl::leds::pattern_of(&unit.core.status());
+        let pattern = rl_layer::leds::pattern_of(&unit.core.status());
         if unit.leds.shown() != Some(pattern) {
             unit.leds.show(pattern).unwrap();
         }
@@ -414,10 +414,10 @@ fn configured_pins_are_the_lines_driven() {
     let pins = [[2, 3], [4, 17], [27, 22], [10, 9]];
     let mut leds = GpioLeds::open(&chip, "/dev/gpiochip0", pins).unwrap();
     leds.show(LedPattern([
-        rl::leds::LedColor::Green,
-        rl::leds::LedColor::Red,
-        rl::leds::LedColor::Off,
-        rl::leds::LedColor::Green,
+        rl_layer::leds::LedColor::Green,
+        rl_layer::leds::LedColor::Red,
+        rl_layer::leds::LedColor::Off,
+        rl_layer::leds::LedColor::Green,
     ]))
     .unwrap();
     let levels = chip.record.lock().unwrap().levels.clone();

@@ -11,9 +11,9 @@
 //! `cargo test -- --include-ignored` runs them (.ci/run builds and installs both first), and
 //! then a missing binary or emulator fails the test.
 
-use rl::core::{Phase, Role, Status};
-use rl::event::{Event, EventLine};
 use rl::procs::{parse_servo_event, Fleet, Line, ServoEvent};
+use rl_layer::core::{Phase, Role, Status};
+use rl_layer::event::{Event, EventLine};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::Receiver;

@@ -156,9 +156,9 @@ fn the_unit_is_a_notify_service_with_a_watchdog_restarted_on_failure() {
 #[test]
 fn the_packaged_configuration_is_the_defaults_with_gpio_leds() {
     let packaged = std::fs::read_to_string(debian_dir().join("rl.toml")).unwrap();
-    let config = rl::config::Config::from_toml_str(&packaged, "debian/rl.toml").unwrap();
-    let mut expected = rl::config::Config::default();
-    expected.leds.backend = rl::config::LedBackend::Gpio;
+    let config = rl_layer::config::Config::from_toml_str(&packaged, "debian/rl.toml").unwrap();
+    let mut expected = rl_layer::config::Config::default();
+    expected.leds.backend = rl_layer::config::LedBackend::Gpio;
     assert_eq!(config, expected);
     // The defaults it shows (commented out) are the example's, which the package ships as
     // /usr/share/doc/rl/rl.toml.example.

@@ -8,9 +8,9 @@
 //! loop switches off and on again (the command reader, watched only while Secondary) wakes it
 //! again each time it is switched on. Domain 232.
 
-use rl::config::{Dds, Timing};
-use rl::core::Heartbeat;
-use rl::dds::{mio, Session, WakeSwitch};
+use rl_layer::config::{Dds, Timing};
+use rl_layer::core::Heartbeat;
+use rl_layer::dds::{mio, Session, WakeSwitch};
 use std::time::{Duration, Instant};
 
 const DOMAIN: u16 = 232;
@@ -84,8 +84,8 @@ fn a_heartbeat_reader_wakes_its_poll_for_every_sample() {
 /// Writes until a sample wakes `poll` (true) or `within` passes (false); takes what came.
 fn wakes(
     poll: &mio::Poll,
-    reader: &mut rl::dds::Reader<rl::wire::HeartbeatSample>,
-    writer: &rl::dds::Writer<rl::wire::HeartbeatSample>,
+    reader: &mut rl_layer::dds::Reader<rl_layer::wire::HeartbeatSample>,
+    writer: &rl_layer::dds::Writer<rl_layer::wire::HeartbeatSample>,
     within: Duration,
 ) -> bool {
     let mut events = mio::Events::with_capacity(8);

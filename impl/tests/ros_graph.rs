@@ -69,7 +69,7 @@ fn the_controller_is_a_ros2_node_publishing_its_status() {
         )
         .unwrap();
     let status = node
-        .create_subscription::<rl::wire::RosString>(&topic, None)
+        .create_subscription::<rl_layer::wire::RosString>(&topic, None)
         .unwrap();
     let deadline = Instant::now() + Duration::from_secs(20);
     let mut node_seen = false;

@@ -6,12 +6,12 @@
 //! Isolation: each test has its own DDS domain (tests/dds_loopback.rs uses 101..=106):
 //! 120 failover on silence and return, 121 failover on writer deletion, 122 shapes.
 
-use rl::config::{Dds, Timing};
-use rl::core::types::{Assignment, Holder, Phase, Role};
-use rl::core::Heartbeat;
-use rl::dds::{guid_hex, Session};
 use rl::sim::shapes::{X_MAX, Y_MAX};
-use rl::wire::ServoControl;
+use rl_layer::config::{Dds, Timing};
+use rl_layer::core::types::{Assignment, Holder, Phase, Role};
+use rl_layer::core::Heartbeat;
+use rl_layer::dds::{guid_hex, Session};
+use rl_layer::wire::ServoControl;
 use serde_json::Value;
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Stdio};

@@ -5,7 +5,7 @@
 //!
 //! The Chromium and Prometheus tests need outside tools (Debian's `chromium`, Python's
 //! `prometheus_client`; `.ci/run` installs both), so they are ignored by default. Chromium's
-//! side (finding it, reading a page, screenshots) is in `status_page/chromium.rs`.
+//! side (finding it, reading a page, screenshots) is in `status_page/chromium.rs` (beside this file).
 
 mod support;
 
@@ -13,7 +13,7 @@ mod status_page {
     pub mod chromium;
 }
 
-use rl::core::Role;
+use rl_layer::core::Role;
 use serde_json::Value;
 use status_page::chromium::{card_field, chromium, dump_dom, led, screenshot, OpenPage};
 use std::io::{Read, Write};

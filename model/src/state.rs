@@ -37,7 +37,7 @@ pub enum Action {
     Isolate { controller: Id },
     /// A controller's own links all go down (a pulled cable, a dead switch port): cut off
     /// from its peers and from the actuator. It sees its carrier go and starts again as a new
-    /// incarnation at once, as after a stall (impl/src/link_watch.rs; F16).
+    /// incarnation at once, as after a stall (impl/layer/src/link_watch.rs; F16).
     Unplug { controller: Id },
     /// A controller's links are starved (rate-limited): they still carry some of its
     /// datagrams, late, and its carrier stays up. The actuator may miss its commands' deadline

@@ -7,7 +7,7 @@ use crate::abstraction::{self, IncarnationNumbers, UnknownIncarnation};
 use crate::diff::id_set;
 use model::traces::{AbstractController, AbstractState};
 use model::Life;
-use rl::core::{Command, ControllerId};
+use rl_layer::core::{Command, ControllerId};
 use std::collections::BTreeSet;
 
 /// The commands' disagreements with the trace's state change, one line each.

@@ -1,4 +1,4 @@
-//! Core-level replay: a model trace driven through real `rl::core::Core` instances.
+//! Core-level replay: a model trace driven through real `rl_layer::core::Core` instances.
 //!
 //! [`network::CoreNetwork`] is a simulated clock and network around one `Core` per running controller.
 //! Time is in milliseconds, one round of the model is one heartbeat period
@@ -20,14 +20,14 @@
 //!   round's end and it hears this round's heartbeats, as in the model.
 //! - `Pause { controller }`: the core is not stepped and its heartbeats are not sent;
 //!   `Resume` starts a new core with the next incarnation, as the runtime does when it finds
-//!   its loop stalled for a peer deadline (impl/src/stall.rs).
+//!   its loop stalled for a peer deadline (impl/layer/src/stall.rs).
 //! - `Isolate` / `Heal { controller }`: every heartbeat to and from it is lost until healed.
 //!   `Unplug` cuts it off from the actuator too and starts a new core with the next
 //!   incarnation, as the runtime does when every link loses its carrier
-//!   (impl/src/link_watch.rs).
+//!   (impl/layer/src/link_watch.rs).
 //! - `Starve { controller }`: every live core learns that its commands arrive late, then
 //!   every other live peer's on time (`Input::Commands`, what the runtime measures,
-//!   impl/src/runtime/arrival.rs); a takeover's writer is one every reader knows already.
+//!   impl/layer/src/runtime/arrival.rs); a takeover's writer is one every reader knows already.
 //!   `Lag` / `CatchUp`: the actuator stops and starts counting its writers. A core that says
 //!   `StartAgain` (deposed) is replaced by a new core with the next incarnation at the round's
 //!   end, as the runtime does.
@@ -303,7 +303,7 @@ mod tests {
     use crate::abstraction::IncarnationNumbers;
     use model::traces::AbstractController;
     use model::Life;
-    use rl::core::{AlarmReason, Command, Role};
+    use rl_layer::core::{AlarmReason, Command, Role};
 
     fn controller(id: u8) -> AbstractController {
         AbstractController {
@@ -336,7 +336,7 @@ mod tests {
         let log: StepLog = [(
             2,
             vec![Emitted {
-                cause: Cause::Timer(rl::core::Timer::RoundEnd),
+                cause: Cause::Timer(rl_layer::core::Timer::RoundEnd),
                 commands: emitted,
             }],
         )]

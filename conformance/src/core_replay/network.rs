@@ -6,8 +6,8 @@ use super::{Problem, DELIVERY_OFFSET_MS, PERIOD_MS, START_OFFSET_MS};
 use crate::abstraction::{self, IncarnationNumbers, Observed};
 use model::traces::AbstractState;
 use model::{Action, Life};
-use rl::core::types::{Arrival, TAKEOVER_STRENGTH};
-use rl::core::{Command, ControllerId, Core, CoreConfig, Heartbeat, Input, Rounds, Timer};
+use rl_layer::core::types::{Arrival, TAKEOVER_STRENGTH};
+use rl_layer::core::{Command, ControllerId, Core, CoreConfig, Heartbeat, Input, Rounds, Timer};
 use std::collections::{BTreeMap, BTreeSet};
 
 /// Why a core was stepped.
@@ -311,7 +311,7 @@ impl<'a> CoreNetwork<'a> {
                     .retain(|&(from, to)| from != controller && to != controller);
             }
             // A stall restarts the controller as a new incarnation when it resumes (the
-            // runtime's stall detection, impl/src/stall.rs; the model's F12).
+            // runtime's stall detection, impl/layer/src/stall.rs; the model's F12).
             Action::Restart { controller } | Action::Resume { controller } => {
                 let next = self.slot_mut(controller)?.incarnation.saturating_add(1);
                 self.start_core(controller, next)?;
@@ -326,7 +326,7 @@ impl<'a> CoreNetwork<'a> {
                 self.isolated.insert(controller);
             }
             // The runtime sees its carrier go and starts again as a new incarnation
-            // (impl/src/link_watch.rs; the model's F16).
+            // (impl/layer/src/link_watch.rs; the model's F16).
             Action::Unplug { controller } => {
                 self.isolated.insert(controller);
                 self.unplugged.insert(controller);
@@ -349,7 +349,7 @@ impl<'a> CoreNetwork<'a> {
                     self.arrivals(&mut log);
                 }
             }
-            // The runtime measures how each peer's commands arrive (impl/src/runtime/
+            // The runtime measures how each peer's commands arrive (impl/layer/src/runtime/
             // arrival.rs): the starved controller's late, every other's on time.
             Action::Starve { controller } => {
                 self.starved.insert(controller);

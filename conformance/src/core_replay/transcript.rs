@@ -13,7 +13,7 @@ use crate::abstraction::{self, IncarnationNumbers};
 use crate::diff::controller_line;
 use crate::trace::Trace;
 use model::traces::AbstractState;
-use rl::core::{Assignment, Command, ControllerId, Timer};
+use rl_layer::core::{Assignment, Command, ControllerId, Timer};
 use std::fmt::Write;
 
 /// The insta snapshot name of a trace's transcript (`trace_0005-late-joiner`).

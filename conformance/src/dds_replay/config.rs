@@ -80,7 +80,7 @@ pub fn timing() -> Result<Timing, ReplayError> {
 /// for a settled owner before the observation and for the observation before the next
 /// round's faults.
 pub fn run_timing() -> Result<RunTiming, ReplayError> {
-    let config = rl::config::Config::from_toml_str(CONFIG_TOML, "replay configuration")
+    let config = rl_layer::config::Config::from_toml_str(CONFIG_TOML, "replay configuration")
         .map_err(|e| ReplayError::Config(e.to_string()))?;
     let rounds =
         Timing::from_config(&config.timing).map_err(|e| ReplayError::Config(e.to_string()))?;

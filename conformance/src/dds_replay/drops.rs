@@ -18,8 +18,8 @@ use super::config::APPLY_OFFSET_MS;
 use super::error::Problem;
 use super::lives::Life;
 use crate::record::round_of;
-use rl::core::ControllerId;
-use rl::event::Event;
+use rl_layer::core::ControllerId;
+use rl_layer::event::Event;
 use std::collections::BTreeSet;
 
 /// What the control told one process to drop, from when.
@@ -190,8 +190,8 @@ fn dropped_in(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rl::core::Status;
-    use rl::event::EventLine;
+    use rl_layer::core::Status;
+    use rl_layer::event::EventLine;
 
     const PERIOD_MS: u64 = 250;
 

@@ -4,7 +4,7 @@
 
 use crate::record::RecordError;
 use crate::validate::Rejection;
-use rl::core::ControllerId;
+use rl_layer::core::ControllerId;
 use std::path::PathBuf;
 use std::process::ExitStatus;
 use std::time::Duration;

@@ -9,7 +9,7 @@
 use crate::abstraction::{self, IncarnationNumbers, Observed, UnknownIncarnation};
 use crate::record::LifeLog;
 use model::traces::AbstractState;
-use rl::core::ControllerId;
+use rl_layer::core::ControllerId;
 use std::collections::BTreeSet;
 
 /// One controller process.

@@ -4,8 +4,8 @@
 //! `rl::procs::Fleet`, so the replay can tell a process that exited on its own
 //! ([`Processes::exited`], `try_wait`) from one it killed.
 
-use rl::core::ControllerId;
 use rl::procs::wall_ms;
+use rl_layer::core::ControllerId;
 use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdin, Command, ExitStatus, Stdio};

@@ -7,8 +7,8 @@
 //! stamp: the servo's start plus the fastest a line got through the pipe, within about a
 //! millisecond of the true time.
 
-use rl::core::ControllerId;
 use rl::procs::ServoEvent;
+use rl_layer::core::ControllerId;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 

@@ -3,7 +3,7 @@
 
 use super::error::ReplayError;
 use crate::record::describe_event;
-use rl::event::{Event, EventLine};
+use rl_layer::event::{Event, EventLine};
 use std::collections::BTreeMap;
 use std::path::Path;
 

@@ -12,7 +12,7 @@
 
 use super::faults::{Fault, Target};
 use super::session::CONNEXT_DEADLINE_MS;
-use rl::config::Timing;
+use rl_layer::config::Timing;
 
 /// The model's bound: 10 fault-free rounds after the last fault every live controller has
 /// settled ("settles after faults stop", docs/protocol.md; `model::Config`'s
@@ -108,7 +108,7 @@ fn split() -> FaultExpected {
 /// A crash, a stall or a restart: the actuator moves once, to the Secondary, which the
 /// majority makes Primary; the restarted or resumed controller comes back below (a new
 /// incarnation, no failback) and writes nothing before its voting loop has put its new status
-/// in place (`impl/src/stall.rs`). Nobody else claims 30 meanwhile.
+/// in place (`impl/layer/src/stall.rs`). Nobody else claims 30 meanwhile.
 const CRASH: FaultExpected = FaultExpected {
     owner_changes: OwnerChanges::AtMost(1),
     two_at_top_ms: 0.0,
@@ -129,7 +129,7 @@ pub const UNFELT_LOSS_PERCENT: u8 = 20;
 /// What one fault, on its own, may cause.
 pub fn for_fault(fault: &Fault) -> FaultExpected {
     match fault {
-        // Controllers follow the Primary's round phase (rl::round_clock), whatever their wall
+        // Controllers follow the Primary's round phase (rl_layer::round_clock), whatever their wall
         // clocks say or however fast their crystals run: a clock fault is a restart.
         Fault::Kill(_) | Fault::Pause(_) | Fault::ClockOffset(..) | Fault::ClockRate(..) => CRASH,
         // A controller that sees every link lose its carrier starts again as a new incarnation

@@ -263,7 +263,7 @@ pub fn apply(
             applied.flapper = Some(start_flapping(links, *seed));
         }
         // The link down rather than nftables: the controller must see its carrier go, as on
-        // a pulled cable (`rl::link_watch`), which firewall rules never show it.
+        // a pulled cable (`rl_layer::link_watch`), which firewall rules never show it.
         Fault::Unplug(_) => {
             for net in Net::BOTH {
                 let link = lan.link(me, net);

@@ -7,8 +7,8 @@
 use super::expect::{Expected, OwnerChanges, SETTLE_ROUNDS};
 use super::observe::{largest_gap, owner_spans, ActuatorSample, Observations, OwnerSpan};
 use super::procs::Life;
-use rl::core::{Phase, Status};
-use rl::event::Event;
+use rl_layer::core::{Phase, Status};
+use rl_layer::event::Event;
 use serde::Serialize;
 use std::collections::BTreeMap;
 

@@ -192,9 +192,9 @@ impl Lan {
             // unresolved neighbour is dropped, not sent seconds late when the link is back,
             // and an unresolved neighbour is probed every 50 ms, not every second.
             for net in Net::BOTH {
-                let queue = rl::link_watch::unresolved_queue_setting(&net.inside());
-                let probe = rl::link_watch::neighbour_probe_setting(&net.inside());
-                let probe_ms = rl::link_watch::NEIGHBOUR_PROBE_MS;
+                let queue = rl_layer::link_watch::unresolved_queue_setting(&net.inside());
+                let probe = rl_layer::link_watch::neighbour_probe_setting(&net.inside());
+                let probe_ms = rl_layer::link_watch::NEIGHBOUR_PROBE_MS;
                 host::run(
                     "ip",
                     &[

@@ -14,7 +14,7 @@ use std::path::Path;
 /// The environment variable a `mutation` build of `rl controller` reads.
 pub const VARIABLE: &str = "RL_MUTATION";
 
-/// The names a `mutation` build of `rl` knows (`rl::core::mutation::Mutation::name`). The
+/// The names a `mutation` build of `rl` knows (`rl_layer::core::mutation::Mutation::name`). The
 /// lab's own `rl` dependency is built without that feature, so a test keeps the two equal.
 pub const NAMES: [&str; 5] = [
     "promote-without-failure",
@@ -24,7 +24,7 @@ pub const NAMES: [&str; 5] = [
     "stay-when-unplugged",
 ];
 
-/// What a `mutation` build prints on stderr when it runs a broken rule (`impl/src/runtime.rs`).
+/// What a `mutation` build prints on stderr when it runs a broken rule (`impl/layer/src/runtime.rs`).
 const ANNOUNCED: &str = "(RL_MUTATION)";
 /// What it prints, before it exits, when `RL_MUTATION` names no mutation it knows.
 const REJECTED: &str = "is not a mutation";

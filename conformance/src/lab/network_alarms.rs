@@ -23,10 +23,10 @@ use super::judge::FaultRecord;
 use super::lan::Net;
 use super::observe::ControllerEvent;
 use super::procs::Life;
-use rl::core::network::Network;
-use rl::core::AlarmReason;
-use rl::event::{Event, EventLine};
-use rl::wire::Certainty;
+use rl_layer::core::network::Network;
+use rl_layer::core::AlarmReason;
+use rl_layer::event::{Event, EventLine};
+use rl_layer::wire::Certainty;
 use serde::Serialize;
 use std::fmt;
 
@@ -547,7 +547,7 @@ fn role_changes(recorded: &Recorded, report: &mut NapReport) {
             };
             let now = status.report.role;
             if event.at_ms > recorded.judged_from_ms && now != role {
-                let name = |r: Option<rl::core::Role>| r.map_or("none", |r| r.name());
+                let name = |r: Option<rl_layer::core::Role>| r.map_or("none", |r| r.name());
                 let text = format!(
                     "{label}: {} to {} at {:.3} s",
                     name(role),

@@ -9,8 +9,8 @@
 use super::clock::LabClock;
 use super::network_alarms::{self, NapRecord};
 use super::procs::{Life, Line};
-use rl::event::EventLine;
 use rl::procs::ServoEvent;
+use rl_layer::event::EventLine;
 use std::collections::BTreeMap;
 
 /// A controller event on the lab clock.

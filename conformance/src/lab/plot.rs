@@ -8,7 +8,7 @@ use super::observe::{Observations, OwnerSpan};
 use super::procs::Life;
 use super::run::Outcome;
 use plotters::prelude::*;
-use rl::core::{Phase, Role};
+use rl_layer::core::{Phase, Role};
 use std::path::Path;
 
 const ROWS: [&str; 5] = ["C1", "C2", "C3", "rl servo", "Connext"];

@@ -55,13 +55,15 @@ impl Life {
     /// What the lab takes off an event this life stamped at `t_ms` (its own wall clock, Unix
     /// ms): its clock's error at that moment (the offset, plus what a fast clock has gained
     /// since the process started) to the nearest whole heartbeat period. Controllers follow the
-    /// Primary's round phase (`rl::round_clock`), so the rest of an error is absorbed by the
+    /// Primary's round phase (`rl_layer::round_clock`), so the rest of an error is absorbed by the
     /// controllers themselves, and taking off the whole periods puts every life on the
     /// system's shared round clock (the model's rounds). A fast clock's correction grows with
     /// its error, so a restart onto the true clock continues the old life's rounds instead of
     /// starting in rounds the old life had already stamped.
     pub fn round_clock_correction_ms(&self, t_ms: u64) -> i64 {
-        let period_ms = rl::config::Config::default().timing.heartbeat_period_ms as f64;
+        let period_ms = rl_layer::config::Config::default()
+            .timing
+            .heartbeat_period_ms as f64;
         let offset_ms = self.clock_offset_s * 1000.0;
         // libfaketime's clock: started + offset + (true - started) x rate; solved for its
         // error (clock - true) at the clock's reading `t_ms`.
@@ -352,7 +354,7 @@ impl Procs {
                 life.ended_ms = Some(now);
                 life.exit = Some(status.to_string());
             }
-            if status.code() == Some(rl::failed_exit::EXIT_STATUS.into()) {
+            if status.code() == Some(rl_layer::failed_exit::EXIT_STATUS.into()) {
                 self.restarts_due.insert(id, now + 1000.0);
             }
         }

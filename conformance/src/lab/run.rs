@@ -106,7 +106,9 @@ pub fn run(scenario: &Scenario, seed: u64, setup: &Setup, out: &Path) -> Result<
     let end_ms = session.clock.now_ms();
     let lives = session.procs.lives.clone();
     session.stop()?;
-    let period_ms = rl::config::Config::default().timing.heartbeat_period_ms as f64;
+    let period_ms = rl_layer::config::Config::default()
+        .timing
+        .heartbeat_period_ms as f64;
     let mut metrics = judge::measure(
         &session.observed,
         &lives,

@@ -11,7 +11,7 @@ use super::lan::{Lan, Node, CONTROLLER_IDS};
 use super::observe::Observations;
 use super::procs::{Line, Procs};
 use super::scenario::Step;
-use rl::core::{Phase, Role, Status};
+use rl_layer::core::{Phase, Role, Status};
 use std::path::PathBuf;
 use std::sync::mpsc::{self, Receiver};
 use std::time::{Duration, Instant};

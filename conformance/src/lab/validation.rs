@@ -43,8 +43,8 @@ pub fn write_recording(
 
 /// Validates the recording in `dir` against the model with `rl`'s default timing.
 pub fn validate_recording(dir: &Path) -> Verdict {
-    let timing =
-        Timing::from_config(&rl::config::Config::default().timing).map_err(|e| e.to_string())?;
+    let timing = Timing::from_config(&rl_layer::config::Config::default().timing)
+        .map_err(|e| e.to_string())?;
     let recording = Recording::read_dir(dir).map_err(|e| e.to_string())?;
     match validate::validate(&recording, &timing) {
         Ok(accepted) => Ok(accepted.to_string()),

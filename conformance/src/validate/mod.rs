@@ -74,8 +74,8 @@ pub struct Timing {
 }
 
 impl Timing {
-    /// The rounds `rl` derives from its configuration (impl/src/config/timing.rs).
-    pub fn from_config(timing: &rl::config::Timing) -> Result<Timing, TimingError> {
+    /// The rounds `rl` derives from its configuration (impl/layer/src/config/timing.rs).
+    pub fn from_config(timing: &rl_layer::config::Timing) -> Result<Timing, TimingError> {
         let rounds = |field: &'static str, rounds: u32| {
             u8::try_from(rounds).map_err(|_| TimingError::TooManyRounds { field, rounds })
         };
@@ -119,7 +119,7 @@ pub enum TimingError {
     TooManyRounds { field: &'static str, rounds: u32 },
     /// The configuration file could not be read.
     #[error(transparent)]
-    Config(#[from] rl::config::ConfigError),
+    Config(#[from] rl_layer::config::ConfigError),
 }
 
 /// A run the model explains, with the size of the search.
@@ -230,8 +230,14 @@ pub fn run_timing(
         .map(std::path::Path::to_path_buf)
         .or_else(|| Some(dir.join("rl.toml")).filter(|p| p.is_file()));
     let (config, source) = match candidate {
-        Some(path) => (rl::config::Config::load(&path)?, path.display().to_string()),
-        None => (rl::config::Config::default(), "rl's defaults".to_string()),
+        Some(path) => (
+            rl_layer::config::Config::load(&path)?,
+            path.display().to_string(),
+        ),
+        None => (
+            rl_layer::config::Config::default(),
+            "rl's defaults".to_string(),
+        ),
     };
     Ok((Timing::from_config(&config.timing)?, source))
 }

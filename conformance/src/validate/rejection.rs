@@ -54,7 +54,7 @@ impl Search<'_> {
         for (source, event) in self.recording.events_by_time() {
             if event.t_ms >= from_ms
                 && event.t_ms < until_ms
-                && !matches!(event.event, rl::event::Event::Leds { .. })
+                && !matches!(event.event, rl_layer::event::Event::Leds { .. })
             {
                 let number = self.numbers.number(event.id, event.incarnation);
                 let _ = writeln!(

@@ -8,7 +8,7 @@ use model::protocol;
 use model::state::{link_bit, History};
 use model::traces::AbstractController;
 use model::{Action, Controller, State};
-use rl::core::ControllerId;
+use rl_layer::core::ControllerId;
 use std::collections::HashSet;
 
 /// How a branch's round ends.

@@ -9,7 +9,7 @@ use model::protocol;
 use model::state::History;
 use model::traces::AbstractController;
 use model::{Action, Assignment, Controller, Life, Phase, State};
-use rl::core::ControllerId;
+use rl_layer::core::ControllerId;
 use std::collections::{HashMap, HashSet};
 
 /// What the record says of one life, in rounds.
@@ -263,7 +263,7 @@ impl<'a> Search<'a> {
                     .status_at_boundary(boundary, period_ms)
                     .report
                     .strength
-                    == Some(rl::core::types::TAKEOVER_STRENGTH)
+                    == Some(rl_layer::core::types::TAKEOVER_STRENGTH)
         })
     }
 

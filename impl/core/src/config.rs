@@ -70,7 +70,7 @@ impl CoreConfig {
 
     /// Whether a controller whose links all lose their carrier (a pulled cable) starts again
     /// as a new incarnation (the model's F16). The carrier is the runtime's to see
-    /// (impl/src/link_watch.rs), the decision is the protocol's: always, but under the
+    /// (impl/layer/src/link_watch.rs), the decision is the protocol's: always, but under the
     /// `StayWhenUnplugged` mutation.
     pub fn restarts_when_unplugged(&self) -> bool {
         #[cfg(feature = "mutation")]

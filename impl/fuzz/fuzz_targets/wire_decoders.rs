@@ -9,7 +9,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use rl::wire::{
+use rl_layer::wire::{
     AlarmSample, HeartbeatSample, NetworkAlarmKey, NetworkAlarmSample, NetworkHeartbeatSample,
     ServoControl, ShapeTypeExtended, VoteSample, WireSample,
 };

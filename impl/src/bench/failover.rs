@@ -8,8 +8,8 @@
 use super::stats::{SplitMix64, Summary};
 use super::watch::{OwnerChange, Watch};
 use super::{BenchError, Setup};
-use crate::core::{ControllerId, Phase, Role};
 use crate::procs::{wall_ms, Fleet};
+use rl_layer::core::{ControllerId, Phase, Role};
 use serde::Serialize;
 use std::time::{Duration, Instant};
 

@@ -6,10 +6,10 @@
 use super::stats::Summary;
 use super::watch::Watch;
 use super::{BenchError, Setup};
-use crate::core::{ControllerId, Role};
-use crate::dds::Reader;
 use crate::procs::wall_ms;
-use crate::wire::HeartbeatSample;
+use rl_layer::core::{ControllerId, Role};
+use rl_layer::dds::Reader;
+use rl_layer::wire::HeartbeatSample;
 use serde::Serialize;
 use std::time::Duration;
 
@@ -74,14 +74,14 @@ impl FormationResult {
 /// Times `runs` fresh formations.
 pub fn formation(setup: &Setup, runs: u32) -> Result<FormationResult, BenchError> {
     let config = setup.write_config("formation.toml", "")?;
-    let listener_config = crate::config::Config {
-        dds: crate::config::Dds {
+    let listener_config = rl_layer::config::Config {
+        dds: rl_layer::config::Dds {
             domain: setup.domain,
             ..Default::default()
         },
         ..Default::default()
     };
-    let session = crate::dds::Session::new(&listener_config.dds, &listener_config.timing)?;
+    let session = rl_layer::dds::Session::new(&listener_config.dds, &listener_config.timing)?;
     let mut heartbeats = session.heartbeat_reader()?;
     let mut samples = Vec::new();
     for run in 1..=runs {

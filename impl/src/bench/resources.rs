@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 const NETWORK_MONITOR_ON_LOOPBACK: &[&str] = &["--network-a", "127.0.0.1", "--network-b", "lo"];
 
 /// The controllers measured: C1, C2 and C3 (Primary, Secondary and Tertiary once formed).
-const MEASURED: [crate::core::ControllerId; 3] = [1, 2, 3];
+const MEASURED: [rl_layer::core::ControllerId; 3] = [1, 2, 3];
 
 #[derive(Clone, Debug, Serialize)]
 pub struct ResourceResult {
@@ -29,7 +29,7 @@ pub struct ResourceResult {
 /// One controller's resources over the run.
 #[derive(Clone, Debug, Serialize)]
 pub struct ControllerUsage {
-    pub id: crate::core::ControllerId,
+    pub id: rl_layer::core::ControllerId,
     pub rss_kb_max: u64,
     pub cpu_percent_of_one_core: f64,
 }

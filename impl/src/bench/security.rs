@@ -32,9 +32,9 @@ fn ratio(secured: f64, unsecured: f64) -> f64 {
 /// Keystores for controllers 1-3 and the applications `servo` and `camera` under `dir`.
 #[cfg(feature = "security")]
 fn make_keystores(dir: &std::path::Path) -> Result<std::path::PathBuf, BenchError> {
-    use crate::security::{documents::Grantee, keys};
+    use rl_layer::security::{documents::Grantee, keys};
     let keys_dir = dir.join("keys");
-    let dds = crate::config::Dds::default();
+    let dds = rl_layer::config::Dds::default();
     let failed = |e: keys::KeysError| {
         BenchError::io("making keystores", std::io::Error::other(e.to_string()))
     };

@@ -2,9 +2,9 @@
 //! controller's last status, every `output` and `started` event, every report of a steady
 //! Primary, and the servo's owner changes.
 
-use crate::core::{ControllerId, Phase, Role, Status};
-use crate::event::{Event, EventLine};
 use crate::procs::{parse_servo_event, Line, ServoEvent};
+use rl_layer::core::{ControllerId, Phase, Role, Status};
+use rl_layer::event::{Event, EventLine};
 use std::collections::BTreeMap;
 use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};

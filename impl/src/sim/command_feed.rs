@@ -1,12 +1,12 @@
 //! The commands a simulated actuator obeys: `pixy/servo_control` read through the ownership
-//! arbiter (crate::arbiter, DDS exclusive ownership on the reading side) and the command trust
+//! arbiter (rl_layer::arbiter, DDS exclusive ownership on the reading side) and the command trust
 //! (crate::sim::command_trust: only a live controller's writers, at most at the takeover strength 35). The
 //! camera simulator's gimbal follows it, as the real pan-tilt follows the owner's commands.
 
-use crate::arbiter::Arbiter;
-use crate::dds::{DdsError, Reader, Session, GUID};
 use crate::sim::command_trust::CommandTrust;
-use crate::wire::{HeartbeatSample, ServoControl};
+use rl_layer::arbiter::Arbiter;
+use rl_layer::dds::{DdsError, Reader, Session, GUID};
+use rl_layer::wire::{HeartbeatSample, ServoControl};
 use std::collections::BTreeMap;
 
 /// How often discovery is re-read for writers' strengths.

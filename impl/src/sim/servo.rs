@@ -25,12 +25,12 @@
 //! from its participant yet). At the first owner `from_*` and `gap_ms` are `null`; otherwise
 //! `gap_ms` is the time since the previous owner's last accepted command.
 
-use crate::arbiter::Arbiter;
-use crate::core::types::ControllerId;
-use crate::dds::{guid_hex, mio, ControllerDirectory, Reader, Received, Session, GUID};
 use crate::sim::command_trust::CommandTrust;
-use crate::wire::{HeartbeatSample, ServoControl};
 use crate::Error;
+use rl_layer::arbiter::Arbiter;
+use rl_layer::core::types::ControllerId;
+use rl_layer::dds::{guid_hex, mio, ControllerDirectory, Reader, Received, Session, GUID};
+use rl_layer::wire::{HeartbeatSample, ServoControl};
 use serde::Serialize;
 use std::collections::{BTreeMap, BTreeSet};
 use std::io::{self, Write};
@@ -101,7 +101,7 @@ const SUMMARY_PERIOD_MS: u64 = 5_000;
 const COMMANDS: mio::Token = mio::Token(0);
 const HEARTBEATS: mio::Token = mio::Token(1);
 
-fn dds_error(error: crate::dds::DdsError) -> Error {
+fn dds_error(error: rl_layer::dds::DdsError) -> Error {
     Error::Dds(error.to_string())
 }
 
@@ -166,9 +166,9 @@ impl Writers {
 
 /// Runs the servo simulator until SIGINT/SIGTERM or `--duration-ms`.
 pub fn run(args: ServoArgs) -> Result<(), Error> {
-    let config = crate::controller::load_config(args.config.as_deref(), args.domain)?;
-    let stop = crate::controller::stop_on_signals()?;
-    let keystore = crate::security::keystore_of(&config)?;
+    let config = crate::cli::load_config(args.config.as_deref(), args.domain)?;
+    let stop = crate::cli::stop_on_signals()?;
+    let keystore = rl_layer::security::keystore_of(&config)?;
     let session = Session::with_keystore(&config.dds, &config.timing, false, keystore.as_ref())
         .map_err(dds_error)?;
     let output = Output { json: args.json };

@@ -14,11 +14,11 @@
 //! Positions stay inside the shapes application's range, x 0..222 and y 0..252, and every
 //! path is a pure function of time, so runs are reproducible.
 
-use crate::dds::Session;
 use crate::sim::command_feed::CommandFeed;
 use crate::sim::gimbal::{ball, error_px, Gimbal};
-use crate::wire::{ShapeFillKind, ShapeTypeExtended};
 use crate::Error;
+use rl_layer::dds::Session;
+use rl_layer::wire::{ShapeFillKind, ShapeTypeExtended};
 use std::f64::consts::TAU;
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
@@ -120,9 +120,9 @@ pub fn run(args: ShapesArgs) -> Result<(), Error> {
             args.rate_hz
         )));
     }
-    let config = crate::controller::load_config(args.config.as_deref(), args.domain)?;
-    let stop = crate::controller::stop_on_signals()?;
-    let keystore = crate::security::keystore_of(&config)?;
+    let config = crate::cli::load_config(args.config.as_deref(), args.domain)?;
+    let stop = crate::cli::stop_on_signals()?;
+    let keystore = rl_layer::security::keystore_of(&config)?;
     let session = Session::with_keystore(&config.dds, &config.timing, false, keystore.as_ref())
         .map_err(|e| Error::Dds(e.to_string()))?;
     let writer = session

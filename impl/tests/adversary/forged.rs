@@ -3,11 +3,11 @@
 //! them against secured controllers too.
 
 use crate::support::Cluster;
-use rl::core::{AlarmReason, Heartbeat, Phase, Role, VoteRecord};
-use rl::dds::Session;
-use rl::event::Event;
 use rl::procs::ServoEvent;
-use rl::wire::ServoControl;
+use rl_layer::core::{AlarmReason, Heartbeat, Phase, Role, VoteRecord};
+use rl_layer::dds::Session;
+use rl_layer::event::Event;
+use rl_layer::wire::ServoControl;
 use std::net::UdpSocket;
 use std::time::{Duration, Instant};
 
@@ -30,11 +30,11 @@ fn formed(tag: &str, domain: u16) -> Cluster {
 
 /// The forger: a participant of its own on the cluster's domain.
 pub fn forger(domain: u16) -> Session {
-    let dds = rl::config::Dds {
+    let dds = rl_layer::config::Dds {
         domain,
         ..Default::default()
     };
-    Session::new(&dds, &rl::config::Timing::default()).expect("the forger joins the domain")
+    Session::new(&dds, &rl_layer::config::Timing::default()).expect("the forger joins the domain")
 }
 
 /// The latest heartbeat controller `id` reported about itself.
@@ -121,10 +121,11 @@ fn a_forged_failed_heartbeat_for_the_primary_is_refused_and_alarmed() {
 /// as Primary: two of three would be a majority.
 pub fn incumbent_claims(cluster: &Cluster) -> Vec<Heartbeat> {
     let c3 = report_of(cluster, 3);
-    let agreed = rl::core::Assignment::from_ranked([3, 1, 2].map(|id| rl::core::Holder {
-        id,
-        incarnation: report_of(cluster, id).incarnation,
-    }));
+    let agreed =
+        rl_layer::core::Assignment::from_ranked([3, 1, 2].map(|id| rl_layer::core::Holder {
+            id,
+            incarnation: report_of(cluster, id).incarnation,
+        }));
     [1u8, 2]
         .iter()
         .map(|&id| Heartbeat {
@@ -164,10 +165,11 @@ fn two_forged_incumbents_cannot_outvote_the_three() {
 
 /// A vote in C2's name, its incarnation, for the reverse order (C3, C2, C1).
 pub fn reversed_vote_of_c2(cluster: &Cluster) -> VoteRecord {
-    let reversed = rl::core::Assignment::from_ranked([3, 2, 1].map(|id| rl::core::Holder {
-        id,
-        incarnation: report_of(cluster, id).incarnation,
-    }));
+    let reversed =
+        rl_layer::core::Assignment::from_ranked([3, 2, 1].map(|id| rl_layer::core::Holder {
+            id,
+            incarnation: report_of(cluster, id).incarnation,
+        }));
     VoteRecord {
         from: 2,
         incarnation: report_of(cluster, 2).incarnation,

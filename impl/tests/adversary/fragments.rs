@@ -12,8 +12,8 @@
 //! lose it, and it still sees a peer die. DDS domains 151 and 153.
 
 use crate::support::Cluster;
-use rl::core::Role;
-use rl::event::Event;
+use rl_layer::core::Role;
+use rl_layer::event::Event;
 use std::collections::BTreeSet;
 use std::net::UdpSocket;
 use std::path::{Path, PathBuf};

@@ -13,8 +13,8 @@ use crate::adversary::forged::{
 use crate::adversary::fragments::{c1_survives, four_gb_attack, warned_once_per_writer};
 use crate::support::keys::{keys, keystores};
 use crate::support::{tempdir, Cluster, RL};
-use rl::core::{Phase, Role};
 use rl::procs::{parse_servo_event, ServoEvent};
+use rl_layer::core::{Phase, Role};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
@@ -108,20 +108,20 @@ fn an_unsecured_participant_cannot_forge_heartbeats_or_commands() {
     // The adversary: a participant without DDS Security, writing C1's heartbeat as FAILED
     // and commanding at strength 100, for 4 s (discovery between unsecured participants
     // takes well under a second).
-    let config = rl::config::Config {
-        dds: rl::config::Dds {
+    let config = rl_layer::config::Config {
+        dds: rl_layer::config::Dds {
             domain: DOMAIN,
             ..Default::default()
         },
         ..Default::default()
     };
-    let session = rl::dds::Session::new(&config.dds, &config.timing).unwrap();
+    let session = rl_layer::dds::Session::new(&config.dds, &config.timing).unwrap();
     let heartbeats = session.heartbeat_writer().unwrap();
     let mut commands = session.command_writer(Some(100)).unwrap();
-    let forged = rl::wire::HeartbeatSample {
+    let forged = rl_layer::wire::HeartbeatSample {
         from_id: 1,
         incarnation: u64::MAX / 2,
-        phase: rl::wire::PHASE_FAILED,
+        phase: rl_layer::wire::PHASE_FAILED,
         ..Default::default()
     };
     let events_before = cluster.events.len();
@@ -129,7 +129,7 @@ fn an_unsecured_participant_cannot_forge_heartbeats_or_commands() {
     while forging_from.elapsed() < Duration::from_secs(4) {
         heartbeats.write_sample(forged).unwrap();
         commands
-            .write(rl::wire::ServoControl {
+            .write(rl_layer::wire::ServoControl {
                 pan: 1,
                 tilt: 1,
                 frequency: 60,

@@ -58,24 +58,24 @@ impl fmt::Display for Life {
 
 /// Which controller life each participant is, from the heartbeats it sends.
 pub struct Lives {
-    heartbeats: rl::dds::Reader<rl::wire::HeartbeatSample>,
+    heartbeats: rl_layer::dds::Reader<rl_layer::wire::HeartbeatSample>,
     by_participant: BTreeMap<String, Life>,
     lives_of: BTreeMap<u8, u32>,
     // Dropped last: the reader belongs to it.
-    _session: rl::dds::Session,
+    _session: rl_layer::dds::Session,
 }
 
 impl Lives {
     /// A heartbeat reader on `domain`.
     pub fn new(domain: u16) -> Lives {
-        let config = rl::config::Config {
-            dds: rl::config::Dds {
+        let config = rl_layer::config::Config {
+            dds: rl_layer::config::Dds {
                 domain,
                 ..Default::default()
             },
             ..Default::default()
         };
-        let session = rl::dds::Session::new(&config.dds, &config.timing).unwrap();
+        let session = rl_layer::dds::Session::new(&config.dds, &config.timing).unwrap();
         let heartbeats = session.heartbeat_reader().unwrap();
         Lives {
             heartbeats,
@@ -89,7 +89,7 @@ impl Lives {
     /// next life of its controller id.
     pub fn listen(&mut self) {
         for heartbeat in self.heartbeats.take() {
-            let participant = participant_of(&rl::dds::guid_hex(heartbeat.writer));
+            let participant = participant_of(&rl_layer::dds::guid_hex(heartbeat.writer));
             if !self.by_participant.contains_key(&participant) {
                 let id = heartbeat.value.id;
                 let life = self.lives_of.entry(id).or_insert(0);

@@ -6,9 +6,9 @@
 pub mod actuators;
 pub mod keys;
 
-use rl::core::{Phase, Role, Status};
-use rl::event::EventLine;
 use rl::procs::{parse_servo_event, Fleet, Line, ServoEvent};
+use rl_layer::core::{Phase, Role, Status};
+use rl_layer::event::EventLine;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::mpsc::Receiver;

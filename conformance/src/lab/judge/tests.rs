@@ -312,7 +312,7 @@ fn a_rejection_a_dead_process_or_a_panic_fails() {
     observed.stderr = vec![
         (
             "C2#2".into(),
-            "thread 'main' panicked at impl/src/runtime.rs:9:5".into(),
+            "thread 'main' panicked at impl/layer/src/runtime.rs:9:5".into(),
         ),
         ("C3".into(), "a warning, not a panic".into()),
     ];
@@ -325,7 +325,7 @@ fn a_rejection_a_dead_process_or_a_panic_fails() {
         failures(&broken, &kill(), Ok(())),
         [
             "not running at the end: C3 (exit status 1)",
-            "panic: C2#2: thread 'main' panicked at impl/src/runtime.rs:9:5",
+            "panic: C2#2: thread 'main' panicked at impl/layer/src/runtime.rs:9:5",
         ]
     );
 }

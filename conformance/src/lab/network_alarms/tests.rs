@@ -4,7 +4,7 @@
 //! change, a conclusion without the double fault).
 
 use super::*;
-use rl::event::EventLine;
+use rl_layer::event::EventLine;
 
 const FAULT_MS: f64 = 10_000.0;
 const HEAL_MS: f64 = 18_000.0;
@@ -271,8 +271,8 @@ fn a_controller_alarm_or_role_change_under_a_net_fault_fails() {
         &[lost(1, 2, FAULT_MS + 500.0)],
     );
     assert_fails_with(&report, "unexpected controller alarm: C1 about C2");
-    let status = |role: rl::core::Role, at_ms: f64| {
-        let mut status = rl::core::Status::initial(3, 7);
+    let status = |role: rl_layer::core::Role, at_ms: f64| {
+        let mut status = rl_layer::core::Status::initial(3, 7);
         status.report.role = Some(role);
         ControllerEvent {
             life: "C3".into(),
@@ -289,8 +289,8 @@ fn a_controller_alarm_or_role_change_under_a_net_fault_fails() {
         "net-b-down",
         &net_b_alarms(),
         &[
-            status(rl::core::Role::Tertiary, 1000.0),
-            status(rl::core::Role::Secondary, FAULT_MS + 300.0),
+            status(rl_layer::core::Role::Tertiary, 1000.0),
+            status(rl_layer::core::Role::Secondary, FAULT_MS + 300.0),
         ],
     );
     assert_fails_with(&report, "a role change: C3: tertiary to secondary");

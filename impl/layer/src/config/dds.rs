@@ -1,0 +1,119 @@
+//! The `[dds]` section: the DDS domain, the topic names and the ROS 2 namespace.
+
+use super::error::{check, quoted, InvalidValue};
+use serde::{Deserialize, Serialize};
+
+/// DDS domain and topic names. The camera's two topics default to the original application's
+/// names and types (wire-compatible with PixyShapes).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Dds {
+    /// RL's DDS domain id (the demo's: 53); at most [`DOMAIN_MAX`]. The network monitor uses
+    /// the next two.
+    pub domain: u16,
+    /// The controller heartbeat (RLCHB), published every heartbeat period.
+    pub heartbeat_topic: String,
+    /// The durable vote records, one per controller.
+    pub vote_topic: String,
+    /// Controller alarms: a peer lost or FAILED, raised and cleared.
+    pub controller_alarm_topic: String,
+    /// Network alarms the network monitor raises and clears.
+    pub network_alarm_topic: String,
+    /// The network heartbeat (RLNHB), on the network monitor's own domains.
+    pub network_heartbeat_topic: String,
+    /// The actuator's commands (ServoControl), shared with PixyShapes; exclusive ownership by
+    /// role strength.
+    pub command_topic: String,
+    /// The camera's circles the tracker reads, shared with PixyShapes.
+    pub camera_topic: String,
+    /// ROS 2 node namespace; each controller's node is `rl_controller_<id>` in it.
+    pub ros_namespace: String,
+}
+
+impl Default for Dds {
+    fn default() -> Dds {
+        Dds {
+            domain: 53,
+            heartbeat_topic: "rl/controller_heartbeat".into(),
+            vote_topic: "rl/vote".into(),
+            controller_alarm_topic: "rl/controller_alarm".into(),
+            network_alarm_topic: "rl/network_alarm".into(),
+            network_heartbeat_topic: "rl/network_heartbeat".into(),
+            command_topic: "pixy/servo_control".into(),
+            camera_topic: "Circle".into(),
+            ros_namespace: "/rl".into(),
+        }
+    }
+}
+
+/// The highest DDS domain id whose RTPS ports fit in 16 bits: the well-known ports are
+/// `7400 + 250 * domain + offset`, and domain 233 already passes 65535.
+pub const DOMAIN_MAX: u16 = 232;
+
+impl Dds {
+    /// The topic fields with their dotted paths, in file order.
+    fn topics(&self) -> [(&'static str, &str); 7] {
+        [
+            ("dds.heartbeat_topic", &self.heartbeat_topic),
+            ("dds.vote_topic", &self.vote_topic),
+            ("dds.controller_alarm_topic", &self.controller_alarm_topic),
+            ("dds.network_alarm_topic", &self.network_alarm_topic),
+            ("dds.network_heartbeat_topic", &self.network_heartbeat_topic),
+            ("dds.command_topic", &self.command_topic),
+            ("dds.camera_topic", &self.camera_topic),
+        ]
+    }
+
+    /// Checks the domain, that every topic name is non-empty, without whitespace and distinct,
+    /// and the ROS 2 namespace.
+    pub fn validate(&self) -> Result<(), InvalidValue> {
+        check(self.domain <= DOMAIN_MAX, "dds.domain", self.domain, || {
+            format!("must be at most {DOMAIN_MAX} (higher domains' RTPS ports pass 65535)")
+        })?;
+        let topics = self.topics();
+        for (field, name) in topics {
+            check(
+                !name.is_empty() && !name.chars().any(char::is_whitespace),
+                field,
+                quoted(name),
+                || "must be a non-empty topic name without whitespace".to_string(),
+            )?;
+        }
+        // Two kinds of sample on one topic name would not match in DDS.
+        for (index, (field, name)) in topics.iter().enumerate() {
+            if let Some((other_field, _)) = topics[..index].iter().find(|(_, other)| other == name)
+            {
+                return Err(InvalidValue::new(
+                    field,
+                    quoted(name),
+                    format!("must differ from {other_field}"),
+                ));
+            }
+        }
+        check(
+            is_ros_namespace(&self.ros_namespace),
+            "dds.ros_namespace",
+            quoted(&self.ros_namespace),
+            || {
+                "must be an absolute ROS 2 namespace: `/` or `/`-separated names of letters, \
+                 digits and `_`, each not starting with a digit"
+                    .to_string()
+            },
+        )
+    }
+}
+
+/// ROS 2's rule for a fully qualified namespace (`/`, `/rl`, `/robots/rl_1`).
+fn is_ros_namespace(namespace: &str) -> bool {
+    let Some(rest) = namespace.strip_prefix('/') else {
+        return false;
+    };
+    rest.is_empty()
+        || rest.split('/').all(|token| {
+            token
+                .chars()
+                .next()
+                .is_some_and(|first| first.is_ascii_alphabetic() || first == '_')
+                && token.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+        })
+}

@@ -1,0 +1,66 @@
+//! The `[tracker]` section: the application's colour filter, servo frequency and how it keeps
+//! an aperiodic command topic within its deadline.
+
+use super::error::{check, quoted, InvalidValue};
+use serde::{Deserialize, Serialize};
+
+/// How a controller keeps a lower-strength writer from leaking through on an aperiodic
+/// command topic (paper, "Exclusive Ownership on aperiodic topics").
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum AperiodicPolicy {
+    /// Every role holder re-publishes its last command before the deadline (default).
+    Republish,
+    /// Only the Primary writes commands.
+    PrimaryOnly,
+}
+
+/// The tracker application.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Tracker {
+    /// Only circles of this colour are tracked (the paper: YELLOW).
+    pub color: String,
+    /// How a lower-strength writer is kept from leaking through on the aperiodic command topic.
+    pub aperiodic: AperiodicPolicy,
+    /// Servo frequency written in every command (Hz).
+    pub servo_frequency_hz: u16,
+}
+
+impl Default for Tracker {
+    fn default() -> Tracker {
+        Tracker {
+            color: "YELLOW".into(),
+            aperiodic: AperiodicPolicy::Republish,
+            servo_frequency_hz: 60,
+        }
+    }
+}
+
+/// Servo frequencies the gimbal can be asked for.
+pub const SERVO_FREQUENCY_HZ_RANGE: std::ops::RangeInclusive<u16> = 1..=1000;
+
+impl Tracker {
+    /// Checks that the colour is uppercase letters A-Z and the servo frequency is 1..=1000 Hz.
+    pub fn validate(&self) -> Result<(), InvalidValue> {
+        // The colour goes into a content filter expression: letters only keeps it a literal.
+        check(
+            !self.color.is_empty() && self.color.chars().all(|c| c.is_ascii_uppercase()),
+            "tracker.color",
+            quoted(&self.color),
+            || "must be a colour name in uppercase letters (A-Z), like \"YELLOW\"".to_string(),
+        )?;
+        check(
+            SERVO_FREQUENCY_HZ_RANGE.contains(&self.servo_frequency_hz),
+            "tracker.servo_frequency_hz",
+            self.servo_frequency_hz,
+            || {
+                format!(
+                    "must be between {} and {} Hz",
+                    SERVO_FREQUENCY_HZ_RANGE.start(),
+                    SERVO_FREQUENCY_HZ_RANGE.end()
+                )
+            },
+        )
+    }
+}

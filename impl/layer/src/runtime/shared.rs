@@ -1,0 +1,40 @@
+//! What the voting thread and the application share: the options the application starts the
+//! layer with, and the state both sides read and write while it runs (crate::api wraps it).
+
+use crate::core::types::{AlarmReason, ControllerId};
+use crate::core::Status;
+use std::sync::atomic::AtomicBool;
+use std::sync::{Arc, Mutex, MutexGuard};
+
+/// How the redundancy layer reports what it does.
+#[derive(Clone, Debug, Default)]
+pub struct Options {
+    /// Print one JSON event per line on stdout (status, outputs, alarms) instead of console
+    /// lines: the record that tools and the conformance suite read.
+    pub json_events: bool,
+    /// Show LEDs on the console (the default LED bank). LEDs on GPIO (`leds.backend =
+    /// "gpio"`) are driven either way.
+    pub console_leds: bool,
+    /// Marked at every iteration of the voting loop, for a watchdog that must stop when the
+    /// loop is stuck (crate::service).
+    pub voting_progress: Option<Arc<crate::service::LoopProgress>>,
+}
+
+/// What the voting thread shares with the application.
+#[derive(Debug)]
+pub(crate) struct Shared {
+    pub status: Mutex<Status>,
+    pub alarms: Mutex<Vec<(ControllerId, AlarmReason)>>,
+    pub fault: AtomicBool,
+    pub stop: AtomicBool,
+    /// When the voting loop last ran: a stalled loop (crate::stall) lets no command out.
+    pub loop_clock: crate::stall::LoopClock,
+}
+
+impl Shared {
+    pub fn status(&self) -> MutexGuard<'_, Status> {
+        // A poisoned lock only means the other thread panicked mid-update; the value is
+        // still the last complete status.
+        self.status.lock().unwrap_or_else(|e| e.into_inner())
+    }
+}

@@ -1,0 +1,212 @@
+use super::*;
+use rl_layer::core::types::{Assignment, Holder, Phase, Role};
+use rl_layer::core::Heartbeat;
+use rl_layer::leds::LedColor::{Green as G, Off as O, Red as R};
+use rl_layer::wire::ControllerAlarm;
+
+fn hb(id: ControllerId, role: Option<Role>, ranked: &[ControllerId]) -> Heartbeat {
+    let agreed = Assignment::from_ranked(ranked.iter().map(|&id| Holder { id, incarnation: 0 }));
+    Heartbeat {
+        id,
+        incarnation: 0,
+        phase: Phase::Steady,
+        role,
+        strength: role.map(Role::strength),
+        agreed: Some(agreed),
+        vote: Some(agreed),
+        epoch: 1,
+        provisional: false,
+        established_strength: role.map(Role::strength),
+        took_over_from: None,
+    }
+}
+
+fn lost(reporter: ControllerId, about: ControllerId) -> ControllerAlarm {
+    ControllerAlarm {
+        reporter,
+        reporter_incarnation: 0,
+        about,
+        about_incarnation: None,
+        reason: AlarmReason::Lost,
+        raised: true,
+    }
+}
+
+fn three_steady(board: &mut Board, now: u64) {
+    board.heartbeat(hb(1, Some(Role::Primary), &[1, 2, 3]), now);
+    board.heartbeat(hb(2, Some(Role::Secondary), &[1, 2, 3]), now);
+    board.heartbeat(hb(3, Some(Role::Tertiary), &[1, 2, 3]), now);
+}
+
+#[test]
+fn leds_follow_roles_and_the_alarms_each_controller_raised() {
+    let mut board = Board::default();
+    three_steady(&mut board, 0);
+    let view = board.view(100, 500);
+    assert_eq!(leds_of(&view, 1), Some([G, O, O, G]));
+    assert_eq!(leds_of(&view, 2), Some([O, G, O, G]));
+    assert_eq!(leds_of(&view, 3), Some([O, O, G, G]));
+
+    // C1 is lost; C2 has raised the alarm, C3 not yet: only C2's LED1 is red.
+    board.alarm(&lost(2, 1), Some(1));
+    board.heartbeat(hb(2, Some(Role::Secondary), &[1, 2, 3]), 700);
+    board.heartbeat(hb(3, Some(Role::Tertiary), &[1, 2, 3]), 700);
+    let view = board.view(700, 500);
+    assert_eq!(
+        leds_of(&view, 1),
+        None,
+        "a lost controller's LEDs are unknown"
+    );
+    assert_eq!(leds_of(&view, 2), Some([R, G, O, G]));
+    assert_eq!(leds_of(&view, 3), Some([O, O, G, G]));
+
+    // After the re-vote: C2 Primary, C3 Secondary, the vacated Tertiary red.
+    board.alarm(&lost(3, 1), Some(2));
+    board.heartbeat(hb(2, Some(Role::Primary), &[2, 3]), 900);
+    board.heartbeat(hb(3, Some(Role::Secondary), &[2, 3]), 900);
+    let view = board.view(900, 500);
+    assert_eq!(leds_of(&view, 2), Some([G, O, R, G]));
+    assert_eq!(leds_of(&view, 3), Some([O, G, R, G]));
+}
+
+#[test]
+fn an_impostor_alarm_lights_no_led() {
+    let mut board = Board::default();
+    three_steady(&mut board, 0);
+    let mut alarm = lost(2, 1);
+    alarm.reason = AlarmReason::Impostor;
+    board.alarm(&alarm, None);
+    assert_eq!(leds_of(&board.view(10, 500), 2), Some([O, G, O, G]));
+}
+
+#[test]
+fn the_watch_counts_commander_changes_and_the_gap() {
+    let mut board = Board::default();
+    let mut watch = Watch::default();
+    three_steady(&mut board, 0);
+    watch.follow(&board, 0, 500, 1_000, true);
+    assert_eq!(
+        watch.commander(),
+        Some(Commander {
+            id: 1,
+            strength: 30
+        })
+    );
+    assert_eq!(
+        watch.commander_changes(),
+        0,
+        "the first commander is no change"
+    );
+    // C1 falls silent after its heartbeat at 100; C2 commands on.
+    board.heartbeat(hb(1, Some(Role::Primary), &[1, 2, 3]), 100);
+    for now in [300, 500, 601, 700] {
+        board.heartbeat(hb(2, Some(Role::Secondary), &[1, 2, 3]), now);
+        watch.follow(&board, now, 500, 1_000 + now, true);
+    }
+    assert_eq!(
+        watch.commander(),
+        Some(Commander {
+            id: 2,
+            strength: 20
+        })
+    );
+    assert_eq!(watch.commander_changes(), 1);
+    assert_eq!(watch.last_gap_ms(), Some(501));
+    let live = watch.live(&board.view(700, 500), 1_700);
+    assert_eq!(live.recent_commander_changes[0].from, Some(1));
+    assert_eq!(live.recent_commander_changes[0].to, Some(2));
+}
+
+#[test]
+fn metrics_are_the_text_format() {
+    let mut board = Board::default();
+    let mut watch = Watch::default();
+    three_steady(&mut board, 0);
+    watch.heartbeats([1, 1, 2]);
+    board.alarm(&lost(2, 3), None);
+    let text = metrics::render(&board.view(10, 500), &watch);
+    for line in [
+        "# TYPE rl_strength gauge",
+        "rl_strength{controller=\"1\"} 30",
+        "rl_strength{controller=\"3\"} 10",
+        "rl_role{controller=\"2\",role=\"secondary\"} 1",
+        "rl_role{controller=\"2\",role=\"primary\"} 0",
+        "rl_alive{controller=\"3\"} 1",
+        "# TYPE rl_heartbeats_seen_total counter",
+        "rl_heartbeats_seen_total{controller=\"1\"} 2",
+        "rl_controller_alarm{about=\"3\",reason=\"lost\"} 1",
+        "rl_commander_changes_total 0",
+    ] {
+        assert!(text.lines().any(|l| l == line), "no {line:?} in\n{text}");
+    }
+    for line in text.lines().filter(|l| !l.starts_with('#')) {
+        assert!(line.starts_with("rl_"), "{line}");
+    }
+}
+
+#[test]
+fn a_silent_controller_exports_no_role_and_no_strength() {
+    let mut board = Board::default();
+    three_steady(&mut board, 0);
+    // C1 falls silent after 0; C2 and C3 go on, C2 now Primary.
+    for now in [300, 500, 601] {
+        board.heartbeat(hb(2, Some(Role::Primary), &[2, 3]), now);
+        board.heartbeat(hb(3, Some(Role::Secondary), &[2, 3]), now);
+    }
+    let text = metrics::render(&board.view(601, 500), &Watch::default());
+    let lines: Vec<&str> = text.lines().collect();
+    assert!(lines.contains(&"rl_alive{controller=\"1\"} 0"), "{text}");
+    assert!(
+        lines.contains(&"rl_role{controller=\"2\",role=\"primary\"} 1"),
+        "{text}"
+    );
+    assert!(
+        lines.contains(&"rl_strength{controller=\"2\"} 30"),
+        "{text}"
+    );
+    for line in &lines {
+        assert!(
+            !(line.starts_with("rl_role{controller=\"1\"")
+                || line.starts_with("rl_strength{controller=\"1\"")),
+            "the silent C1 still exports {line:?}:\n{text}"
+        );
+    }
+}
+
+#[test]
+fn answers_by_path() {
+    let snapshot = Snapshot::of(&Board::default().view(0, 500), &Watch::default(), 0);
+    let get = |path: &str| {
+        answer(
+            &http::Request {
+                head_only: false,
+                path: path.into(),
+            },
+            &snapshot,
+        )
+    };
+    assert_eq!(get("/").status, 200);
+    assert_eq!(
+        get("/status.json").body,
+        br#"{"controllers":[],"alarms":[],"network_alarms":[]}"#
+    );
+    assert_eq!(get("/metrics").content_type, metrics::CONTENT_TYPE);
+    assert_eq!(get("/nope").status, 404);
+    assert_eq!(get("/../etc/passwd").status, 404);
+}
+
+#[test]
+fn incarnations_reach_the_page_exactly() {
+    // Two incarnations 1 apart above 2^53: as JavaScript numbers they would be one.
+    let mut board = Board::default();
+    let mut first = hb(1, Some(Role::Primary), &[1, 2]);
+    first.incarnation = 117_671_640_260_879_741;
+    let mut second = hb(2, Some(Role::Secondary), &[1, 2]);
+    second.incarnation = 117_671_640_260_879_742;
+    board.heartbeat(first, 0);
+    board.heartbeat(second, 0);
+    let live = Watch::default().live(&board.view(10, 500), 1_000);
+    let json = serde_json::to_value(&live).expect("a live view serializes");
+    assert_eq!(json["incarnations"]["1"], "117671640260879741");
+    assert_eq!(json["incarnations"]["2"], "117671640260879742");
+}
