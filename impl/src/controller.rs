@@ -9,13 +9,13 @@
 //! loop pings the watchdog while the voting loop also goes round (rl_layer::service).
 
 use crate::cli::{load_config, stop_on_signals};
-use crate::sim::command_feed::CommandFeed;
 use crate::tracker::PanTiltController;
 use rl_layer::api::{Options, Redundancy};
 use rl_layer::config::Config;
 use rl_layer::core::types::ControllerId;
 use rl_layer::dds::ParticipantKey;
 use rl_layer::network_monitor::{MonitorOptions, NetworkMonitor};
+use rl_layer::owner_feed::OwnerFeed;
 use rl_layer::service::{LoopProgress, Notifier};
 use rl_layer::wire::ServoControl;
 use rustdds::mio::{Events, Poll, PollOpt, Ready, Token};
@@ -147,7 +147,7 @@ fn track(
     let dds = |e: rl_layer::dds::DdsError| crate::Error::Dds(e.to_string());
     let mut camera = rl.session().camera_reader().map_err(dds)?;
     // The commanding controller's commands, to follow while standing by.
-    let mut owner_commands = CommandFeed::open(
+    let mut owner_commands = OwnerFeed::open(
         rl.session(),
         rl.session().command_follower_reader().map_err(dds)?,
         config.timing.command_deadline_ms,

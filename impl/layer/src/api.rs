@@ -20,23 +20,32 @@
 //! votes, alarms, LEDs, console, the ROS 2 status topic). The application reads the current
 //! role and state ([`Redundancy::status`], [`Redundancy::role`]), the raised alarms, reports
 //! its own faults ([`Redundancy::report_fault`]), and writes commands through a
-//! [`CommandWriter`] whose ownership strength always follows the role.
+//! [`RoleWriter`] whose ownership strength always follows the role, of the command topic or
+//! of any topic of its own ([`Redundancy::role_writer`]); what the layer does is pushed to it
+//! ([`Redundancy::events`]). docs/api.md is the guide.
 //!
 //! A controller that votes itself FAILED stays FAILED for the rest of its life, so the layer
 //! stops by itself `timing.failed_exit_delay_ms` after it failed ([`Redundancy::is_finished`]
 //! turns true, [`Redundancy::stop`] returns [`crate::Error::Failed`]); the application should
 //! then exit with [`crate::Error::exit_code`] to be restarted (crate::failed_exit).
 
-use crate::config::{AperiodicPolicy, Config};
+pub use crate::config::AperiodicPolicy;
+use crate::config::Config;
 use crate::core::types::{AlarmReason, ControllerId, Role};
 use crate::core::Status;
-use crate::dds::{self, DdsError, Session};
+use crate::dds::{DdsError, Session, StrengthWriter};
+pub use crate::dds::{Keying, NoKey, WithKey};
+use crate::event::EventLine;
+pub use crate::owner_feed::OwnerFeed;
 pub use crate::runtime::Options;
 use crate::runtime::{self, Shared};
+pub use crate::wire::Plain;
 use crate::wire::ServoControl;
 use std::sync::atomic::Ordering;
+use std::sync::mpsc::Receiver;
 use std::sync::Arc;
 use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
 
 /// A running redundancy layer: one controller of the voting group.
 pub struct Redundancy {
@@ -100,17 +109,86 @@ impl Redundancy {
         &self.session
     }
 
-    /// A writer of the command topic that carries this controller's role strength.
-    pub fn command_writer(&self) -> Result<CommandWriter, crate::Error> {
-        let writer = self
-            .session
-            .command_writer(None)
-            .map_err(|e| crate::Error::Dds(e.to_string()))?;
-        Ok(CommandWriter {
+    /// A writer of the command topic (`dds.command_topic`, the paper's `pixy/servo_control`)
+    /// that carries this controller's role strength, with `tracker.aperiodic`'s policy.
+    pub fn command_writer(&self) -> Result<RoleWriter<ServoControl>, crate::Error> {
+        let writer = self.session.command_writer(None)?;
+        Ok(self.role_writer_over(writer, self.config.tracker.aperiodic))
+    }
+
+    /// A writer of the application's own topic `topic` (DDS type name `type_name`, which its
+    /// readers must use too) whose ownership strength follows this controller's role, with
+    /// the command topic's QoS (exclusive ownership, `timing.command_deadline_ms` deadline).
+    /// `K` chooses an unkeyed ([`NoKey`]) or keyed ([`WithKey`]) topic:
+    ///
+    /// ```no_run
+    /// # fn demo(rl: &rl_layer::api::Redundancy) -> Result<(), rl_layer::Error> {
+    /// use rl_layer::api::{AperiodicPolicy, RoleWriter};
+    /// #[derive(Clone, serde::Serialize)]
+    /// struct Heading { degrees: f32 }
+    /// let mut headings: RoleWriter<Heading> =
+    ///     rl.role_writer("nav/heading", "nav::Heading", AperiodicPolicy::Republish)?;
+    /// headings.write(Heading { degrees: 90.0 })?;
+    /// # Ok(()) }
+    /// ```
+    pub fn role_writer<T, K>(
+        &self,
+        topic: &str,
+        type_name: &str,
+        policy: AperiodicPolicy,
+    ) -> Result<RoleWriter<T, K>, crate::Error>
+    where
+        T: Clone,
+        K: Keying<T>,
+    {
+        let writer = self.session.strength_writer(topic, type_name, None)?;
+        Ok(self.role_writer_over(writer, policy))
+    }
+
+    fn role_writer_over<T, K: Keying<T>>(
+        &self,
+        writer: StrengthWriter<T, K>,
+        policy: AperiodicPolicy,
+    ) -> RoleWriter<T, K> {
+        RoleWriter {
             shared: Arc::clone(&self.shared),
             writer,
-            policy: self.config.tracker.aperiodic,
-        })
+            policy,
+            republish: Duration::from_millis(self.config.timing.command_republish_ms),
+            last: None,
+        }
+    }
+
+    /// The samples of the writer that owns the application's topic `topic` now (the strongest
+    /// live controller's, as an actuator arbitrates), for a standby that must continue from
+    /// where the owner was (bumpless transfer). This controller's own samples come too: tell
+    /// them by their writer's participant (`ParticipantKey::of(writer)` against
+    /// `session().participant_key()`).
+    pub fn owner_feed<T>(
+        &self,
+        topic: &str,
+        type_name: &str,
+    ) -> Result<OwnerFeed<Plain<T>>, crate::Error>
+    where
+        T: Clone + serde::de::DeserializeOwned + Send + 'static,
+    {
+        let reader = self.session.plain_reader(topic, type_name)?;
+        Ok(OwnerFeed::open(
+            &self.session,
+            reader,
+            self.config.timing.command_deadline_ms,
+            self.config.timing.peer_deadline_ms,
+        )?)
+    }
+
+    /// What the layer does, pushed as it happens: every event line `--json-events` prints
+    /// (status and role changes, outputs, votes, alarms raised and cleared, LEDs, a restart,
+    /// and `stopped` with the reason when the controller failed itself), from now on. Read
+    /// [`Redundancy::status`] first for the state before it; drop the receiver to unsubscribe.
+    pub fn events(&self) -> Receiver<EventLine> {
+        let (sender, receiver) = std::sync::mpsc::channel();
+        self.shared.subscribers().push(sender);
+        receiver
     }
 
     /// The voting thread ended (an error, `stop`, or the controller failed itself and its
@@ -141,35 +219,93 @@ impl Drop for Redundancy {
     }
 }
 
-/// Writes commands at the strength of the controller's current role; writes nothing while it
-/// holds none. The DDS writer is re-created when the strength changes (RustDDS fixes a
-/// writer's ownership strength at creation).
-pub struct CommandWriter {
+/// A writer of one of the application's topics whose DDS ownership strength follows the
+/// controller's role (30/20/10 for Primary/Secondary/Tertiary, 15 provisional, 35 taking over
+/// from a late Primary); it writes nothing while the controller holds no role, and drops its DDS
+/// writer at once when the role goes down. `K` is [`NoKey`] (one instance, the default) or
+/// [`WithKey`] (`T: rustdds::Keyed`: one owner per instance, all moving with the role).
+///
+/// RustDDS fixes a writer's strength at creation, so a new role means a new DDS writer (a new
+/// GUID), handed over so the reader never falls to a weaker controller
+/// ([`crate::dds::StrengthWriter`]). The role is read at every [`RoleWriter::write`] and
+/// [`RoleWriter::keep_alive`]: call one of them at least every `timing.command_republish_ms`.
+pub struct RoleWriter<T, K: Keying<T> = NoKey> {
     shared: Arc<Shared>,
-    writer: dds::CommandWriter,
+    writer: StrengthWriter<T, K>,
     policy: AperiodicPolicy,
+    republish: Duration,
+    /// The last sample the application wrote, and when it last went out (or was offered).
+    last: Option<(T, Instant)>,
 }
 
-impl CommandWriter {
-    /// Writes `command` if this controller may command now; returns whether it was written.
-    pub fn write(&mut self, command: ServoControl) -> Result<bool, DdsError> {
+impl<T: Clone, K: Keying<T>> RoleWriter<T, K> {
+    /// Writes `sample` if this controller may write now; returns whether it was written. The
+    /// sample is kept for [`RoleWriter::keep_alive`] either way.
+    pub fn write(&mut self, sample: T) -> Result<bool, DdsError> {
+        self.last = Some((sample.clone(), Instant::now()));
+        self.write_if_allowed(Some(sample))
+    }
+
+    /// Follows the role without new data: drops or re-creates the DDS writer for the current
+    /// role and, with [`AperiodicPolicy::Republish`], writes the last sample again once
+    /// `timing.command_republish_ms` has passed since it last went out, so the reader's
+    /// deadline never lets a weaker writer through on an aperiodic topic (paper, "Exclusive
+    /// Ownership on aperiodic topics"). Returns whether it wrote.
+    pub fn keep_alive(&mut self) -> Result<bool, DdsError> {
+        let due = match (&self.last, self.policy) {
+            (Some((_, at)), AperiodicPolicy::Republish) => at.elapsed() >= self.republish,
+            _ => false,
+        };
+        if !due {
+            self.write_if_allowed(None)?;
+            return Ok(false);
+        }
+        let sample = self.last.as_mut().map(|(sample, at)| {
+            *at = Instant::now();
+            sample.clone()
+        });
+        self.write_if_allowed(sample)
+    }
+
+    /// How long until [`RoleWriter::keep_alive`] would write again (zero: now; `None`: it
+    /// never republishes under this policy, or nothing was written yet).
+    pub fn keep_alive_due_in(&self) -> Option<Duration> {
+        match (&self.last, self.policy) {
+            (Some((_, at)), AperiodicPolicy::Republish) => {
+                Some(self.republish.saturating_sub(at.elapsed()))
+            }
+            _ => None,
+        }
+    }
+
+    /// Sets the DDS writer's strength from the current role and policy, then writes `sample`
+    /// (if any) when there is a writer.
+    fn write_if_allowed(&mut self, sample: Option<T>) -> Result<bool, DdsError> {
         let (role, strength) = {
             let status = self.shared.status();
             (status.report.role, status.report.strength)
         };
         let allowed = match self.policy {
-            AperiodicPolicy::Republish => strength,
+            AperiodicPolicy::Republish | AperiodicPolicy::Periodic => strength,
             AperiodicPolicy::PrimaryOnly => strength.filter(|_| role == Some(Role::Primary)),
         };
         // Back from a stop before the voting loop has noticed: what the status says is stale
         // (a new Primary commands meanwhile), so the writer goes and nothing is written.
         let allowed = allowed.filter(|_| !self.shared.loop_clock.stalled());
         self.writer.set_strength(allowed.map(i32::from))?;
-        self.writer.write(command)
+        match sample {
+            Some(sample) => self.writer.write(sample),
+            None => Ok(false),
+        }
     }
 
     /// The strength of the DDS writer now (`None`: no writer).
     pub fn strength(&self) -> Option<i32> {
         self.writer.strength()
+    }
+
+    /// The name of the topic it writes.
+    pub fn topic_name(&self) -> String {
+        self.writer.topic_name()
     }
 }

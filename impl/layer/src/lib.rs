@@ -17,7 +17,9 @@
 //! - [`wire`], [`dds`]: the DDS sample types (docs/rl.idl), and the participant, topics and QoS
 //!   they travel with.
 //! - [`arbiter`]: exclusive ownership with DDS semantics on the reading side (RustDDS readers
-//!   do not enforce it).
+//!   do not enforce it); [`trust`]: which writers an actuator obeys (a controller's, at most
+//!   at the takeover strength); [`owner_feed`]: a topic's owner's samples through both, for an
+//!   actuator and for a standby that continues from where the owner was.
 //! - [`identity`]: each controller id bound to the DDS participant it speaks from, so a forged
 //!   heartbeat is not believed and a duplicate id is alarmed.
 //! - [`round_clock`]: the voting loop's clock, which follows the Primary's round phase so the
@@ -55,11 +57,13 @@ pub mod link_watch;
 pub mod logging;
 pub mod malloc;
 pub mod network_monitor;
+pub mod owner_feed;
 pub mod round_clock;
 pub mod runtime;
 pub mod security;
 pub mod service;
 pub mod stall;
+pub mod trust;
 pub mod wire;
 
 pub use error::Error;

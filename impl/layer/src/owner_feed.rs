@@ -1,20 +1,25 @@
-//! The commands a simulated actuator obeys: `pixy/servo_control` read through the ownership
-//! arbiter (rl_layer::arbiter, DDS exclusive ownership on the reading side) and the command trust
-//! (crate::sim::command_trust: only a live controller's writers, at most at the takeover strength 35). The
-//! camera simulator's gimbal follows it, as the real pan-tilt follows the owner's commands.
+//! The samples of the writer that owns a role-written topic, as an actuator sees them: the topic
+//! read through the ownership arbiter (crate::arbiter, DDS exclusive ownership on the reading
+//! side) and the writer trust (crate::trust: only a live controller's writers, at most at the
+//! takeover strength 35).
+//!
+//! `rl controller` follows the commanding controller's commands with it while it stands by
+//! (bumpless transfer), and the camera simulator's gimbal obeys the owner's commands with it, as
+//! the real pan-tilt does; an application follows the owner of its own topic the same way
+//! (crate::api::Redundancy::owner_feed).
 
-use crate::sim::command_trust::CommandTrust;
-use rl_layer::arbiter::Arbiter;
-use rl_layer::dds::{DdsError, Reader, Session, GUID};
-use rl_layer::wire::{HeartbeatSample, ServoControl};
+use crate::arbiter::Arbiter;
+use crate::dds::{DdsError, Reader, Session, GUID};
+use crate::trust::CommandTrust;
+use crate::wire::{HeartbeatSample, WireSample};
 use std::collections::BTreeMap;
 
 /// How often discovery is re-read for writers' strengths.
 const STRENGTH_REFRESH_MS: u64 = 100;
 
-/// The owner's commands, as they arrive.
-pub struct CommandFeed {
-    commands: Reader<ServoControl>,
+/// The owner's samples of one topic, as they arrive.
+pub struct OwnerFeed<S: WireSample> {
+    samples: Reader<S>,
     heartbeats: Reader<HeartbeatSample>,
     arbiter: Arbiter<GUID>,
     trust: CommandTrust,
@@ -22,20 +27,20 @@ pub struct CommandFeed {
     last_refresh_ms: Option<u64>,
 }
 
-impl CommandFeed {
-    /// The owner's commands from `commands` (an actuator's [`Session::command_reader`], or a
-    /// standing-by controller's best-effort [`Session::command_follower_reader`]), with a
-    /// heartbeat reader on `session`; `deadline_ms` is the command deadline,
-    /// `peer_deadline_ms` how long a controller's participant stays trusted after its last
-    /// heartbeat.
+impl<S: WireSample + 'static> OwnerFeed<S> {
+    /// The owner's samples from `samples` (an actuator's [`Session::command_reader`], a
+    /// standing-by controller's best-effort [`Session::command_follower_reader`], or a reader
+    /// of an application's topic), with a heartbeat reader on `session`; `deadline_ms` is the
+    /// command deadline, `peer_deadline_ms` how long a controller's participant stays trusted
+    /// after its last heartbeat.
     pub fn open(
         session: &Session,
-        commands: Reader<ServoControl>,
+        samples: Reader<S>,
         deadline_ms: u64,
         peer_deadline_ms: u64,
-    ) -> Result<CommandFeed, DdsError> {
-        Ok(CommandFeed {
-            commands,
+    ) -> Result<OwnerFeed<S>, DdsError> {
+        Ok(OwnerFeed {
+            samples,
             heartbeats: session.heartbeat_reader()?,
             arbiter: Arbiter::new(deadline_ms),
             trust: CommandTrust::new(peer_deadline_ms, false),
@@ -45,7 +50,7 @@ impl CommandFeed {
     }
 
     fn refresh(&mut self, session: &Session, now_ms: u64) {
-        let current = session.command_writer_strengths();
+        let current = session.writer_strengths(self.samples.topic_name());
         for gone in self.strengths.keys().filter(|w| !current.contains_key(w)) {
             self.arbiter.writer_lost(*gone);
         }
@@ -53,8 +58,9 @@ impl CommandFeed {
         self.last_refresh_ms = Some(now_ms);
     }
 
-    /// The newest command the owner sent since the last call, if any, with its writer.
-    pub fn take(&mut self, session: &Session, now_ms: u64) -> Option<(ServoControl, GUID)> {
+    /// The newest sample the owner sent since the last call, if any, with its writer (its
+    /// participant tells whether it is this controller's own: `ParticipantKey::of`).
+    pub fn take(&mut self, session: &Session, now_ms: u64) -> Option<(S::Value, GUID)> {
         for heartbeat in self.heartbeats.take() {
             self.trust.heartbeat(&heartbeat, now_ms);
         }
@@ -65,28 +71,28 @@ impl CommandFeed {
             self.refresh(session, now_ms);
         }
         let mut batch = Vec::new();
-        for command in self.commands.take() {
+        for sample in self.samples.take() {
             // A writer not yet in discovery: look again, at most every 10 ms.
-            if !self.strengths.contains_key(&command.writer)
+            if !self.strengths.contains_key(&sample.writer)
                 && self
                     .last_refresh_ms
                     .is_none_or(|last| now_ms.saturating_sub(last) >= 10)
             {
                 self.refresh(session, now_ms);
             }
-            let strength = self.strengths.get(&command.writer).copied().unwrap_or(0);
-            batch.push((strength, command));
+            let strength = self.strengths.get(&sample.writer).copied().unwrap_or(0);
+            batch.push((strength, sample));
         }
-        // A burst goes strongest first, as at `rl servo` (crate::sim::servo).
+        // A burst goes strongest first, as at `rl servo`.
         batch.sort_by_key(|(strength, _)| std::cmp::Reverse(*strength));
         let mut newest = None;
-        for (strength, command) in batch {
-            let writer = command.writer;
+        for (strength, sample) in batch {
+            let writer = sample.writer;
             if self.trust.admit(writer, strength).is_err() {
                 continue;
             }
             if self.arbiter.offer(writer, strength, now_ms).accepted {
-                newest = Some((command.value, writer));
+                newest = Some((sample.value, writer));
             }
         }
         newest

@@ -111,6 +111,7 @@ pub(crate) fn spawn(
         fault: AtomicBool::new(false),
         stop: AtomicBool::new(false),
         loop_clock: crate::stall::LoopClock::new(timing.peer_deadline_ms),
+        subscribers: Mutex::new(Vec::new()),
     });
     let thread_shared = Arc::clone(&shared);
     let mut identities = crate::identity::Identities::new(timing.peer_deadline_ms);
@@ -476,7 +477,11 @@ impl Voting {
         let now = self.clock.now_ms();
         let vote_before = self.core.state().vote;
         let local_fault = input == Input::LocalFault;
-        for command in self.core.step(input, now) {
+        let commands = self.core.step(input, now);
+        // Before the step's events go out: an application told of a new role (Redundancy::
+        // events) that writes at once must find its writer at the new role's strength.
+        *self.shared.status() = self.core.status();
+        for command in commands {
             self.perform(command);
         }
         self.show(self.core.status());

@@ -5,7 +5,7 @@
 //! writer announcing strength 100 from anywhere on the LAN would own the servo. So the servo
 //! takes a command only from a writer whose participant speaks for a controller (its
 //! heartbeats come from that participant and no other has taken the id since,
-//! rl_layer::identity) and whose strength is at most the takeover strength (35: a Secondary that
+//! crate::identity) and whose strength is at most the takeover strength (35: a Secondary that
 //! took over from a Primary whose commands arrive late, F17, is the only controller above
 //! 30). Silence alone does not end the trust: on a lossy link two heartbeats in a row go
 //! missing while the commands, ten times as frequent, keep coming, and refusing them would
@@ -16,11 +16,11 @@
 //! `rl servo --any-writer` turns this off (plain DDS semantics, for other tools' writers).
 
 #[cfg(test)]
-use rl_layer::core::types::Role;
-use rl_layer::core::types::{ControllerId, TAKEOVER_STRENGTH};
-use rl_layer::core::Heartbeat;
-use rl_layer::dds::{ParticipantKey, Received, GUID};
-use rl_layer::identity::{Admission, Identities};
+use crate::core::types::Role;
+use crate::core::types::{ControllerId, TAKEOVER_STRENGTH};
+use crate::core::Heartbeat;
+use crate::dds::{ParticipantKey, Received, GUID};
+use crate::identity::{Admission, Identities};
 use std::collections::BTreeSet;
 
 /// Why a command was not taken.
@@ -29,7 +29,10 @@ pub enum Refusal {
     /// Its participant speaks for no controller (never heard, or the id has moved on).
     NotAController,
     /// Above the takeover strength.
-    TooStrong { strength: i32 },
+    TooStrong {
+        /// The writer's announced ownership strength.
+        strength: i32,
+    },
 }
 
 impl std::fmt::Display for Refusal {
@@ -102,7 +105,7 @@ impl CommandTrust {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rl_layer::core::types::Phase;
+    use crate::core::types::Phase;
 
     const PEER_DEADLINE_MS: u64 = 500;
 

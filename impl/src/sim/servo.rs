@@ -25,11 +25,11 @@
 //! from its participant yet). At the first owner `from_*` and `gap_ms` are `null`; otherwise
 //! `gap_ms` is the time since the previous owner's last accepted command.
 
-use crate::sim::command_trust::CommandTrust;
 use crate::Error;
 use rl_layer::arbiter::Arbiter;
 use rl_layer::core::types::ControllerId;
 use rl_layer::dds::{guid_hex, mio, ControllerDirectory, Reader, Received, Session, GUID};
+use rl_layer::trust::CommandTrust;
 use rl_layer::wire::{HeartbeatSample, ServoControl};
 use serde::Serialize;
 use std::collections::{BTreeMap, BTreeSet};

@@ -4,7 +4,7 @@
 //! to reject.
 //!
 //! The camera sits on the pan-tilt gimbal (crate::sim::gimbal): it reads `pixy/servo_control`
-//! as the real pan-tilt does (the owner's commands, crate::sim::command_feed), moves its
+//! as the real pan-tilt does (the owner's commands, rl_layer::owner_feed), moves its
 //! rate-limited servos, and sees the ball where it is relative to where the gimbal points. So
 //! the trackers close the loop and keep the ball near the centre, through failovers. With
 //! `--json` it prints one line per frame: where it saw the ball and how far off centre
@@ -14,10 +14,10 @@
 //! Positions stay inside the shapes application's range, x 0..222 and y 0..252, and every
 //! path is a pure function of time, so runs are reproducible.
 
-use crate::sim::command_feed::CommandFeed;
 use crate::sim::gimbal::{ball, error_px, Gimbal};
 use crate::Error;
 use rl_layer::dds::Session;
+use rl_layer::owner_feed::OwnerFeed;
 use rl_layer::wire::{ShapeFillKind, ShapeTypeExtended};
 use std::f64::consts::TAU;
 use std::path::PathBuf;
@@ -132,7 +132,7 @@ pub fn run(args: ShapesArgs) -> Result<(), Error> {
         None
     } else {
         Some(
-            CommandFeed::open(
+            OwnerFeed::open(
                 &session,
                 session
                     .command_reader()
@@ -211,7 +211,7 @@ pub fn run(args: ShapesArgs) -> Result<(), Error> {
 /// Where the camera sees the YELLOW ball this frame: on its fixed path (open loop), or from
 /// the gimbal after `period` of servo motion toward the owner's newest command.
 fn see_yellow(
-    feed: &mut Option<CommandFeed>,
+    feed: &mut Option<OwnerFeed<rl_layer::wire::ServoControl>>,
     gimbal: &mut Gimbal,
     session: &Session,
     t_s: f64,

@@ -11,8 +11,11 @@ use serde::{Deserialize, Serialize};
 pub enum AperiodicPolicy {
     /// Every role holder re-publishes its last command before the deadline (default).
     Republish,
-    /// Only the Primary writes commands.
+    /// Only the Primary writes commands; nothing is re-published.
     PrimaryOnly,
+    /// The application writes at least once per command deadline itself: every role holder
+    /// writes what it writes and RL re-publishes nothing.
+    Periodic,
 }
 
 /// The tracker application.

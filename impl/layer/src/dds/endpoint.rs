@@ -1,20 +1,18 @@
 //! Typed readers and writers over RustDDS: decoding with validation on the way in, encoding
-//! with the same validation on the way out, and the re-creatable command writer.
+//! with the same validation on the way out (the re-creatable writer whose strength follows
+//! the role is in `role_writer.rs`).
 
-use super::{qos, DdsError};
-use crate::config::Timing;
-use crate::core::types::TAKEOVER_STRENGTH;
-use crate::wire::{ServoControl, WireSample};
+use super::DdsError;
+use crate::wire::WireSample;
 use rustdds::{
     dds::{ReadError, WriteError},
     mio, no_key,
     serialization::CDRSerializerAdapter,
-    with_key, CDRDeserializerAdapter, Keyed, Publisher, RTPSEntity, ReadCondition, Timestamp,
-    Topic, TopicDescription, GUID,
+    with_key, CDRDeserializerAdapter, Keyed, RTPSEntity, ReadCondition, Timestamp, Topic,
+    TopicDescription, GUID,
 };
 use serde::{de::DeserializeOwned, Serialize};
 use std::io;
-use std::time::{Duration, Instant};
 use tracing::warn;
 
 /// One validated sample and where it came from.
@@ -332,190 +330,6 @@ where
     /// The writer's GUID; its prefix is this session's participant's.
     pub fn guid(&self) -> GUID {
         self.raw.guid()
-    }
-}
-
-/// The command writer of one controller, whose ownership strength follows its role.
-///
-/// RustDDS fixes a writer's QoS at creation, so a new strength means a new writer (a new
-/// GUID). Going up (a promotion), the new writer is created first and the old one keeps
-/// writing the same commands for two command deadlines, while readers discover the new
-/// writer and learn its strength: the actuator never falls to a weaker controller in between.
-/// Going down or to `None` (no role), the old writer is dropped at once: a controller must
-/// never keep commanding above its role.
-///
-/// A standby's raise (from a standby strength to a higher one below the Primary's) waits the
-/// same two command deadlines before its new writer is created: the controller above it raised in the same
-/// round, and until readers have discovered that controller's new writer, its retiring one
-/// holds the old strength, which the standby's new writer would tie (DDS then picks by GUID,
-/// and the actuator would blip to the standby and back). The Primary's raise is never delayed.
-///
-/// While it commands at the Secondary's strength it keeps a writer at the takeover strength
-/// ready, which writes nothing: a takeover from a late Primary (F17) moves to it at once, to
-/// a writer every reader has already discovered. Leaving the takeover strength for another
-/// hands over like a promotion: that writer owns the actuator, and retires as above.
-pub struct CommandWriter {
-    publisher: Publisher,
-    topic: Topic,
-    timing: Timing,
-    strength: Option<i32>,
-    writer: Option<RawCommandWriter>,
-    /// The previous, weaker writer during a promotion, and when it is dropped.
-    retiring: Option<(RawCommandWriter, Instant)>,
-    /// A standby's raise waiting for the writers above it: the strength, and from when it
-    /// may be created.
-    waiting_raise: Option<(i32, Instant)>,
-    /// The takeover writer kept ready while it commands at the Secondary's strength.
-    ready: Option<RawCommandWriter>,
-}
-
-type RawCommandWriter = no_key::DataWriter<ServoControl, CDRSerializerAdapter<ServoControl>>;
-
-impl CommandWriter {
-    pub(super) fn new(
-        publisher: Publisher,
-        topic: Topic,
-        timing: Timing,
-        strength: Option<i32>,
-    ) -> Result<CommandWriter, DdsError> {
-        let mut writer = CommandWriter {
-            publisher,
-            topic,
-            timing,
-            strength: None,
-            writer: None,
-            retiring: None,
-            waiting_raise: None,
-            ready: None,
-        };
-        // The strength asked for at creation is taken at once: no controller above is
-        // retiring a writer because of it.
-        writer.apply_strength(strength)?;
-        Ok(writer)
-    }
-
-    /// Changes the strength: a no-op when unchanged, else a new writer (or none for `None`).
-    /// On error there is no writer and the strength reads `None`.
-    pub fn set_strength(&mut self, strength: Option<i32>) -> Result<(), DdsError> {
-        if strength == self.strength && strength.is_some() == self.writer.is_some() {
-            self.waiting_raise = None;
-            return Ok(());
-        }
-        if self.standby_raise_waits(strength) {
-            return Ok(());
-        }
-        self.apply_strength(strength)
-    }
-
-    /// Moves to `strength` now: a new writer (or none for `None`), the old one kept retiring
-    /// on a raise.
-    fn apply_strength(&mut self, strength: Option<i32>) -> Result<(), DdsError> {
-        let takeover = i32::from(TAKEOVER_STRENGTH);
-        let promotion = matches!((self.strength, strength), (Some(old), Some(new)) if new > old)
-            || (self.strength == Some(takeover) && strength.is_some());
-        let old = self.writer.take();
-        self.strength = None;
-        self.retiring = match (promotion, old) {
-            (true, Some(old)) => {
-                let overlap =
-                    Duration::from_millis(self.timing.command_deadline_ms.saturating_mul(2));
-                Some((old, Instant::now() + overlap))
-            }
-            // Down or silent: the old writer (and any retiring one) goes now.
-            _ => None,
-        };
-        if let Some(strength) = strength {
-            let writer = match self.ready.take() {
-                Some(ready) if strength == takeover => ready,
-                _ => self.create(strength)?,
-            };
-            self.writer = Some(writer);
-            self.strength = Some(strength);
-        }
-        let secondary = i32::from(crate::core::types::Role::Secondary.strength());
-        if self.strength != Some(secondary) {
-            self.ready = None;
-        } else if self.ready.is_none() {
-            // Without it a takeover creates its writer then, which readers discover later.
-            self.ready = self
-                .create(takeover)
-                .inspect_err(|error| warn!("no takeover writer kept ready: {error}"))
-                .ok();
-        }
-        Ok(())
-    }
-
-    fn create(&self, strength: i32) -> Result<RawCommandWriter, DdsError> {
-        self.publisher
-            .create_datawriter_no_key::<ServoControl, CDRSerializerAdapter<ServoControl>>(
-                &self.topic,
-                Some(qos::command_writer(&self.timing, strength)),
-            )
-            .map_err(|e| DdsError::Create {
-                what: "command writer",
-                topic: self.topic.name(),
-                reason: e.to_string(),
-            })
-    }
-
-    /// The DDS ownership strength it commands at; `None` without a writer (no role).
-    pub fn strength(&self) -> Option<i32> {
-        self.strength
-    }
-
-    /// Whether a raise to `strength` must still wait (see the type's notes); starts the wait
-    /// at the first request of that strength.
-    fn standby_raise_waits(&mut self, strength: Option<i32>) -> bool {
-        let primary = i32::from(crate::core::types::Role::Primary.strength());
-        // Only a standby moving up ties the writer retiring above it; a first writer (at
-        // formation or joining) has nobody above re-creating one.
-        let standby_raise = match (self.strength, strength) {
-            (Some(old), Some(new)) => new < primary && new > old,
-            _ => false,
-        };
-        if !standby_raise {
-            self.waiting_raise = None;
-            return false;
-        }
-        let now = Instant::now();
-        let wait = Duration::from_millis(self.timing.command_deadline_ms.saturating_mul(2));
-        match self.waiting_raise {
-            Some((waiting, from)) if Some(waiting) == strength => now < from,
-            _ => {
-                self.waiting_raise = strength.map(|new| (new, now + wait));
-                true
-            }
-        }
-    }
-
-    /// The current writer's GUID (`None` without a writer).
-    pub fn guid(&self) -> Option<GUID> {
-        self.writer.as_ref().map(RTPSEntity::guid)
-    }
-
-    /// Writes a command; `Ok(false)` when there is no writer (no strength).
-    pub fn write(&mut self, command: ServoControl) -> Result<bool, DdsError> {
-        if self
-            .retiring
-            .as_ref()
-            .is_some_and(|(_, until)| Instant::now() >= *until)
-        {
-            self.retiring = None;
-        }
-        let Some(writer) = &self.writer else {
-            return Ok(false);
-        };
-        let error = |e: WriteError<ServoControl>| DdsError::Write {
-            topic: self.topic.name(),
-            source: e.forget_data(),
-        };
-        // Stamped: the writer's lifespan counts from it (crate::dds::qos::command_writer).
-        let written = Timestamp::now();
-        if let Some((retiring, _)) = &self.retiring {
-            retiring.write(command, Some(written)).map_err(error)?;
-        }
-        writer.write(command, Some(written)).map_err(error)?;
-        Ok(true)
     }
 }
 

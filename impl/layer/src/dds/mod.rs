@@ -12,7 +12,8 @@
 //! | vote reader/writer | `vote_topic` | controller id | reliable, transient local, keep last 1 |
 //! | alarm reader/writer | `controller_alarm_topic` | reporter, controller, impostor or not | reliable, transient local, keep last 1 |
 //! | network alarm reader/writer | `network_alarm_topic` | reporter, network, controller | reliable, transient local, keep last 1 |
-//! | [`CommandWriter`], command reader | `command_topic` | - | reliable, EXCLUSIVE, strength by role, deadline = command deadline |
+//! | [`StrengthWriter`], command reader | `command_topic` | - | reliable, EXCLUSIVE, strength by role, deadline = command deadline |
+//! | [`StrengthWriter`] of an application's topic | its name | the application's | as the command topic |
 //! | camera reader/writer | `camera_topic` | colour | best effort reader, reliable writer, keep last 1 |
 //!
 //! Readers are non-blocking ([`Reader::take`]) and mio 0.6 `Evented` (use `rustdds::mio`,
@@ -29,11 +30,13 @@
 mod endpoint;
 mod network;
 pub mod qos;
+mod role_writer;
 mod ros;
 mod wake_switch;
 
-pub use endpoint::{guid_hex, CommandWriter, Reader, Received, Writer};
+pub use endpoint::{guid_hex, Reader, Received, Writer};
 pub use network::NetworkParticipant;
+pub use role_writer::{Keying, NoKey, StrengthWriter, WithKey};
 pub use ros::StatusPublisher;
 pub use rustdds::{mio, GUID};
 pub use wake_switch::WakeSwitch;
@@ -489,13 +492,71 @@ impl Session {
     }
 
     /// The command writer at `strength` (`None` = no writer until a strength is set).
-    pub fn command_writer(&self, strength: Option<i32>) -> Result<CommandWriter, DdsError> {
-        CommandWriter::new(
+    pub fn command_writer(
+        &self,
+        strength: Option<i32>,
+    ) -> Result<StrengthWriter<ServoControl>, DdsError> {
+        StrengthWriter::new(
             self.publisher_of(&self.topics.command).clone(),
             self.topics.command.clone(),
             self.timing.clone(),
             strength,
         )
+    }
+
+    /// A writer of an application's own topic `name` (DDS type name `type_name`), with the
+    /// command topic's QoS: exclusive ownership at `strength` (`None` = no writer until a
+    /// strength is set), the command deadline. It goes on the participant the command topic
+    /// is on (the device participant when device topics are open).
+    pub fn strength_writer<T, K>(
+        &self,
+        name: &str,
+        type_name: &str,
+        strength: Option<i32>,
+    ) -> Result<StrengthWriter<T, K>, DdsError>
+    where
+        T: Clone,
+        K: Keying<T>,
+    {
+        let participant = match &self.device {
+            Some(device) => &device.participant,
+            None => &self.participant,
+        };
+        let topic = create_topic(participant, name, type_name, K::KIND)?;
+        let publisher = match &self.device {
+            Some(device) => device.publisher.clone(),
+            None => self.publisher.clone(),
+        };
+        StrengthWriter::new(publisher, topic, self.timing.clone(), strength)
+    }
+
+    /// A best-effort reader of an application's own unkeyed topic `name` (DDS type name
+    /// `type_name`), as a standby follows the owner of a role-written topic
+    /// (crate::owner_feed, crate::api::Redundancy::owner_feed).
+    pub fn plain_reader<T>(
+        &self,
+        name: &str,
+        type_name: &str,
+    ) -> Result<Reader<crate::wire::Plain<T>>, DdsError>
+    where
+        T: Clone + serde::de::DeserializeOwned + Send + 'static,
+    {
+        let participant = match &self.device {
+            Some(device) => &device.participant,
+            None => &self.participant,
+        };
+        let topic = create_topic(participant, name, type_name, TopicKind::NoKey)?;
+        let subscriber = match &self.device {
+            Some(device) => &device.subscriber,
+            None => &self.subscriber,
+        };
+        let raw = subscriber
+            .create_datareader_no_key::<crate::wire::Plain<T>, CDRDeserializerAdapter<_>>(
+                &topic,
+                Some(qos::command_follower_reader(&self.timing)),
+            )
+            .map_err(|e| create_error("reader", &topic, e))?;
+        Ok(Reader::unkeyed(raw, &topic))
     }
 
     /// A camera reader: all colours (filter by `color` yourself: RustDDS has no content
@@ -518,13 +579,16 @@ impl Session {
 
     /// Ownership strengths of the remote EXCLUSIVE writers of any topic.
     pub fn writer_strengths(&self, topic_name: &str) -> BTreeMap<GUID, i32> {
+        // RL's own topics are on the main participant; the device topics and every
+        // application topic on the device participant, when there is one.
+        let control = [
+            &self.config.heartbeat_topic,
+            &self.config.vote_topic,
+            &self.config.controller_alarm_topic,
+            &self.config.network_alarm_topic,
+        ];
         let participant = match &self.device {
-            Some(device)
-                if [&self.config.command_topic, &self.config.camera_topic]
-                    .contains(&&topic_name.to_string()) =>
-            {
-                &device.participant
-            }
+            Some(device) if !control.contains(&&topic_name.to_string()) => &device.participant,
             _ => &self.participant,
         };
         participant

@@ -4,6 +4,7 @@
 //! Read with getifaddrs(3) each time, so a USB Ethernet adapter that comes up after the
 //! controller started is found on the next try.
 
+use super::error::Unresolved;
 use crate::config::NetworkName;
 use std::ffi::CStr;
 use std::net::Ipv4Addr;
@@ -53,20 +54,18 @@ pub fn ipv4_addresses() -> std::io::Result<Vec<InterfaceAddress>> {
 }
 
 /// The address to bind for `name` among `addresses`, or why there is none.
-pub fn resolve(name: &NetworkName, addresses: &[InterfaceAddress]) -> Result<Ipv4Addr, String> {
+pub fn resolve(name: &NetworkName, addresses: &[InterfaceAddress]) -> Result<Ipv4Addr, Unresolved> {
     match name {
         NetworkName::Address(address) => addresses
             .iter()
             .any(|a| a.address == *address)
             .then_some(*address)
-            .ok_or_else(|| format!("no interface of this host has the address {address}")),
+            .ok_or(Unresolved::NoSuchAddress(*address)),
         NetworkName::Interface(interface) => addresses
             .iter()
             .find(|a| a.interface == *interface)
             .map(|a| a.address)
-            .ok_or_else(|| {
-                format!("interface {interface} has no IPv4 address (or does not exist)")
-            }),
+            .ok_or_else(|| Unresolved::NoAddressOnInterface(interface.clone())),
     }
 }
 
@@ -94,9 +93,13 @@ mod tests {
             Ok(Ipv4Addr::new(10, 202, 1, 2))
         );
         let missing = NetworkName::Address(Ipv4Addr::new(10, 202, 1, 9));
-        assert!(resolve(&missing, &host).unwrap_err().contains("10.202.1.9"));
+        let no_such = Unresolved::NoSuchAddress(Ipv4Addr::new(10, 202, 1, 9));
+        assert_eq!(resolve(&missing, &host), Err(no_such.clone()));
+        assert!(no_such.to_string().contains("10.202.1.9"));
         let absent = NetworkName::Interface("eth7".into());
-        assert!(resolve(&absent, &host).unwrap_err().contains("eth7"));
+        let no_address = Unresolved::NoAddressOnInterface("eth7".into());
+        assert_eq!(resolve(&absent, &host), Err(no_address.clone()));
+        assert!(no_address.to_string().contains("eth7"));
     }
 
     #[test]

@@ -17,12 +17,14 @@
 //! controller's configuration, logging and service supervision, and needs no second
 //! participant on both networks to publish its alarms.
 
+mod error;
 mod interfaces;
 mod report;
 
+pub use error::{MonitorError, Unresolved};
 pub use interfaces::{ipv4_addresses, resolve, InterfaceAddress};
 
-use crate::config::{Config, Networks};
+use crate::config::{Config, NetworkName, Networks};
 use crate::core::network::{Nap, NapCommand, NapConfig, NapInput, Network, Verdict};
 use crate::core::types::{ControllerId, Incarnation};
 use crate::dds::{mio, NetworkParticipant, ParticipantKey, Writer};
@@ -124,8 +126,8 @@ fn supervise(config: &Config, reporter: &Reporter, stop: &AtomicBool) {
         }));
         let problem = match outcome {
             Ok(Ok(())) => return,
-            Ok(Err(problem)) => problem,
-            Err(_) => "the network monitor panicked; restarting it".to_string(),
+            Ok(Err(problem)) => problem.to_string(),
+            Err(_) => MonitorError::Panicked.to_string(),
         };
         // A problem that persists (an interface still down) is logged once, not every 2 s.
         if problem != last_problem {
@@ -142,35 +144,33 @@ fn supervise(config: &Config, reporter: &Reporter, stop: &AtomicBool) {
 }
 
 /// The two networks' participants, A then B, with the addresses they are bound to.
-fn bind(config: &Config) -> Result<[(Ipv4Addr, NetworkParticipant); 2], String> {
-    let (name_a, name_b) = config
-        .networks
-        .pair()
-        .ok_or("both networks must be configured")?;
-    let addresses =
-        ipv4_addresses().map_err(|e| format!("cannot list this host's addresses: {e}"))?;
+fn bind(config: &Config) -> Result<[(Ipv4Addr, NetworkParticipant); 2], MonitorError> {
+    let (name_a, name_b) = config.networks.pair().ok_or(MonitorError::NotConfigured)?;
+    let addresses = ipv4_addresses().map_err(MonitorError::Addresses)?;
     let domains = Networks::monitor_domains(config.dds.domain);
     let deadline_ms =
         config.networks.heartbeat_period_ms * u64::from(config.networks.deadline_periods);
-    let mut bound = Vec::with_capacity(2);
-    for (network, name, domain) in [
-        (Network::A, &name_a, domains[0]),
-        (Network::B, &name_b, domains[1]),
-    ] {
-        let address = resolve(name, &addresses).map_err(|e| format!("network {network}: {e}"))?;
+    let bind_one = |network: Network, name: &NetworkName, domain: u16| {
+        let address = resolve(name, &addresses)
+            .map_err(|problem| MonitorError::Unresolved { network, problem })?;
         let participant = NetworkParticipant::bind(
             domain,
             address,
             &config.dds.network_heartbeat_topic,
             deadline_ms,
         )
-        .map_err(|e| format!("network {network} ({address}): {e}"))?;
+        .map_err(|source| MonitorError::Bind {
+            network,
+            address,
+            source,
+        })?;
         info!("network monitor: network {network} on {address} ({name}), DDS domain {domain}");
-        bound.push((address, participant));
-    }
-    bound
-        .try_into()
-        .map_err(|_| "internal: not two networks".to_string())
+        Ok((address, participant))
+    };
+    Ok([
+        bind_one(Network::A, &name_a, domains[0])?,
+        bind_one(Network::B, &name_b, domains[1])?,
+    ])
 }
 
 /// The monitor's loop over bound participants, until stopped.
@@ -179,7 +179,7 @@ fn monitor(
     reporter: &Reporter,
     stop: &AtomicBool,
     mut participants: [(Ipv4Addr, NetworkParticipant); 2],
-) -> Result<(), String> {
+) -> Result<(), MonitorError> {
     let clock = RoundClock::start();
     let nap_config = NapConfig {
         period_ms: config.networks.heartbeat_period_ms,
@@ -193,7 +193,8 @@ fn monitor(
         .iter()
         .map(|(_, p)| ParticipantKey::of(p.guid()))
         .collect();
-    let poll = Poll::new().map_err(|e| format!("creating the event poll: {e}"))?;
+    let poll_error = |doing| move |source| MonitorError::Poll { doing, source };
+    let poll = Poll::new().map_err(poll_error("creating the event poll"))?;
     for (index, (_, participant)) in participants.iter().enumerate() {
         poll.register(
             &participant.heartbeats_in,
@@ -201,7 +202,7 @@ fn monitor(
             Ready::readable(),
             PollOpt::edge(),
         )
-        .map_err(|e| format!("registering a network heartbeat reader: {e}"))?;
+        .map_err(poll_error("registering a network heartbeat reader"))?;
     }
     let mut events = Events::with_capacity(8);
     let mut shown: Option<Verdict> = None;
@@ -246,7 +247,7 @@ fn monitor(
         match poll.poll(&mut events, Some(Duration::from_millis(wait_ms))) {
             Ok(_) => {}
             Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-            Err(e) => return Err(format!("waiting for network heartbeats: {e}")),
+            Err(e) => return Err(poll_error("waiting for network heartbeats")(e)),
         }
     }
     Ok(())

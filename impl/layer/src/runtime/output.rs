@@ -76,8 +76,10 @@ impl Voting {
     }
 
     /// One JSON event line on stdout (with `--json-events`): the record of what it did.
+    /// The same line goes to the application's subscriptions (crate::api::Redundancy::events).
     pub(super) fn event(&self, event: Event) {
-        if !self.options.json_events {
+        let mut subscribers = self.shared.subscribers();
+        if !self.options.json_events && subscribers.is_empty() {
             return;
         }
         let line = EventLine {
@@ -86,8 +88,12 @@ impl Voting {
             incarnation: self.core.config().incarnation,
             event,
         };
-        let mut out = std::io::stdout().lock();
-        let _ = writeln!(out, "{}", line.to_json());
-        let _ = out.flush();
+        subscribers.retain(|subscriber| subscriber.send(line.clone()).is_ok());
+        drop(subscribers);
+        if self.options.json_events {
+            let mut out = std::io::stdout().lock();
+            let _ = writeln!(out, "{}", line.to_json());
+            let _ = out.flush();
+        }
     }
 }

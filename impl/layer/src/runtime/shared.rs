@@ -3,7 +3,9 @@
 
 use crate::core::types::{AlarmReason, ControllerId};
 use crate::core::Status;
+use crate::event::EventLine;
 use std::sync::atomic::AtomicBool;
+use std::sync::mpsc::Sender;
 use std::sync::{Arc, Mutex, MutexGuard};
 
 /// How the redundancy layer reports what it does.
@@ -29,6 +31,9 @@ pub(crate) struct Shared {
     pub stop: AtomicBool,
     /// When the voting loop last ran: a stalled loop (crate::stall) lets no command out.
     pub loop_clock: crate::stall::LoopClock,
+    /// The application's subscriptions to the event lines (crate::api::Redundancy::events);
+    /// one whose receiver is gone is dropped at the next event.
+    pub subscribers: Mutex<Vec<Sender<EventLine>>>,
 }
 
 impl Shared {
@@ -36,5 +41,9 @@ impl Shared {
         // A poisoned lock only means the other thread panicked mid-update; the value is
         // still the last complete status.
         self.status.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    pub fn subscribers(&self) -> MutexGuard<'_, Vec<Sender<EventLine>>> {
+        self.subscribers.lock().unwrap_or_else(|e| e.into_inner())
     }
 }

@@ -28,6 +28,7 @@ mod camera;
 mod codes;
 mod heartbeat;
 mod network;
+mod plain;
 #[cfg(test)]
 mod proptests;
 #[cfg(test)]
@@ -50,6 +51,7 @@ pub use self::network::{
     NetworkHeartbeatSample, CAUSE_MAX_BYTES, LINK_FAIL, LINK_GOOD, LINK_UNKNOWN,
     NETWORK_ALARM_TYPE_NAME, NETWORK_COUNT, NETWORK_HEARTBEAT_TYPE_NAME,
 };
+pub use self::plain::Plain;
 pub use self::vote::{VoteSample, VOTE_TYPE_NAME};
 
 use serde::{Deserialize, Serialize};
