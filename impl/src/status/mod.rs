@@ -80,6 +80,8 @@ pub struct NetworkAlarmView {
 /// What `rl status --json` prints.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct StatusView {
+    /// The redundancy group it shows (`dds.group`; "" for the one group of the domain).
+    pub group: String,
     pub controllers: Vec<ControllerView>,
     pub alarms: Vec<AlarmView>,
     pub network_alarms: Vec<NetworkAlarmView>,
@@ -88,6 +90,8 @@ pub struct StatusView {
 /// The latest heartbeat per controller and the raised alarms.
 #[derive(Clone, Debug, Default)]
 pub struct Board {
+    /// The redundancy group whose topics feed it.
+    group: String,
     heartbeats: BTreeMap<ControllerId, (Heartbeat, u64)>,
     /// (about, reporter, impostor) -> reason, for raised alarms: one protocol alarm per
     /// controller and reporter (Failed replaces Lost), an impostor alarm beside it.
@@ -97,6 +101,14 @@ pub struct Board {
 }
 
 impl Board {
+    /// An empty board of the redundancy group `group` (`dds.group`).
+    pub fn for_group(group: &str) -> Board {
+        Board {
+            group: group.to_string(),
+            ..Board::default()
+        }
+    }
+
     pub fn heartbeat(&mut self, heartbeat: Heartbeat, now_ms: u64) {
         self.heartbeats.insert(heartbeat.id, (heartbeat, now_ms));
     }
@@ -217,6 +229,7 @@ impl Board {
             }
         }
         StatusView {
+            group: self.group.clone(),
             controllers,
             alarms,
             network_alarms,
@@ -226,8 +239,11 @@ impl Board {
 
 /// The table `rl status` prints.
 pub fn render_table(view: &StatusView) -> String {
-    let mut out =
-        String::from("ID  PHASE         ROLE       STRENGTH  AGREED              HEARD\n");
+    let mut out = String::new();
+    if !view.group.is_empty() {
+        out.push_str(&format!("group {}\n", view.group));
+    }
+    out.push_str("ID  PHASE         ROLE       STRENGTH  AGREED              HEARD\n");
     for view in &view.controllers {
         let c = &view.report;
         let role = c.role.map(|r| r.name()).unwrap_or("-");
@@ -361,7 +377,7 @@ pub fn run(args: StatusArgs) -> Result<(), crate::Error> {
     let stop = crate::cli::stop_on_signals()?;
     let session = rl_layer::dds::Session::for_config(&config)?;
     let mut feed = BoardFeed::new(&session)?;
-    let mut board = Board::default();
+    let mut board = Board::for_group(&config.dds.group);
     let period_ms = config.timing.heartbeat_period_ms;
     let alive_within_ms = config.timing.peer_deadline_ms;
     // Discovery plus a few heartbeats: enough to hear every live controller.

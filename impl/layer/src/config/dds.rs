@@ -28,6 +28,11 @@ pub struct Dds {
     pub camera_topic: String,
     /// ROS 2 node namespace; each controller's node is `rl_controller_<id>` in it.
     pub ros_namespace: String,
+    /// The redundancy group these controllers form ("": the one group of the domain). Groups
+    /// on one domain and one LAN do not hear each other: RL's topics and the ROS 2 namespace
+    /// carry the name ([`Dds::grouped`]), so ids are per group. The command and camera topics
+    /// are the application's and keep their names.
+    pub group: String,
 }
 
 impl Default for Dds {
@@ -42,6 +47,7 @@ impl Default for Dds {
             command_topic: "pixy/servo_control".into(),
             camera_topic: "Circle".into(),
             ros_namespace: "/rl".into(),
+            group: String::new(),
         }
     }
 }
@@ -51,6 +57,33 @@ impl Default for Dds {
 pub const DOMAIN_MAX: u16 = 232;
 
 impl Dds {
+    /// The names this group's participants use: RL's five topics with the group after their
+    /// first path segment (`rl/controller_heartbeat` becomes `rl/nav/controller_heartbeat` in
+    /// group `nav`) and the ROS 2 namespace with the group appended (`/rl/nav`); the same
+    /// names without a group.
+    pub fn grouped(&self) -> Dds {
+        if self.group.is_empty() {
+            return self.clone();
+        }
+        let topic = |base: &str| match base.split_once('/') {
+            Some((first, rest)) => format!("{first}/{}/{rest}", self.group),
+            None => format!("{}/{base}", self.group),
+        };
+        let ros_namespace = match self.ros_namespace.as_str() {
+            "/" => format!("/{}", self.group),
+            namespace => format!("{namespace}/{}", self.group),
+        };
+        Dds {
+            heartbeat_topic: topic(&self.heartbeat_topic),
+            vote_topic: topic(&self.vote_topic),
+            controller_alarm_topic: topic(&self.controller_alarm_topic),
+            network_alarm_topic: topic(&self.network_alarm_topic),
+            network_heartbeat_topic: topic(&self.network_heartbeat_topic),
+            ros_namespace,
+            ..self.clone()
+        }
+    }
+
     /// The topic fields with their dotted paths, in file order.
     fn topics(&self) -> [(&'static str, &str); 7] {
         [
@@ -91,6 +124,16 @@ impl Dds {
             }
         }
         check(
+            self.group.is_empty() || is_ros_name(&self.group) && self.group.len() <= 32,
+            "dds.group",
+            quoted(&self.group),
+            || {
+                "must be empty (one group on the domain) or 1..=32 letters, digits and `_`, \
+                 not starting with a digit"
+                    .to_string()
+            },
+        )?;
+        check(
             is_ros_namespace(&self.ros_namespace),
             "dds.ros_namespace",
             quoted(&self.ros_namespace),
@@ -108,12 +151,14 @@ fn is_ros_namespace(namespace: &str) -> bool {
     let Some(rest) = namespace.strip_prefix('/') else {
         return false;
     };
-    rest.is_empty()
-        || rest.split('/').all(|token| {
-            token
-                .chars()
-                .next()
-                .is_some_and(|first| first.is_ascii_alphabetic() || first == '_')
-                && token.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
-        })
+    rest.is_empty() || rest.split('/').all(is_ros_name)
+}
+
+/// One ROS 2 name token: letters, digits and `_`, not starting with a digit.
+fn is_ros_name(token: &str) -> bool {
+    token
+        .chars()
+        .next()
+        .is_some_and(|first| first.is_ascii_alphabetic() || first == '_')
+        && token.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
 }

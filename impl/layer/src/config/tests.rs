@@ -334,6 +334,17 @@ const RULE_BREAKS: &[(&str, &str, &str)] = &[
         "dds.ros_namespace",
         "ROS 2 namespace",
     ),
+    ("[dds]\ngroup = \"nav/a\"", "dds.group", "letters, digits"),
+    (
+        "[dds]\ngroup = \"1nav\"",
+        "dds.group",
+        "not starting with a digit",
+    ),
+    (
+        "[dds]\ngroup = \"nav unit\"",
+        "dds.group",
+        "letters, digits",
+    ),
     (
         "[tracker]\ncolor = \"\"",
         "tracker.color",
@@ -486,4 +497,30 @@ fn security_names_its_field() {
         "{message}"
     );
     assert!(message.contains("security.keystore set"), "{message}");
+}
+
+#[test]
+fn a_group_names_rls_topics_and_the_ros_namespace_and_nothing_else() {
+    let plain = crate::config::Dds::default();
+    assert_eq!(plain.grouped(), plain, "no group: the names as configured");
+    let nav = parse("[dds]\ngroup = \"nav\"")
+        .expect("a valid group")
+        .dds
+        .grouped();
+    assert_eq!(nav.heartbeat_topic, "rl/nav/controller_heartbeat");
+    assert_eq!(nav.vote_topic, "rl/nav/vote");
+    assert_eq!(nav.controller_alarm_topic, "rl/nav/controller_alarm");
+    assert_eq!(nav.network_alarm_topic, "rl/nav/network_alarm");
+    assert_eq!(nav.network_heartbeat_topic, "rl/nav/network_heartbeat");
+    assert_eq!(nav.ros_namespace, "/rl/nav");
+    // The application's topics are its own.
+    assert_eq!(nav.command_topic, plain.command_topic);
+    assert_eq!(nav.camera_topic, plain.camera_topic);
+    let flat = parse("[dds]\ngroup = \"g2\"\nvote_topic = \"votes\"\nros_namespace = \"/\"")
+        .expect("valid")
+        .dds
+        .grouped();
+    assert_eq!(flat.vote_topic, "g2/votes");
+    assert_eq!(flat.ros_namespace, "/g2");
+    assert!(flat.validate().is_ok(), "grouped names are valid names");
 }

@@ -260,6 +260,9 @@ impl Session {
         every_interface: bool,
         keystore: Option<&crate::security::Keystore>,
     ) -> Result<Session, DdsError> {
+        // The group's names, once: the topics, the ROS 2 namespace and the strengths' lookup.
+        let grouped = dds.grouped();
+        let dds = &grouped;
         let participant_error = |reason: String| DdsError::Participant {
             domain: dds.domain,
             reason,

@@ -1,12 +1,11 @@
 //! Which IPv4 address this host has on a configured network: the address itself, checked to
 //! be one of this host's, or the interface's first IPv4 address.
 //!
-//! Read with getifaddrs(3) each time, so a USB Ethernet adapter that comes up after the
+//! Read with getifaddrs(3) (through nix) each time, so a USB Ethernet adapter that comes up after the
 //! controller started is found on the next try.
 
 use super::error::Unresolved;
 use crate::config::NetworkName;
-use std::ffi::CStr;
 use std::net::Ipv4Addr;
 
 /// One interface address of this host.
@@ -20,37 +19,16 @@ pub struct InterfaceAddress {
 
 /// Every IPv4 address of this host's interfaces, in the kernel's order.
 pub fn ipv4_addresses() -> std::io::Result<Vec<InterfaceAddress>> {
-    let mut list: *mut libc::ifaddrs = std::ptr::null_mut();
-    // SAFETY: getifaddrs fills `list` with a linked list we free below with freeifaddrs.
-    if unsafe { libc::getifaddrs(&mut list) } != 0 {
-        return Err(std::io::Error::last_os_error());
-    }
-    let mut found = Vec::new();
-    let mut cursor = list;
-    while !cursor.is_null() {
-        // SAFETY: `cursor` is a node of the list getifaddrs returned, not yet freed.
-        let entry = unsafe { &*cursor };
-        cursor = entry.ifa_next;
-        if entry.ifa_addr.is_null() || entry.ifa_name.is_null() {
-            continue;
-        }
-        // SAFETY: ifa_addr points at a sockaddr whose family says its real type.
-        let family = i32::from(unsafe { (*entry.ifa_addr).sa_family });
-        if family != libc::AF_INET {
-            continue;
-        }
-        // SAFETY: an AF_INET address is a sockaddr_in.
-        let sin = unsafe { &*(entry.ifa_addr as *const libc::sockaddr_in) };
-        let address = Ipv4Addr::from(u32::from_be(sin.sin_addr.s_addr));
-        // SAFETY: ifa_name is a NUL-terminated string owned by the list.
-        let interface = unsafe { CStr::from_ptr(entry.ifa_name) }
-            .to_string_lossy()
-            .into_owned();
-        found.push(InterfaceAddress { interface, address });
-    }
-    // SAFETY: `list` came from getifaddrs and is freed once.
-    unsafe { libc::freeifaddrs(list) };
-    Ok(found)
+    let list = nix::ifaddrs::getifaddrs().map_err(std::io::Error::from)?;
+    Ok(list
+        .filter_map(|entry| {
+            let address = entry.address.as_ref()?.as_sockaddr_in()?.ip();
+            Some(InterfaceAddress {
+                interface: entry.interface_name,
+                address,
+            })
+        })
+        .collect())
 }
 
 /// The address to bind for `name` among `addresses`, or why there is none.

@@ -156,7 +156,7 @@ fn bind(config: &Config) -> Result<[(Ipv4Addr, NetworkParticipant); 2], MonitorE
         let participant = NetworkParticipant::bind(
             domain,
             address,
-            &config.dds.network_heartbeat_topic,
+            &config.dds.grouped().network_heartbeat_topic,
             deadline_ms,
         )
         .map_err(|source| MonitorError::Bind {

@@ -93,6 +93,8 @@ fn open_rule(topic: &str) -> String {
 
 /// The governance document.
 pub fn governance(dds: &Dds) -> String {
+    // RL's topics as the configured group names them.
+    let dds = &dds.grouped();
     let mut rules = String::new();
     for topic in controller_topics(dds) {
         rules.push_str(&protected_rule(topic));
@@ -134,6 +136,7 @@ fn topic_list(topics: &[&str]) -> String {
 /// The permissions document for `grantee`, valid from `not_before` to `not_after`
 /// (`YYYY-MM-DDTHH:MM:SS`, UTC: the certificate's validity).
 pub fn permissions(dds: &Dds, grantee: &Grantee, not_before: &str, not_after: &str) -> String {
+    let dds = &dds.grouped();
     let mut publish: Vec<&str> = ROS_TOPICS.to_vec();
     match grantee {
         Grantee::Controller(_) => {

@@ -18,26 +18,33 @@ pub const CONTENT_TYPE: &str = "text/plain; version=0.0.4; charset=utf-8";
 struct Family<'a> {
     out: &'a mut String,
     name: &'static str,
+    /// The redundancy group, a label of every sample (several `rl status --serve` of several
+    /// groups scrape into one Prometheus).
+    group: &'a str,
 }
 
 impl Family<'_> {
     fn sample(&mut self, labels: &[(&str, String)], value: impl std::fmt::Display) {
         let _ = write!(self.out, "{}", self.name);
-        if !labels.is_empty() {
-            let pairs: Vec<String> = labels
-                .iter()
-                .map(|(k, v)| format!("{k}=\"{}\"", escape_label(v)))
-                .collect();
-            let _ = write!(self.out, "{{{}}}", pairs.join(","));
-        }
+        let pairs: Vec<String> = std::iter::once(("group", self.group.to_string()))
+            .chain(labels.iter().cloned())
+            .map(|(k, v)| format!("{k}=\"{}\"", escape_label(&v)))
+            .collect();
+        let _ = write!(self.out, "{{{}}}", pairs.join(","));
         let _ = writeln!(self.out, " {value}");
     }
 }
 
-fn family<'a>(out: &'a mut String, name: &'static str, kind: &str, help: &str) -> Family<'a> {
+fn family<'a>(
+    out: &'a mut String,
+    group: &'a str,
+    name: &'static str,
+    kind: &str,
+    help: &str,
+) -> Family<'a> {
     let _ = writeln!(out, "# HELP {name} {help}");
     let _ = writeln!(out, "# TYPE {name} {kind}");
-    Family { out, name }
+    Family { out, name, group }
 }
 
 /// A label value escaped for the text format.
@@ -68,6 +75,7 @@ pub fn render(view: &StatusView, watch: &Watch) -> String {
 
     let mut f = family(
         &mut out,
+        &view.group,
         "rl_alive",
         "gauge",
         "1 when the controller was heard within the dead-man deadline.",
@@ -77,6 +85,7 @@ pub fn render(view: &StatusView, watch: &Watch) -> String {
     }
     let mut f = family(
         &mut out,
+        &view.group,
         "rl_role",
         "gauge",
         "1 for the role a live controller last announced (primary, secondary, tertiary, none).",
@@ -95,6 +104,7 @@ pub fn render(view: &StatusView, watch: &Watch) -> String {
     }
     let mut f = family(
         &mut out,
+        &view.group,
         "rl_strength",
         "gauge",
         "The ownership strength a live controller commands with (0: it does not command).",
@@ -104,6 +114,7 @@ pub fn render(view: &StatusView, watch: &Watch) -> String {
     }
     let mut f = family(
         &mut out,
+        &view.group,
         "rl_phase",
         "gauge",
         "1 for the phase the controller last announced.",
@@ -116,6 +127,7 @@ pub fn render(view: &StatusView, watch: &Watch) -> String {
     }
     let mut f = family(
         &mut out,
+        &view.group,
         "rl_last_heard_ms",
         "gauge",
         "Milliseconds since the controller's last heartbeat.",
@@ -125,6 +137,7 @@ pub fn render(view: &StatusView, watch: &Watch) -> String {
     }
     let mut f = family(
         &mut out,
+        &view.group,
         "rl_heartbeats_seen_total",
         "counter",
         "Heartbeats the status process took in from the controller.",
@@ -134,6 +147,7 @@ pub fn render(view: &StatusView, watch: &Watch) -> String {
     }
     let mut f = family(
         &mut out,
+        &view.group,
         "rl_controller_alarm",
         "gauge",
         "1 per raised controller alarm: about which controller, why, and how many raised it.",
@@ -149,6 +163,7 @@ pub fn render(view: &StatusView, watch: &Watch) -> String {
     }
     let mut f = family(
         &mut out,
+        &view.group,
         "rl_controller_alarm_reporters",
         "gauge",
         "How many controllers raise the alarm.",
@@ -164,6 +179,7 @@ pub fn render(view: &StatusView, watch: &Watch) -> String {
     }
     let mut f = family(
         &mut out,
+        &view.group,
         "rl_network_alarm",
         "gauge",
         "1 per raised network alarm: a whole network (controller=\"\") or one controller's \
@@ -182,6 +198,7 @@ pub fn render(view: &StatusView, watch: &Watch) -> String {
     }
     let mut f = family(
         &mut out,
+        &view.group,
         "rl_commander",
         "gauge",
         "The id of the strongest live commanding controller, the actuator's owner (0: none).",
@@ -189,6 +206,7 @@ pub fn render(view: &StatusView, watch: &Watch) -> String {
     f.sample(&[], watch.commander().map_or(0, |c| c.id));
     let mut f = family(
         &mut out,
+        &view.group,
         "rl_commander_changes_total",
         "counter",
         "Changes of the commanding controller seen since the status process started.",
@@ -196,6 +214,7 @@ pub fn render(view: &StatusView, watch: &Watch) -> String {
     f.sample(&[], watch.commander_changes());
     let mut f = family(
         &mut out,
+        &view.group,
         "rl_commander_last_gap_ms",
         "gauge",
         "At the last commander change: milliseconds from the previous commander's last \

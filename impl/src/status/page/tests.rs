@@ -119,7 +119,7 @@ fn the_watch_counts_commander_changes_and_the_gap() {
 
 #[test]
 fn metrics_are_the_text_format() {
-    let mut board = Board::default();
+    let mut board = Board::for_group("nav");
     let mut watch = Watch::default();
     three_steady(&mut board, 0);
     watch.heartbeats([1, 1, 2]);
@@ -127,15 +127,15 @@ fn metrics_are_the_text_format() {
     let text = metrics::render(&board.view(10, 500), &watch);
     for line in [
         "# TYPE rl_strength gauge",
-        "rl_strength{controller=\"1\"} 30",
-        "rl_strength{controller=\"3\"} 10",
-        "rl_role{controller=\"2\",role=\"secondary\"} 1",
-        "rl_role{controller=\"2\",role=\"primary\"} 0",
-        "rl_alive{controller=\"3\"} 1",
+        "rl_strength{group=\"nav\",controller=\"1\"} 30",
+        "rl_strength{group=\"nav\",controller=\"3\"} 10",
+        "rl_role{group=\"nav\",controller=\"2\",role=\"secondary\"} 1",
+        "rl_role{group=\"nav\",controller=\"2\",role=\"primary\"} 0",
+        "rl_alive{group=\"nav\",controller=\"3\"} 1",
         "# TYPE rl_heartbeats_seen_total counter",
-        "rl_heartbeats_seen_total{controller=\"1\"} 2",
-        "rl_controller_alarm{about=\"3\",reason=\"lost\"} 1",
-        "rl_commander_changes_total 0",
+        "rl_heartbeats_seen_total{group=\"nav\",controller=\"1\"} 2",
+        "rl_controller_alarm{group=\"nav\",about=\"3\",reason=\"lost\"} 1",
+        "rl_commander_changes_total{group=\"nav\"} 0",
     ] {
         assert!(text.lines().any(|l| l == line), "no {line:?} in\n{text}");
     }
@@ -155,19 +155,22 @@ fn a_silent_controller_exports_no_role_and_no_strength() {
     }
     let text = metrics::render(&board.view(601, 500), &Watch::default());
     let lines: Vec<&str> = text.lines().collect();
-    assert!(lines.contains(&"rl_alive{controller=\"1\"} 0"), "{text}");
     assert!(
-        lines.contains(&"rl_role{controller=\"2\",role=\"primary\"} 1"),
+        lines.contains(&"rl_alive{group=\"\",controller=\"1\"} 0"),
         "{text}"
     );
     assert!(
-        lines.contains(&"rl_strength{controller=\"2\"} 30"),
+        lines.contains(&"rl_role{group=\"\",controller=\"2\",role=\"primary\"} 1"),
+        "{text}"
+    );
+    assert!(
+        lines.contains(&"rl_strength{group=\"\",controller=\"2\"} 30"),
         "{text}"
     );
     for line in &lines {
         assert!(
-            !(line.starts_with("rl_role{controller=\"1\"")
-                || line.starts_with("rl_strength{controller=\"1\"")),
+            !(line.starts_with("rl_role{group=\"\",controller=\"1\"")
+                || line.starts_with("rl_strength{group=\"\",controller=\"1\"")),
             "the silent C1 still exports {line:?}:\n{text}"
         );
     }
@@ -188,7 +191,7 @@ fn answers_by_path() {
     assert_eq!(get("/").status, 200);
     assert_eq!(
         get("/status.json").body,
-        br#"{"controllers":[],"alarms":[],"network_alarms":[]}"#
+        br#"{"group":"","controllers":[],"alarms":[],"network_alarms":[]}"#
     );
     assert_eq!(get("/metrics").content_type, metrics::CONTENT_TYPE);
     assert_eq!(get("/nope").status, 404);
