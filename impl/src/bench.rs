@@ -5,7 +5,9 @@
 //!   heartbeat round; the command gap at `rl servo`, the promotion of the Secondary (its output
 //!   at 30 and its status steady as Primary) and the owner changes at `rl servo` per kill;
 //! - formation ([`formation`]): the third controller joins two others;
-//! - resources ([`resources`]): RSS and CPU of one controller under load.
+//! - resources ([`resources`]): RSS and CPU of one controller under load;
+//! - groups ([`groups`], `--groups 1,2,4,8` alone): N groups of three on one domain, their
+//!   formation, RSS and CPU, and one kill of every group's Primary at once.
 //!
 //! A kill or a formation that fails is counted and reported, and makes `rl bench` exit
 //! non-zero after printing every figure. `--json` prints one JSON document with every figure,
@@ -13,6 +15,7 @@
 
 pub mod failover;
 pub mod formation;
+pub mod groups;
 mod report;
 pub mod resources;
 pub mod security;
@@ -60,6 +63,28 @@ pub struct BenchArgs {
     /// over unsecured (docs/performance.md, "DDS Security").
     #[arg(long)]
     pub security: bool,
+    /// Instead of the other runs: N redundancy groups of three controllers on one domain, for
+    /// each N given (comma-separated, e.g. 1,2,4,8): the time to form, every controller's RSS
+    /// and CPU over --resources-s seconds, and one kill of every group's Primary at once
+    /// (docs/performance.md, "Groups").
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_name = "N",
+        value_parser = clap::value_parser!(u32).range(1..=16)
+    )]
+    pub groups: Vec<u32>,
+}
+
+/// What `rl bench --groups` measured: the JSON document of `--groups ... --json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct GroupsReport {
+    pub rl_version: &'static str,
+    /// The command that repeats this run.
+    pub command: String,
+    /// CPUs available to the run (the machine may be shared).
+    pub cores: usize,
+    pub results: Vec<groups::GroupsResult>,
 }
 
 pub use crate::error::BenchError;
@@ -202,6 +227,11 @@ fn run_bench(args: BenchArgs) -> Result<(), BenchError> {
         heartbeat_period_ms: rl_layer::config::Timing::default().heartbeat_period_ms,
         keystores: None,
     };
+    if !args.groups.is_empty() {
+        let measured = groups::groups(&setup, &args.groups, args.resources_s);
+        let _ = std::fs::remove_dir_all(&setup.dir);
+        return report_groups(&args, measured?);
+    }
     let measured = measure(&setup, &args, seed);
     let _ = std::fs::remove_dir_all(&setup.dir);
     let result = measured?;
@@ -218,6 +248,43 @@ fn run_bench(args: BenchArgs) -> Result<(), BenchError> {
             failed_formations: result.failed_formations,
             formations: result.formation.runs,
             seed,
+        });
+    }
+    Ok(())
+}
+
+/// Prints what `--groups` measured, and fails when a group did not form or a kill failed.
+fn report_groups(args: &BenchArgs, results: Vec<groups::GroupsResult>) -> Result<(), BenchError> {
+    let counts: Vec<String> = args.groups.iter().map(u32::to_string).collect();
+    let report = GroupsReport {
+        rl_version: env!("CARGO_PKG_VERSION"),
+        command: format!(
+            "rl bench --groups {} --resources-s {} --domain {}{}",
+            counts.join(","),
+            args.resources_s,
+            args.domain,
+            if args.json { " --json" } else { "" }
+        ),
+        cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
+        results,
+    };
+    let mut out: Box<dyn std::io::Write> = if args.json {
+        Box::new(std::io::stderr())
+    } else {
+        Box::new(std::io::stdout())
+    };
+    let _ = report::write_groups(&mut out, &report);
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    }
+    let failed_kills: u32 = report.results.iter().map(|r| r.failed_kills).sum();
+    let failed_formations: u32 = report.results.iter().map(|r| r.failed_formations).sum();
+    if failed_kills > 0 || failed_formations > 0 {
+        return Err(BenchError::GroupsFailed {
+            failed_kills,
+            kills: report.results.iter().map(|r| r.kills.len() as u32).sum(),
+            failed_formations,
+            groups: report.results.iter().map(|r| r.groups).sum(),
         });
     }
     Ok(())

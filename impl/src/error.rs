@@ -113,6 +113,20 @@ pub enum BenchError {
         formations: u32,
         seed: u64,
     },
+    /// `--groups`: some groups did not form or some kills failed; every figure was printed.
+    #[error(
+        "bench --groups: {failed_formations} of {groups} groups did not form and {failed_kills} of {kills} kills failed"
+    )]
+    GroupsFailed {
+        /// Kills that broke the promise (or found no Primary and Secondary).
+        failed_kills: u32,
+        /// Kills made, one per formed group and run.
+        kills: u32,
+        /// Groups that did not form in time.
+        failed_formations: u32,
+        /// Groups started, over every run.
+        groups: u32,
+    },
 }
 
 impl BenchError {

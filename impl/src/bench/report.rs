@@ -2,7 +2,7 @@
 //! reader that measured it.
 
 use super::stats::Summary;
-use super::BenchResult;
+use super::{BenchResult, GroupsReport};
 use std::io::Write;
 
 fn summary(x: &Summary) -> String {
@@ -127,6 +127,40 @@ pub fn write_report(out: &mut impl Write, result: &BenchResult) -> std::io::Resu
             secured.promotion_p50_ratio,
             secured.cpu_ratio,
             secured.rss_ratio
+        )?;
+    }
+    Ok(())
+}
+
+/// Writes what `--groups` measured: one block per number of groups.
+pub fn write_groups(out: &mut impl Write, report: &GroupsReport) -> std::io::Result<()> {
+    writeln!(out, "rl bench --groups ({} cores)", report.cores)?;
+    for r in &report.results {
+        writeln!(
+            out,
+            "{} groups ({} controllers): formed {}/{}; from start to formed, ms: {}",
+            r.groups,
+            r.controllers,
+            r.groups - r.failed_formations,
+            r.groups,
+            summary(&r.formation_ms)
+        )?;
+        writeln!(
+            out,
+            "    per controller over {} s: RSS kB p50 {:.0} max {:.0}; CPU % of one core p50 {:.2} max {:.2}",
+            r.seconds, r.rss_kb.p50, r.rss_kb.max, r.cpu_percent_of_one_core.p50, r.cpu_percent_of_one_core.max
+        )?;
+        let gaps: Vec<String> = r
+            .kills
+            .iter()
+            .map(|k| format!("{} {}", k.group, super::formation::shown_ms(k.gap_ms)))
+            .collect();
+        writeln!(
+            out,
+            "    every Primary killed at once: {} of {} kills failed; gap at each servo, ms: {}",
+            r.failed_kills,
+            r.kills.len(),
+            gaps.join(", ")
         )?;
     }
     Ok(())

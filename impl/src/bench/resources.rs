@@ -69,6 +69,35 @@ fn ticks_per_second() -> f64 {
     }
 }
 
+/// Each process's largest RSS (kB) and CPU share (percent of one core) over `seconds`, read
+/// from `/proc` after every `pump` (which keeps the children's output drained meanwhile).
+pub(super) fn sample_usage(
+    pids: &[u32],
+    seconds: u64,
+    mut pump: impl FnMut(),
+) -> Result<Vec<(u64, f64)>, BenchError> {
+    let mut before = Vec::new();
+    for pid in pids {
+        before.push(proc_usage(*pid)?);
+    }
+    let mut rss_max: Vec<u64> = before.iter().map(|(_, rss)| *rss).collect();
+    let started = Instant::now();
+    while started.elapsed() < Duration::from_secs(seconds) {
+        pump();
+        for (pid, rss) in pids.iter().zip(rss_max.iter_mut()) {
+            *rss = (*rss).max(proc_usage(*pid)?.1);
+        }
+    }
+    let elapsed_s = started.elapsed().as_secs_f64();
+    let mut usage = Vec::new();
+    for ((pid, (ticks_before, _)), rss_kb_max) in pids.iter().zip(&before).zip(rss_max) {
+        let (ticks_after, _) = proc_usage(*pid)?;
+        let cpu = ticks_after.saturating_sub(*ticks_before) as f64 / ticks_per_second() / elapsed_s;
+        usage.push((rss_kb_max, cpu * 100.0));
+    }
+    Ok(usage)
+}
+
 pub fn resources(setup: &Setup, seconds: u64) -> Result<ResourceResult, BenchError> {
     // 30 Hz commands: the camera at 30 Hz, re-publishing no faster.
     let config = setup.write_config(
@@ -91,31 +120,18 @@ pub fn resources(setup: &Setup, seconds: u64) -> Result<ResourceResult, BenchErr
     for id in MEASURED {
         pids.push(fleet.pid(id).ok_or(BenchError::NotRunning { id })?);
     }
-    let mut before = Vec::new();
-    for pid in &pids {
-        before.push(proc_usage(*pid)?);
-    }
-    let mut rss_max: Vec<u64> = before.iter().map(|(_, rss)| *rss).collect();
-    let started = Instant::now();
-    while started.elapsed() < Duration::from_secs(seconds) {
-        watch.pump(Duration::from_millis(500));
-        for (pid, rss) in pids.iter().zip(rss_max.iter_mut()) {
-            *rss = (*rss).max(proc_usage(*pid)?.1);
-        }
-    }
-    let elapsed_s = started.elapsed().as_secs_f64();
-    let mut controllers = Vec::new();
-    for (((id, pid), (ticks_before, _)), rss_kb_max) in
-        MEASURED.iter().zip(&pids).zip(&before).zip(&rss_max)
-    {
-        let (ticks_after, _) = proc_usage(*pid)?;
-        let cpu = ticks_after.saturating_sub(*ticks_before) as f64 / ticks_per_second() / elapsed_s;
-        controllers.push(ControllerUsage {
-            id: *id,
-            rss_kb_max: *rss_kb_max,
-            cpu_percent_of_one_core: cpu * 100.0,
-        });
-    }
+    let usage = sample_usage(&pids, seconds, || watch.pump(Duration::from_millis(500)))?;
+    let controllers: Vec<ControllerUsage> = MEASURED
+        .iter()
+        .zip(usage)
+        .map(
+            |(id, (rss_kb_max, cpu_percent_of_one_core))| ControllerUsage {
+                id: *id,
+                rss_kb_max,
+                cpu_percent_of_one_core,
+            },
+        )
+        .collect();
     fleet.stop_all();
     Ok(ResourceResult {
         rss_kb_max: controllers.iter().map(|c| c.rss_kb_max).max().unwrap_or(0),
