@@ -210,6 +210,7 @@ fn command_line(args: &BenchArgs, seed: u64) -> String {
 /// Runs the benchmarks, prints the report (and the JSON document), and fails when a kill or
 /// a formation failed.
 pub fn run(args: BenchArgs) -> Result<(), crate::Error> {
+    crate::cli::check_domain_with_networks(args.domain)?;
     Ok(run_bench(args)?)
 }
 

@@ -14,12 +14,27 @@ pub fn load_config(path: Option<&Path>, domain: Option<u16>) -> Result<Config, c
         None => Config::default(),
     };
     if let Some(domain) = domain {
-        config.dds.domain = domain;
-        config.validate().map_err(|invalid| {
-            crate::Error::Usage(format!("--domain {domain}: {}", invalid.rule))
-        })?;
+        with_domain(&mut config, domain)?;
     }
     Ok(config)
+}
+
+/// Checks a `--domain` for a run whose controllers start their network monitor (the bench's
+/// resource run, on loopback): the monitor's two domains after it must be valid too.
+pub fn check_domain_with_networks(domain: u16) -> Result<(), crate::Error> {
+    let mut config = Config::default();
+    config.networks.a = "127.0.0.1".into();
+    config.networks.b = "lo".into();
+    with_domain(&mut config, domain)
+}
+
+/// The one place a `--domain` is validated: as the configuration's `dds.domain`, so its rules
+/// (at most 232; with networks, room for the monitor's two domains) say what is wrong.
+fn with_domain(config: &mut Config, domain: u16) -> Result<(), crate::Error> {
+    config.dds.domain = domain;
+    config
+        .validate()
+        .map_err(|invalid| crate::Error::Usage(format!("--domain {domain}: {}", invalid.rule)))
 }
 
 /// SIGINT and SIGTERM set the returned flag.

@@ -67,6 +67,8 @@ fn spawn_error(e: std::io::Error) -> crate::Error {
 }
 
 pub fn run(args: DemoArgs) -> Result<(), crate::Error> {
+    // The children would each refuse a bad domain or configuration; say it once, at once.
+    crate::cli::load_config(args.config.as_deref(), Some(args.domain))?;
     let stop = crate::cli::stop_on_signals()?;
     let exe = std::env::current_exe().map_err(|e| crate::Error::io("locating rl", e))?;
     if let Some(dir) = &args.record {
