@@ -13,6 +13,7 @@
 //! in `target/tmp/dds-replay-all/NNNN/`. Exit 0: every replayed trace conforms; 1: some did
 //! not; 2: the arguments, the trace set, the configuration or the `rl` build could not be had.
 
+use clap::Parser;
 use conformance::dds_replay::{self, ReplayError, Setup};
 use conformance::trace::{self, Trace};
 use std::path::Path;
@@ -22,35 +23,29 @@ use std::time::Instant;
 /// The DDS domain the replays run on.
 const DOMAIN: u16 = 199;
 
-/// What the command line asks for.
+/// The DDS-level replay of every trace real processes can take (or of the named ones), each
+/// recording validated strictly against its trace.
+///
+/// Runs on domain 199, one trace after the other, with the `rl` built beside this program
+/// (`--all-features`). Exit 0: every replayed trace conforms; 1: some did not; 2: the
+/// arguments, the trace set, the configuration or the `rl` build could not be had.
+///
+/// Example: dds-replay-all --mutation failback 0001-formation-with-3-controllers.jsonl
+#[derive(Parser)]
+#[command(name = "dds-replay-all")]
 struct Arguments {
+    /// Run the controllers with this deliberately broken rule (`RL_MUTATION`):
+    /// promote-without-failure, ignore-minority-vote, failback, admit-fourth.
+    #[arg(long, value_name = "NAME")]
     mutation: Option<String>,
+    /// Trace files of traces/ to replay (default: every trace).
+    #[arg(value_name = "TRACE.jsonl")]
     files: Vec<String>,
 }
 
-fn arguments() -> Option<Arguments> {
-    let mut mutation = None;
-    let mut files = Vec::new();
-    let mut args = std::env::args().skip(1);
-    while let Some(arg) = args.next() {
-        if arg == "--mutation" {
-            mutation = Some(args.next()?);
-        } else if arg.starts_with('-') {
-            return None;
-        } else {
-            files.push(arg);
-        }
-    }
-    Some(Arguments { mutation, files })
-}
-
 fn main() -> ExitCode {
-    let Some(wanted) = arguments() else {
-        eprintln!(
-            "usage: dds-replay-all [--mutation NAME] [TRACE.jsonl ...]   (default: every trace)"
-        );
-        return ExitCode::from(2);
-    };
+    // Bad arguments exit 2 with clap's message naming them.
+    let wanted = Arguments::parse();
     let setup = dds_replay::timing().and_then(|timing| {
         let exe = dds_replay::fault_injection_rl()?;
         let traces = trace::read_dir(&trace::default_dir()).map_err(ReplayError::Unreadable)?;

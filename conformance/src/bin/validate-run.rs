@@ -7,35 +7,35 @@
 //! `rl`'s defaults. Exit 0: accepted; 1: rejected (the first round no model state explains,
 //! with the closest model states); 2: bad arguments or an unreadable recording.
 
+use clap::Parser;
 use conformance::record::Recording;
 use conformance::validate::{self, describe_lives};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-const USAGE: &str = "usage: validate-run DIR [--config PATH]";
+/// Checks a recorded run of `rl` controllers against the model: whether the model allows it.
+///
+/// DIR holds the JSON event logs `rl demo --record DIR` writes (or any `*.log` / `*.jsonl`
+/// files of `rl controller --json-events` lines). Exit 0: accepted; 1: rejected (the first
+/// round no model state explains, with the closest model states); 2: bad arguments or an
+/// unreadable recording.
+///
+/// Example: validate-run /tmp/demo-run --config rl.toml
+#[derive(Parser)]
+#[command(name = "validate-run")]
+struct Arguments {
+    /// The recording directory.
+    #[arg(value_name = "DIR")]
+    dir: PathBuf,
+    /// The run's configuration, for its round length (default: DIR/rl.toml, else rl's
+    /// defaults).
+    #[arg(long, value_name = "PATH")]
+    config: Option<PathBuf>,
+}
 
 fn main() -> ExitCode {
-    let mut args = std::env::args().skip(1);
-    let mut dir: Option<PathBuf> = None;
-    let mut config: Option<PathBuf> = None;
-    while let Some(arg) = args.next() {
-        match arg.as_str() {
-            "--config" => match args.next() {
-                Some(path) => config = Some(PathBuf::from(path)),
-                None => return usage("--config needs a path"),
-            },
-            "-h" | "--help" => {
-                println!("{USAGE}");
-                return ExitCode::SUCCESS;
-            }
-            other if other.starts_with('-') => return usage(&format!("unknown option {other}")),
-            other if dir.is_none() => dir = Some(PathBuf::from(other)),
-            other => return usage(&format!("unexpected argument {other}")),
-        }
-    }
-    let Some(dir) = dir else {
-        return usage("no recording directory given");
-    };
+    // Bad arguments exit 2 with clap's message naming them.
+    let Arguments { dir, config } = Arguments::parse();
     let (timing, source) = match validate::run_timing(&dir, config.as_deref()) {
         Ok(found) => found,
         Err(error) => {
@@ -69,9 +69,4 @@ fn main() -> ExitCode {
             ExitCode::from(1)
         }
     }
-}
-
-fn usage(problem: &str) -> ExitCode {
-    eprintln!("validate-run: {problem}\n{USAGE}");
-    ExitCode::from(2)
 }
