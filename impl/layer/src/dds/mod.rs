@@ -27,8 +27,10 @@
 //! extra field on the wire. The writer's ownership strength comes from discovery
 //! ([`Session::command_writer_strengths`], RustDDS `discovered_writers()`).
 
+mod app_topics;
 mod endpoint;
 mod network;
+mod participants;
 pub mod qos;
 mod role_writer;
 mod ros;
@@ -36,13 +38,13 @@ mod wake_switch;
 
 pub use endpoint::{guid_hex, Reader, Received, Writer};
 pub use network::NetworkParticipant;
+pub use participants::{ControllerDirectory, ParticipantKey};
 pub use role_writer::{Keying, NoKey, StrengthWriter, WithKey};
 pub use ros::StatusPublisher;
 pub use rustdds::{mio, GUID};
 pub use wake_switch::WakeSwitch;
 
 use crate::config::{Dds, Timing};
-use crate::core::{types::ControllerId, Heartbeat};
 use crate::wire::{
     AlarmSample, HeartbeatSample, NetworkAlarmSample, ServoControl, ShapeTypeExtended, VoteSample,
     WireError, WireSample,
@@ -53,7 +55,7 @@ use rustdds::{
     DomainParticipantBuilder, Publisher, QosPolicies, QosPolicyBuilder, RTPSEntity, Subscriber,
     Topic, TopicDescription, TopicKind,
 };
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 use std::time::Duration;
 
 /// A DDS failure, with the entity and topic it concerns.
@@ -108,20 +110,6 @@ pub enum DdsError {
     Keystore(#[from] crate::security::KeystoreError),
 }
 
-/// The 12-byte GUID prefix that identifies a participant (and prefixes all its entities).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub struct ParticipantKey(pub [u8; 12]);
-
-impl ParticipantKey {
-    /// The participant that `guid` (any of its entities, or itself) belongs to.
-    pub fn of(guid: GUID) -> ParticipantKey {
-        let bytes = guid.to_bytes();
-        let mut prefix = [0; 12];
-        prefix.copy_from_slice(&bytes[..12]);
-        ParticipantKey(prefix)
-    }
-}
-
 struct Topics {
     heartbeat: Topic,
     vote: Topic,
@@ -129,6 +117,55 @@ struct Topics {
     network_alarm: Topic,
     command: Topic,
     camera: Topic,
+}
+
+impl Topics {
+    /// RL's topics on `participant`, the device topics on `device_participant` (the same one
+    /// unless device topics are open), with the names of `dds` (already grouped).
+    fn create(
+        participant: &DomainParticipant,
+        device_participant: &DomainParticipant,
+        dds: &Dds,
+    ) -> Result<Topics, DdsError> {
+        Ok(Topics {
+            heartbeat: create_topic(
+                participant,
+                &dds.heartbeat_topic,
+                HeartbeatSample::TYPE_NAME,
+                TopicKind::WithKey,
+            )?,
+            vote: create_topic(
+                participant,
+                &dds.vote_topic,
+                VoteSample::TYPE_NAME,
+                TopicKind::WithKey,
+            )?,
+            alarm: create_topic(
+                participant,
+                &dds.controller_alarm_topic,
+                AlarmSample::TYPE_NAME,
+                TopicKind::WithKey,
+            )?,
+            network_alarm: create_topic(
+                participant,
+                &dds.network_alarm_topic,
+                NetworkAlarmSample::TYPE_NAME,
+                TopicKind::WithKey,
+            )?,
+            command: create_topic(
+                device_participant,
+                &dds.command_topic,
+                ServoControl::TYPE_NAME,
+                TopicKind::NoKey,
+            )?,
+            camera: create_topic(
+                device_participant,
+                &dds.camera_topic,
+                ShapeTypeExtended::TYPE_NAME,
+                TopicKind::WithKey,
+            )?,
+        })
+    }
 }
 
 /// The unsecured participant of the device topics (command, camera) beside a secured one,
@@ -298,44 +335,7 @@ impl Session {
             _ => None,
         };
         let device_participant = device.as_ref().map_or(&participant, |d| &d.participant);
-        let topics = Topics {
-            heartbeat: create_topic(
-                &participant,
-                &dds.heartbeat_topic,
-                HeartbeatSample::TYPE_NAME,
-                TopicKind::WithKey,
-            )?,
-            vote: create_topic(
-                &participant,
-                &dds.vote_topic,
-                VoteSample::TYPE_NAME,
-                TopicKind::WithKey,
-            )?,
-            alarm: create_topic(
-                &participant,
-                &dds.controller_alarm_topic,
-                AlarmSample::TYPE_NAME,
-                TopicKind::WithKey,
-            )?,
-            network_alarm: create_topic(
-                &participant,
-                &dds.network_alarm_topic,
-                NetworkAlarmSample::TYPE_NAME,
-                TopicKind::WithKey,
-            )?,
-            command: create_topic(
-                device_participant,
-                &dds.command_topic,
-                ServoControl::TYPE_NAME,
-                TopicKind::NoKey,
-            )?,
-            camera: create_topic(
-                device_participant,
-                &dds.camera_topic,
-                ShapeTypeExtended::TYPE_NAME,
-                TopicKind::WithKey,
-            )?,
-        };
+        let topics = Topics::create(&participant, device_participant, dds)?;
         Ok(Session {
             context,
             participant,
@@ -507,61 +507,6 @@ impl Session {
         )
     }
 
-    /// A writer of an application's own topic `name` (DDS type name `type_name`), with the
-    /// command topic's QoS: exclusive ownership at `strength` (`None` = no writer until a
-    /// strength is set), the command deadline. It goes on the participant the command topic
-    /// is on (the device participant when device topics are open).
-    pub fn strength_writer<T, K>(
-        &self,
-        name: &str,
-        type_name: &str,
-        strength: Option<i32>,
-    ) -> Result<StrengthWriter<T, K>, DdsError>
-    where
-        T: Clone,
-        K: Keying<T>,
-    {
-        let participant = match &self.device {
-            Some(device) => &device.participant,
-            None => &self.participant,
-        };
-        let topic = create_topic(participant, name, type_name, K::KIND)?;
-        let publisher = match &self.device {
-            Some(device) => device.publisher.clone(),
-            None => self.publisher.clone(),
-        };
-        StrengthWriter::new(publisher, topic, self.timing.clone(), strength)
-    }
-
-    /// A best-effort reader of an application's own unkeyed topic `name` (DDS type name
-    /// `type_name`), as a standby follows the owner of a role-written topic
-    /// (crate::owner_feed, crate::api::Redundancy::owner_feed).
-    pub fn plain_reader<T>(
-        &self,
-        name: &str,
-        type_name: &str,
-    ) -> Result<Reader<crate::wire::Plain<T>>, DdsError>
-    where
-        T: Clone + serde::de::DeserializeOwned + Send + 'static,
-    {
-        let participant = match &self.device {
-            Some(device) => &device.participant,
-            None => &self.participant,
-        };
-        let topic = create_topic(participant, name, type_name, TopicKind::NoKey)?;
-        let subscriber = match &self.device {
-            Some(device) => &device.subscriber,
-            None => &self.subscriber,
-        };
-        let raw = subscriber
-            .create_datareader_no_key::<crate::wire::Plain<T>, CDRDeserializerAdapter<_>>(
-                &topic,
-                Some(qos::command_follower_reader(&self.timing)),
-            )
-            .map_err(|e| create_error("reader", &topic, e))?;
-        Ok(Reader::unkeyed(raw, &topic))
-    }
-
     /// A camera reader: all colours (filter by `color` yourself: RustDDS has no content
     /// filter).
     pub fn camera_reader(&self) -> Result<Reader<ShapeTypeExtended>, DdsError> {
@@ -611,43 +556,5 @@ fn create_error(what: &'static str, topic: &Topic, error: rustdds::dds::CreateEr
         what,
         topic: topic.name(),
         reason: error.to_string(),
-    }
-}
-
-/// Which controller each participant belongs to, learned from heartbeats (see the module
-/// header): turns a command's writer GUID into a controller id.
-#[derive(Clone, Debug, Default)]
-pub struct ControllerDirectory {
-    by_participant: HashMap<ParticipantKey, ControllerId>,
-}
-
-impl ControllerDirectory {
-    /// A directory that knows no participant yet.
-    pub fn new() -> ControllerDirectory {
-        ControllerDirectory::default()
-    }
-
-    /// Records the sender of a heartbeat. A restarted controller is a new participant: its
-    /// old entry stays, harmless, as nothing writes from that participant any more.
-    pub fn note_heartbeat(&mut self, heartbeat: &Received<Heartbeat>) {
-        self.by_participant
-            .insert(ParticipantKey::of(heartbeat.writer), heartbeat.value.id);
-    }
-
-    /// The controller whose participant wrote through `writer`.
-    pub fn controller_of(&self, writer: GUID) -> Option<ControllerId> {
-        self.by_participant
-            .get(&ParticipantKey::of(writer))
-            .copied()
-    }
-
-    /// How many participants it has mapped to a controller (restarts included).
-    pub fn len(&self) -> usize {
-        self.by_participant.len()
-    }
-
-    /// Whether no heartbeat has been noted yet.
-    pub fn is_empty(&self) -> bool {
-        self.by_participant.is_empty()
     }
 }
