@@ -108,7 +108,7 @@ fn start_network_monitor(
     let alarms_out = rl
         .session()
         .network_alarm_writer()
-        .map_err(|e| crate::Error::Dds(e.to_string()))?;
+        .map_err(crate::Error::dds)?;
     let options = MonitorOptions {
         id,
         incarnation: rl.status().report.incarnation,
@@ -144,7 +144,7 @@ fn track(
     duration_ms: Option<u64>,
     notifier: &mut Notifier,
 ) -> Result<(), crate::Error> {
-    let dds = |e: rl_layer::dds::DdsError| crate::Error::Dds(e.to_string());
+    let dds = |e: rl_layer::dds::DdsError| crate::Error::dds(e);
     let mut camera = rl.session().camera_reader().map_err(dds)?;
     // The commanding controller's commands, to follow while standing by.
     let mut owner_commands = OwnerFeed::open(

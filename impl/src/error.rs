@@ -12,28 +12,12 @@ pub enum Error {
     /// A bad command-line value (names the flag).
     #[error("{0}")]
     Usage(String),
-    /// DDS, used directly by a tool (a simulator's or the status table's own participant),
-    /// could not be set up or used.
-    #[error("DDS: {0}")]
-    Dds(String),
-    /// An operating-system operation failed.
-    #[error("{context}: {source}")]
-    Io {
-        /// What the command was doing.
-        context: String,
-        /// What the system said.
-        #[source]
-        source: std::io::Error,
-    },
     /// A benchmark failed, or measured failed kills or formations.
     #[error(transparent)]
     Bench(#[from] BenchError),
     /// The demo stopped early.
     #[error(transparent)]
     Demo(#[from] DemoError),
-    /// Anything else that ends a command.
-    #[error("{0}")]
-    Runtime(String),
 }
 
 impl Error {
@@ -47,12 +31,21 @@ impl Error {
         }
     }
 
-    /// An operating-system error with what the command was doing.
+    /// An operating-system error with what the command was doing (the layer's, so a tool and
+    /// the layer report it alike).
     pub fn io(context: impl Into<String>, source: std::io::Error) -> Error {
-        Error::Io {
-            context: context.into(),
-            source,
-        }
+        Error::Layer(rl_layer::Error::io(context, source))
+    }
+
+    /// DDS, used directly by a tool (a simulator's or the status table's own participant),
+    /// could not be set up or used.
+    pub fn dds(reason: impl std::fmt::Display) -> Error {
+        Error::Layer(rl_layer::Error::Dds(reason.to_string()))
+    }
+
+    /// Anything else that ends a command.
+    pub fn runtime(reason: impl Into<String>) -> Error {
+        Error::Layer(rl_layer::Error::Runtime(reason.into()))
     }
 }
 
@@ -66,7 +59,7 @@ impl From<rl_layer::dds::DdsError> for Error {
     fn from(error: rl_layer::dds::DdsError) -> Error {
         match error {
             rl_layer::dds::DdsError::Keystore(keystore) => Error::Layer(keystore.into()),
-            other => Error::Dds(other.to_string()),
+            other => Error::dds(other),
         }
     }
 }

@@ -102,7 +102,7 @@ const COMMANDS: mio::Token = mio::Token(0);
 const HEARTBEATS: mio::Token = mio::Token(1);
 
 fn dds_error(error: rl_layer::dds::DdsError) -> Error {
-    Error::Dds(error.to_string())
+    Error::dds(error)
 }
 
 /// Writes lines to stdout, flushing each; a closed pipe ends the run quietly.
@@ -123,7 +123,7 @@ impl Output {
 
     fn event(&self, event: &ServoEvent) -> Result<bool, Error> {
         let text = serde_json::to_string(event)
-            .map_err(|e| Error::Runtime(format!("encoding a servo event: {e}")))?;
+            .map_err(|e| Error::runtime(format!("encoding a servo event: {e}")))?;
         self.line(&text)
     }
 }

@@ -124,23 +124,19 @@ pub fn run(args: ShapesArgs) -> Result<(), Error> {
     let stop = crate::cli::stop_on_signals()?;
     let keystore = rl_layer::security::keystore_of(&config)?;
     let session = Session::with_keystore(&config.dds, &config.timing, false, keystore.as_ref())
-        .map_err(|e| Error::Dds(e.to_string()))?;
-    let writer = session
-        .camera_writer()
-        .map_err(|e| Error::Dds(e.to_string()))?;
+        .map_err(Error::dds)?;
+    let writer = session.camera_writer().map_err(Error::dds)?;
     let mut feed = if args.open_loop {
         None
     } else {
         Some(
             OwnerFeed::open(
                 &session,
-                session
-                    .command_reader()
-                    .map_err(|e| Error::Dds(e.to_string()))?,
+                session.command_reader().map_err(Error::dds)?,
                 config.timing.command_deadline_ms,
                 config.timing.peer_deadline_ms,
             )
-            .map_err(|e| Error::Dds(e.to_string()))?,
+            .map_err(Error::dds)?,
         )
     };
     let mut gimbal = Gimbal::default();
@@ -184,9 +180,7 @@ pub fn run(args: ShapesArgs) -> Result<(), Error> {
                 },
                 _ => shape(color, t_s),
             };
-            writer
-                .write(&sample)
-                .map_err(|e| Error::Dds(e.to_string()))?;
+            writer.write(&sample).map_err(Error::dds)?;
         }
         // A closed stdout (the reader left) ends the camera.
         if args.json && !print_frame(t_ms, yellow, &gimbal) {

@@ -330,7 +330,7 @@ pub struct BoardFeed {
 
 impl BoardFeed {
     pub fn new(session: &rl_layer::dds::Session) -> Result<BoardFeed, crate::Error> {
-        let dds = |e: rl_layer::dds::DdsError| crate::Error::Dds(e.to_string());
+        let dds = |e: rl_layer::dds::DdsError| crate::Error::dds(e);
         Ok(BoardFeed {
             heartbeats: session.heartbeat_reader().map_err(dds)?,
             alarms: session.alarm_reader().map_err(dds)?,
@@ -404,7 +404,7 @@ pub fn run(args: StatusArgs) -> Result<(), crate::Error> {
         let view = board.view(now, alive_within_ms);
         if args.json {
             let line = serde_json::to_string(&view)
-                .map_err(|e| crate::Error::Runtime(format!("status JSON: {e}")))?;
+                .map_err(|e| crate::Error::runtime(format!("status JSON: {e}")))?;
             println!("{line}");
         } else {
             if !args.once {

@@ -241,7 +241,7 @@ pub fn answer(request: &http::Request, snapshot: &Snapshot) -> http::Response {
 /// Binds `addr` and serves the snapshot from then on; the caller keeps it fresh.
 pub fn start(addr: &str) -> Result<Arc<Mutex<Snapshot>>, crate::Error> {
     let listener = std::net::TcpListener::bind(addr)
-        .map_err(|e| crate::Error::Runtime(format!("rl status --serve {addr}: {e}")))?;
+        .map_err(|e| crate::Error::runtime(format!("rl status --serve {addr}: {e}")))?;
     let bound = listener
         .local_addr()
         .map_or_else(|_| addr.to_string(), |a| a.to_string());
@@ -252,7 +252,7 @@ pub fn start(addr: &str) -> Result<Arc<Mutex<Snapshot>>, crate::Error> {
         answer(request, &current)
     });
     http::serve(listener, handler)
-        .map_err(|e| crate::Error::Runtime(format!("starting the HTTP server: {e}")))?;
+        .map_err(|e| crate::Error::runtime(format!("starting the HTTP server: {e}")))?;
     eprintln!("rl status: serving http://{bound}/ (/status.json, /live.json, /metrics)");
     Ok(snapshot)
 }
