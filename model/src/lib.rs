@@ -12,11 +12,13 @@
 //! - [`search`]: our own breadth-first search for shortest counterexamples and traces;
 //! - [`simulate`]: seeded random walks, one seed reproducing one walk on any machine;
 //! - [`traces`]: the committed trace set the conformance suite replays;
-//! - [`render`]: readable states, steps and sequence diagrams.
+//! - [`render`]: readable states, steps and sequence diagrams;
+//! - [`explore`]: the front of stateright's explorer UI that names the initial states.
 //!
 //! Time is counted in rounds of one heartbeat period (docs/model.md explains why).
 
 pub mod config;
+pub mod explore;
 pub mod fixes;
 pub mod properties;
 pub mod protocol;

@@ -2,6 +2,7 @@
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use model::config::ConfigError;
+use model::explore::{ExploreError, Front};
 use model::properties::{catalogue, PropertyInfo};
 use model::traces::TraceFileError;
 use model::{search, simulate, traces, Config, Fix, Mutation, RlModel, Variant};
@@ -23,6 +24,9 @@ enum CliError {
     /// The trace directory could not be read or written.
     #[error(transparent)]
     Traces(#[from] TraceFileError),
+    /// The explorer's address cannot be listened on, or the explorer did not start.
+    #[error(transparent)]
+    Explore(#[from] ExploreError),
 }
 
 /// RL's voting protocol, as a checkable specification.
@@ -46,6 +50,9 @@ enum Command {
     /// exits 1.
     Check(CheckArgs),
     /// Serve stateright's explorer UI: walk the protocol step by step in a browser.
+    ///
+    /// The initial states are named by which controllers start and which may join later
+    /// (stateright itself says "Init 0", "Init 1", ...).
     Explore {
         #[command(flatten)]
         scope: Scope,
@@ -349,10 +356,13 @@ fn join(checker: DynChecker) -> DynChecker {
     checker
 }
 
+/// stateright's explorer behind a front that names the initial states (model::explore).
 fn explore(scope: &Scope, addr: &str) -> Result<ExitCode, CliError> {
     let config = scope.config()?;
+    let front = Front::start(&RlModel::new(config.clone()), addr)?;
     println!("explorer for {} at http://{addr}/", config.summary());
-    RlModel::new(config).checker().serve(addr.to_string());
+    println!("initial states: {}", front.names().join(" | "));
+    front.run();
     Ok(ExitCode::SUCCESS)
 }
 

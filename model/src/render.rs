@@ -145,6 +145,36 @@ pub fn network_line(s: &State) -> String {
     line
 }
 
+/// The explorer's name for an initial state: which controllers are up at the start and which
+/// may join later, e.g. `C1, C2 start; C3 may join later` (stateright's UI says `Init 1`).
+pub fn initial_state_name(s: &State) -> String {
+    let ids = |pred: fn(Life) -> bool| -> Vec<String> {
+        s.controllers
+            .iter()
+            .filter(|c| pred(c.life))
+            .map(|c| format!("C{}", c.id))
+            .collect()
+    };
+    let started = ids(|life| matches!(life, Life::Up | Life::Paused));
+    let joining = ids(|life| life == Life::NotStarted);
+    let down = ids(|life| life == Life::Down);
+    let mut parts = Vec::new();
+    for (list, one, many) in [
+        (started, "starts", "start"),
+        (joining, "may join later", "may join later"),
+        (down, "is down", "are down"),
+    ] {
+        if !list.is_empty() {
+            let verb = if list.len() == 1 { one } else { many };
+            parts.push(format!("{} {verb}", list.join(", ")));
+        }
+    }
+    if parts.is_empty() {
+        return "no controllers".to_string();
+    }
+    parts.join("; ")
+}
+
 /// What changed between two states, one line per changed controller.
 pub fn diff(before: &State, after: &State) -> String {
     let mut out = String::new();

@@ -1,6 +1,7 @@
-//! The explorer serves the UI, and a reviewer sees actions and states by name: checked over
-//! plain HTTP and in headless Chromium. The Chromium test is ignored by default (it needs the
-//! browser installed); `cargo test -- --include-ignored` runs it and fails without Chromium.
+//! The explorer serves the UI, and a reviewer sees actions, states and the initial states by
+//! name: checked over plain HTTP and in headless Chromium. The Chromium test is ignored by
+//! default (it needs the browser installed); `cargo test -- --include-ignored` runs it and
+//! fails without Chromium.
 
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
@@ -84,18 +85,18 @@ fn wait_listening(explorer: &mut Child, port: u16) -> Result<(), String> {
     }
 }
 
-/// One HTTP GET. stateright's explorer server sometimes resets a connection while its
-/// checker thread is busy on a loaded machine: retry a few times before failing.
+/// One HTTP/1.0 GET (an answer of known length, never chunked). stateright's explorer server
+/// sometimes resets a connection while its checker thread is busy on a loaded machine (the
+/// front then answers 502): retry a few times before failing.
 fn get(port: u16, path: &str) -> String {
     let mut last_error = None;
     for _ in 0..5 {
         match try_get(port, path) {
-            Ok(response) => return response,
-            Err(error) => {
-                last_error = Some(error);
-                std::thread::sleep(Duration::from_millis(300));
-            }
+            Ok(response) if !response.starts_with("HTTP/1.0 502 ") => return response,
+            Ok(response) => last_error = Some(response),
+            Err(error) => last_error = Some(error.to_string()),
         }
+        std::thread::sleep(Duration::from_millis(300));
     }
     panic!("GET {path}: {last_error:?}");
 }
@@ -103,10 +104,7 @@ fn get(port: u16, path: &str) -> String {
 fn try_get(port: u16, path: &str) -> std::io::Result<String> {
     let mut stream = TcpStream::connect(("127.0.0.1", port))?;
     stream.set_read_timeout(Some(Duration::from_secs(20)))?;
-    write!(
-        stream,
-        "GET {path} HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n"
-    )?;
+    write!(stream, "GET {path} HTTP/1.0\r\nHost: 127.0.0.1\r\n\r\n")?;
     let mut response = String::new();
     stream.read_to_string(&mut response)?;
     Ok(response)
@@ -124,6 +122,39 @@ fn explorer_json_names_actions_and_states() {
     assert!(states.contains("round ends"), "{states}");
     assert!(states.contains("C1 up#0 initializing"), "{states}");
     assert!(!states.contains("Controller {"), "raw Debug dump: {states}");
+    // The initial states, named by who starts and who may join later (stateright's own
+    // answer has no name, and its UI says "Init 0", ...).
+    for path in ["/.states", "/.states/"] {
+        let response = get(port, path);
+        assert!(response.starts_with("HTTP/1.0 200 "), "{response}");
+        assert_eq!(initial_state_names(&response), INITIAL_STATES, "{path}");
+        assert!(!response.contains("Init"), "{response}");
+    }
+    let missing = get(port, "/.states/9");
+    assert!(missing.starts_with("HTTP/1.0 404 "), "{missing}");
+}
+
+/// The initial states of the tests' configuration, as the explorer names them.
+const INITIAL_STATES: [&str; 3] = [
+    "C1 starts; C2, C3 may join later",
+    "C1, C2 start; C3 may join later",
+    "C1, C2, C3 start",
+];
+
+/// The `action` of each element of a `/.states` answer, in order.
+fn initial_state_names(response: &str) -> Vec<String> {
+    let (_, body) = response
+        .split_once("\r\n\r\n")
+        .unwrap_or_else(|| panic!("no body in {response}"));
+    let states: Vec<serde_json::Value> =
+        serde_json::from_str(body).unwrap_or_else(|error| panic!("{error}: {body}"));
+    states
+        .iter()
+        .map(|state| match state["action"].as_str() {
+            Some(name) => name.to_string(),
+            None => panic!("an initial state without a name: {state}"),
+        })
+        .collect()
 }
 
 /// Chromium on PATH (Debian's `chromium`, or `chromium-browser` elsewhere).
@@ -151,6 +182,16 @@ fn chromium_renders_an_action_and_a_state_by_name() {
         dom.contains("C1 up#0"),
         "no controller state by name in:\n{dom}"
     );
+    assert!(
+        dom.contains(INITIAL_STATES[0]),
+        "the path does not start with the initial state's name:\n{dom}"
+    );
+    // The first screen: the initial states to choose from, each by name.
+    let dom = dump_dom(&browser, port, &format!("http://127.0.0.1:{port}/#/steps"));
+    for name in INITIAL_STATES {
+        assert!(dom.contains(name), "no initial state {name:?} in:\n{dom}");
+    }
+    assert!(!dom.contains("Init 0"), "stateright's own name in:\n{dom}");
 }
 
 /// The page's DOM after its scripts ran, from headless Chromium. A Chromium that exits
