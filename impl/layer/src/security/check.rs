@@ -3,9 +3,9 @@
 //! name the certificate's subject). RustDDS checks the same when the participant is created,
 //! but its errors do not say which file is at fault; these do.
 
+use super::certificate::{self, Certificate};
 use super::{pem, smime, Keystore, KeystoreError, CA_CERT, CERT, KEY, PERMISSIONS};
-use x509_parser::certificate::X509Certificate;
-use x509_parser::prelude::FromDer;
+use der::Decode;
 
 fn read(keystore: &Keystore, name: &str) -> Result<String, KeystoreError> {
     let path = keystore.path(name);
@@ -13,56 +13,37 @@ fn read(keystore: &Keystore, name: &str) -> Result<String, KeystoreError> {
         .map_err(|e| KeystoreError::new(&path, format!("cannot read: {e}")))
 }
 
-fn certificate_der(keystore: &Keystore, name: &str) -> Result<pem::Der, KeystoreError> {
-    let text = read(keystore, name)?;
-    pem::decode(&text, "CERTIFICATE").map_err(|e| KeystoreError::new(&keystore.path(name), e))
-}
-
-fn parse<'a>(
-    keystore: &Keystore,
-    name: &str,
-    der: &'a pem::Der,
-) -> Result<X509Certificate<'a>, KeystoreError> {
-    let (_, certificate) = X509Certificate::from_der(&der.0).map_err(|e| {
-        KeystoreError::new(
-            &keystore.path(name),
-            format!("not an X.509 certificate: {e}"),
-        )
-    })?;
-    let validity = certificate.validity();
-    if !validity.is_valid() {
-        let now = x509_parser::time::ASN1Time::now();
-        let problem = if now < validity.not_before {
-            format!("not valid before {}", validity.not_before)
-        } else {
-            format!("expired on {}", validity.not_after)
-        };
-        return Err(KeystoreError::new(&keystore.path(name), problem));
-    }
+/// The certificate in the keystore's file `name`, parsed and current.
+fn certificate(keystore: &Keystore, name: &str) -> Result<Certificate, KeystoreError> {
+    let path = keystore.path(name);
+    let der = pem::decode(&read(keystore, name)?, "CERTIFICATE")
+        .map_err(|e| KeystoreError::new(&path, e.to_string()))?;
+    let certificate = Certificate::from_der(&der.0)
+        .map_err(|e| KeystoreError::new(&path, format!("not an X.509 certificate: {e}")))?;
+    certificate::current(&certificate, std::time::SystemTime::now())
+        .map_err(|e| KeystoreError::new(&path, e.to_string()))?;
     Ok(certificate)
 }
 
 /// Checks every file of `keystore`; the first problem found is the error.
 pub fn check(keystore: &Keystore) -> Result<(), KeystoreError> {
-    let ca_der = certificate_der(keystore, CA_CERT)?;
-    let ca = parse(keystore, CA_CERT, &ca_der)?;
-    let ca_key = ca.public_key().subject_public_key.data.to_vec();
+    let ca = certificate(keystore, CA_CERT)?;
+    let ca_key = certificate::public_key(&ca);
 
-    let cert_der = certificate_der(keystore, CERT)?;
-    let cert = parse(keystore, CERT, &cert_der)?;
-    cert.verify_signature(Some(ca.public_key())).map_err(|_| {
-        KeystoreError::new(
+    let cert = certificate(keystore, CERT)?;
+    if !certificate::issued_by(&cert, &ca) {
+        return Err(KeystoreError::new(
             &keystore.path(CERT),
             format!(
                 "was not issued by the CA of {}",
                 keystore.path(CA_CERT).display()
             ),
-        )
-    })?;
+        ));
+    }
 
     let key_text = read(keystore, KEY)?;
     let key_der = pem::decode(&key_text, "PRIVATE KEY")
-        .map_err(|e| KeystoreError::new(&keystore.path(KEY), e))?;
+        .map_err(|e| KeystoreError::new(&keystore.path(KEY), e.to_string()))?;
     let key = ring::signature::EcdsaKeyPair::from_pkcs8(
         &ring::signature::ECDSA_P256_SHA256_ASN1_SIGNING,
         &key_der.0,
@@ -74,9 +55,7 @@ pub fn check(keystore: &Keystore) -> Result<(), KeystoreError> {
             format!("not an ECDSA P-256 PKCS#8 key: {e}"),
         )
     })?;
-    if ring::signature::KeyPair::public_key(&key).as_ref()
-        != cert.public_key().subject_public_key.data.as_ref()
-    {
+    if ring::signature::KeyPair::public_key(&key).as_ref() != certificate::public_key(&cert) {
         return Err(KeystoreError::new(
             &keystore.path(KEY),
             format!("is not the key of {}", keystore.path(CERT).display()),
@@ -84,12 +63,12 @@ pub fn check(keystore: &Keystore) -> Result<(), KeystoreError> {
     }
 
     let governance = super::GOVERNANCE;
-    smime::verify(&read(keystore, governance)?, &ca_key)
-        .map_err(|e| KeystoreError::new(&keystore.path(governance), e))?;
+    smime::verify(&read(keystore, governance)?, ca_key)
+        .map_err(|e| KeystoreError::new(&keystore.path(governance), e.to_string()))?;
 
-    let permissions = smime::verify(&read(keystore, PERMISSIONS)?, &ca_key)
-        .map_err(|e| KeystoreError::new(&keystore.path(PERMISSIONS), e))?;
-    let subject = cert.subject().to_string();
+    let permissions = smime::verify(&read(keystore, PERMISSIONS)?, ca_key)
+        .map_err(|e| KeystoreError::new(&keystore.path(PERMISSIONS), e.to_string()))?;
+    let subject = cert.tbs_certificate().subject().to_string();
     match super::documents::permissions_subject(&permissions) {
         Some(granted) if granted == subject => Ok(()),
         granted => Err(KeystoreError::new(

@@ -10,17 +10,18 @@
 //! keystore`). The CA key never leaves the directory `init` made. (OpenSSL is not involved:
 //! RustDDS itself needs it only for its Diffie-Hellman exchange.)
 
+use super::certificate::Certificate;
 use super::documents::{self, Grantee};
-use super::pem::{self, Der};
+use super::pem;
 use super::{smime, CA_CERT, CA_KEY, CERT, GOVERNANCE, KEY, PERMISSIONS};
 use crate::config::Dds;
+use der::Decode;
 use rcgen::{
     BasicConstraints, CertificateParams, DnType, IsCa, KeyPair, KeyUsagePurpose, SerialNumber,
     PKCS_ECDSA_P256_SHA256,
 };
 use std::path::{Path, PathBuf};
 use time::{Duration, OffsetDateTime};
-use x509_parser::prelude::FromDer;
 
 const CA_COMMON_NAME: &str = "rl-ca";
 
@@ -94,10 +95,10 @@ fn ca_params(validity: Validity) -> CertificateParams {
     params
 }
 
-/// The CA as loaded from `dir`: its key, its certificate (DER and as rcgen's issuer).
+/// The CA as loaded from `dir`: its key, its certificate (parsed and as rcgen's issuer).
 struct Ca {
     key: KeyPair,
-    cert_der: Der,
+    cert: Certificate,
     issuer: rcgen::Certificate,
 }
 
@@ -108,34 +109,19 @@ fn load_ca(dir: &Path) -> Result<Ca, KeysError> {
     let cert_path = dir.join(CA_CERT);
     let cert_der =
         pem::decode(&read(&cert_path)?, "CERTIFICATE").map_err(|e| fail(&cert_path, e))?;
+    let cert = Certificate::from_der(&cert_der.0)
+        .map_err(|e| fail(&cert_path, format!("not an X.509 certificate: {e}")))?;
     // rcgen signs with the issuer's name and key identifier, which come from its parameters
     // and key: the same parameters give the same issuer.
     let issuer = ca_params(Validity::from_now(1))
         .self_signed(&key)
         .map_err(|e| fail(&key_path, e))?;
-    Ok(Ca {
-        key,
-        cert_der,
-        issuer,
-    })
+    Ok(Ca { key, cert, issuer })
 }
 
 /// Signs `document` as the CA (S/MIME).
 fn sign(ca: &Ca, document: &str, path: &Path) -> Result<String, KeysError> {
-    let (_, cert) = x509_parser::certificate::X509Certificate::from_der(&ca.cert_der.0)
-        .map_err(|e| fail(path, format!("the CA certificate does not parse: {e}")))?;
-    let serial = cert.tbs_certificate.raw_serial();
-    let mut serial_der = vec![0x02];
-    serial_der.extend(pem::der_length(serial.len()));
-    serial_der.extend_from_slice(serial);
-    smime::sign(
-        document,
-        &ca.key.serialize_der(),
-        &ca.cert_der,
-        cert.tbs_certificate.issuer.as_raw(),
-        &serial_der,
-    )
-    .map_err(|e| fail(path, e))
+    smime::sign(document, &ca.key.serialize_der(), &ca.cert).map_err(|e| fail(path, e))
 }
 
 /// `rl keys init`: a new CA and the governance document in `dir` (created if missing). An

@@ -13,6 +13,8 @@
 //! feature; without it a keystore in the configuration is refused and `rl keys` says so.
 
 #[cfg(feature = "security")]
+mod certificate;
+#[cfg(feature = "security")]
 mod check;
 pub mod documents;
 #[cfg(feature = "security")]

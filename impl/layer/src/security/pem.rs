@@ -1,48 +1,53 @@
-//! Small DER and PEM helpers shared by the signer and the keystore checks.
+//! PEM files of a keystore, read with the `pem` crate: the one block of a given label (a
+//! certificate, a PKCS#8 key) as DER.
 
-/// DER bytes (a certificate, a name, a key).
+/// DER bytes (a certificate, a key).
 #[derive(Clone, Debug)]
 pub struct Der(pub Vec<u8>);
 
-/// The DER length octets for a content of `length` bytes.
-pub fn der_length(length: usize) -> Vec<u8> {
-    if length < 0x80 {
-        return vec![length as u8];
-    }
-    let bytes: Vec<u8> = length
-        .to_be_bytes()
-        .into_iter()
-        .skip_while(|b| *b == 0)
-        .collect();
-    let mut out = vec![0x80 | bytes.len() as u8];
-    out.extend(bytes);
-    out
+/// Why a PEM file yielded no block of the label asked for.
+#[derive(Debug, thiserror::Error)]
+pub enum PemError {
+    /// The text is not PEM (or a block is damaged).
+    #[error("not a PEM file: {0}")]
+    NotPem(#[from] pem::PemError),
+    /// PEM, but no block has the label.
+    #[error("no PEM block \"{0}\"")]
+    Missing(String),
 }
 
 /// The first PEM block labelled `label` in `text`, decoded.
-pub fn decode(text: &str, label: &str) -> Result<Der, String> {
-    let mut rest = text.as_bytes();
-    loop {
-        match x509_parser::pem::Pem::read(std::io::Cursor::new(rest)) {
-            Ok((pem, consumed)) => {
-                if pem.label == label {
-                    return Ok(Der(pem.contents));
-                }
-                rest = &rest[consumed..];
-            }
-            Err(_) => return Err(format!("no PEM block \"{label}\"")),
-        }
-    }
+pub fn decode(text: &str, label: &str) -> Result<Der, PemError> {
+    pem::parse_many(text)?
+        .into_iter()
+        .find(|block| block.tag() == label)
+        .map(|block| Der(block.into_contents()))
+        .ok_or_else(|| PemError::Missing(label.to_string()))
 }
 
 #[cfg(test)]
 mod tests {
-    use super::der_length;
+    use super::{decode, PemError};
+
+    const TWO_BLOCKS: &str = "-----BEGIN OTHER-----\nAQID\n-----END OTHER-----\n\
+                              -----BEGIN CERTIFICATE-----\nBAUG\n-----END CERTIFICATE-----\n";
 
     #[test]
-    fn der_lengths() {
-        assert_eq!(der_length(5), [5]);
-        assert_eq!(der_length(0x80), [0x81, 0x80]);
-        assert_eq!(der_length(0x1234), [0x82, 0x12, 0x34]);
+    fn the_block_of_the_label_is_found_among_others() {
+        assert_eq!(decode(TWO_BLOCKS, "CERTIFICATE").unwrap().0, [4, 5, 6]);
+        assert_eq!(decode(TWO_BLOCKS, "OTHER").unwrap().0, [1, 2, 3]);
+    }
+
+    #[test]
+    fn a_missing_label_or_bad_base64_is_named() {
+        assert!(matches!(
+            decode(TWO_BLOCKS, "PRIVATE KEY"),
+            Err(PemError::Missing(label)) if label == "PRIVATE KEY"
+        ));
+        let damaged = "-----BEGIN CERTIFICATE-----\n!!!\n-----END CERTIFICATE-----\n";
+        assert!(matches!(
+            decode(damaged, "CERTIFICATE"),
+            Err(PemError::NotPem(_))
+        ));
     }
 }
