@@ -13,7 +13,6 @@ use crate::tracker::PanTiltController;
 use rl_layer::api::{Options, Redundancy};
 use rl_layer::config::Config;
 use rl_layer::core::types::ControllerId;
-use rl_layer::dds::ParticipantKey;
 use rl_layer::network_monitor::{MonitorOptions, NetworkMonitor};
 use rl_layer::owner_feed::OwnerFeed;
 use rl_layer::service::{LoopProgress, Notifier};
@@ -181,7 +180,7 @@ fn track(
         // from its commands, so a takeover continues from there (crate::tracker, `align`).
         let now_ms = u64::try_from(started.elapsed().as_millis()).unwrap_or(u64::MAX);
         if let Some((command, writer)) = owner_commands.take(rl.session(), now_ms) {
-            if ParticipantKey::of(writer) != own_participant {
+            if rl_layer::dds::participant_key(writer) != own_participant {
                 pan_tilt.align(command.pan, command.tilt);
             }
         }

@@ -10,7 +10,7 @@ use rl_layer::arbiter::Arbiter;
 use rl_layer::config::{Dds, Timing};
 use rl_layer::core::types::{Assignment, Holder, Phase, Role, VoteRecord};
 use rl_layer::core::Heartbeat;
-use rl_layer::dds::{mio, ControllerDirectory, ParticipantKey, Session, GUID};
+use rl_layer::dds::{mio, ControllerDirectory, Session, GUID};
 use rl_layer::wire::{HeartbeatSample, RosString, ServoControl, WireSample, HEARTBEAT_TYPE_NAME};
 use rustdds::{
     policy::{Durability, History, Reliability},
@@ -267,7 +267,7 @@ fn recreated_command_writer_is_seen_with_its_new_strength() {
     assert_eq!(writer.strength(), Some(20));
     let old_guid = writer.guid().unwrap();
     assert_eq!(
-        ParticipantKey::of(old_guid),
+        rl_layer::dds::participant_key(old_guid),
         writer_session.participant_key(),
         "a writer's GUID starts with its participant's prefix"
     );
@@ -339,7 +339,7 @@ fn heartbeats_and_votes_round_trip_and_name_their_participant() {
     });
     assert_eq!(received.value, sent);
     assert_eq!(
-        ParticipantKey::of(received.writer),
+        rl_layer::dds::participant_key(received.writer),
         writer_session.participant_key()
     );
     let mut directory = ControllerDirectory::new();

@@ -89,6 +89,7 @@ fn cause_text(cause: Cause) -> String {
         Cause::Timer(Timer::RoundEnd) => "round end".to_string(),
         Cause::Timer(Timer::WindowExpiry) => "window expiry".to_string(),
         Cause::Timer(Timer::Heartbeat) => "heartbeat due".to_string(),
+        Cause::Timer(Timer::Exit) => "exit due".to_string(),
         Cause::HeartbeatFrom(from) => format!("heartbeat from C{from}"),
         Cause::Started => "started".to_string(),
         Cause::Arrival(from, arrival) => format!("C{from}'s commands {arrival:?}"),
@@ -135,5 +136,11 @@ fn command_text(id: ControllerId, command: &Command, numbers: &IncarnationNumber
         Command::RaiseAlarm { about, reason } => format!("raise alarm C{about} {reason:?}"),
         Command::ClearAlarm { about, reason } => format!("clear alarm C{about} {reason:?}"),
         Command::StartAgain => "start again as a new incarnation".to_string(),
+        Command::NewLife { cause } => format!("new life ({cause:?})"),
+        Command::MoveClock { by_ms, following } => {
+            format!("move the clock {by_ms} ms to follow C{following}")
+        }
+        Command::Failed { failure, .. } => format!("failed itself: {failure}"),
+        Command::Exit(_) => "exit".to_string(),
     }
 }

@@ -34,6 +34,9 @@ pub struct CoreConfig {
     pub heartbeat_period_ms: u64,
     /// The rules' lengths in rounds.
     pub rounds: Rounds,
+    /// How long a controller that failed itself stays up, announcing FAILED, before it leaves
+    /// ([`crate::Command::Exit`]); `None`: it never leaves by itself.
+    pub failed_exit_delay_ms: Option<u64>,
     /// A deliberately broken rule to run with (the conformance suite's mutation check).
     #[cfg(feature = "mutation")]
     pub mutation: Option<crate::mutation::Mutation>,
@@ -52,8 +55,17 @@ impl CoreConfig {
             incarnation,
             heartbeat_period_ms,
             rounds,
+            failed_exit_delay_ms: None,
             #[cfg(feature = "mutation")]
             mutation: None,
+        }
+    }
+
+    /// The same controller leaving `delay_ms` after it failed itself (and announced it).
+    pub fn with_failed_exit_delay_ms(self, delay_ms: u64) -> CoreConfig {
+        CoreConfig {
+            failed_exit_delay_ms: Some(delay_ms),
+            ..self
         }
     }
 

@@ -2,8 +2,9 @@
 //! returns. Commands are protocol output only; what a person sees (LEDs, console lines, the
 //! status view) is a function of [`crate::Status`] in the adapter.
 
+use crate::failure::Failure;
 use crate::report::Heartbeat;
-use crate::types::{AlarmReason, Arrival, ControllerId, Role, VoteRecord};
+use crate::types::{AlarmReason, Arrival, ControllerId, Incarnation, Role, VoteRecord};
 
 /// The core's timers. When several are due at once they run in this order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -14,6 +15,9 @@ pub enum Timer {
     WindowExpiry,
     /// This controller's heartbeat is due (a quarter period after the round boundary).
     Heartbeat,
+    /// A controller that failed itself has announced it and waited the configured delay: it
+    /// leaves now ([`Command::Exit`]).
+    Exit,
 }
 
 /// When the core must next be stepped, and with which timer.
@@ -30,6 +34,10 @@ pub struct Deadline {
 pub enum Input {
     /// A peer's heartbeat arrived (kept until the round ends).
     Heartbeat(Heartbeat),
+    /// A heartbeat whose arrival woke the caller arrived now, stepped before its
+    /// [`Input::Heartbeat`] with `now` where the round boundaries are (the caller's clock with
+    /// every correction applied): the core may answer [`Command::MoveClock`] (crate::phase).
+    HeartbeatArrival(Heartbeat),
     /// A durable vote record arrived (kept for status; no decision reads it).
     Vote(VoteRecord),
     /// A timer fired (see [`crate::Core::due_timer`]); a timer that is not due does nothing.
@@ -45,6 +53,31 @@ pub enum Input {
         /// How they arrive.
         arrival: Arrival,
     },
+    /// The caller must start a new life: it did not run for a while, or every link lost its
+    /// carrier, or it is answering [`Command::StartAgain`]. `incarnation` is the new life's (a
+    /// new value, as at a start of the process). The core answers [`Command::NewLife`] when it
+    /// started again (always, but for `Detached` under the `StayWhenUnplugged` mutation).
+    StartAgain {
+        /// Why.
+        cause: Restart,
+        /// The new life's incarnation.
+        incarnation: Incarnation,
+    },
+}
+
+/// Why a controller starts a new life within the same process.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Restart {
+    /// It did not run for this long (stopped or starved; the caller's stall detection). The
+    /// model's F12: a resumed controller is a new incarnation.
+    Stalled {
+        /// How long it stood still.
+        stalled_ms: u64,
+    },
+    /// Every link lost its carrier (a pulled cable, a dead switch port; the model's F16).
+    Detached,
+    /// A peer took over from this life, whose commands reached it late (F17).
+    Deposed,
 }
 
 /// What the caller must do.
@@ -76,6 +109,33 @@ pub enum Command {
         reason: AlarmReason,
     },
     /// Start again as a new incarnation, silent until it has heard a round (as after a
-    /// stall): a peer took over from this controller, whose commands arrive late (F17).
+    /// stall): a peer took over from this controller, whose commands arrive late (F17). The
+    /// caller answers with [`Input::StartAgain`] and a new incarnation.
     StartAgain,
+    /// A new life began ([`Input::StartAgain`]): silent until it has heard a round, then it
+    /// joins below the others. Heartbeats that arrive before the next round boundary are
+    /// dropped (after a stall they may be a stall old: [`crate::Core::hears_at`]).
+    NewLife {
+        /// Why.
+        cause: Restart,
+    },
+    /// Move the round clock by `by_ms` (forward: the round ends sooner; backward: hold the
+    /// clock still until it has caught up) to follow the phase of `following`'s rounds
+    /// (crate::phase). After moving forward, run the timers now due.
+    MoveClock {
+        /// The correction, in ms.
+        by_ms: i64,
+        /// The peer whose phase it follows.
+        following: ControllerId,
+    },
+    /// This controller has just failed itself (FAILED for the rest of this life): why, and in
+    /// how long it leaves (`None`: the configuration keeps it up).
+    Failed {
+        /// Why, and whose votes it disagreed with.
+        failure: Failure,
+        /// The configured delay before it leaves, counted from now.
+        exit_in_ms: Option<u64>,
+    },
+    /// Leave now (stop, to be restarted): FAILED has been announced and the delay is over.
+    Exit(Failure),
 }

@@ -5,10 +5,13 @@
 //! it gets back, like raft-rs's `RawNode` or openraft's `Engine`.
 //!
 //! ```text
-//!   Input::Heartbeat ─┐   ┌──────────────┐   ┌─▶ PublishHeartbeat, PublishVote
-//!   Input::Vote ──────┼──▶│  Core::step  │───┼─▶ SetOutput { role, strength }
-//!   Input::Timer(t) ──┤   └──────────────┘   └─▶ RaiseAlarm / ClearAlarm
-//!   Input::LocalFault ┘    Core::status() ─────▶ (adapter) LEDs, console line, status view
+//!   Input::Heartbeat ────────┐                      ┌─▶ PublishHeartbeat, PublishVote
+//!   Input::HeartbeatArrival ─┤                      ├─▶ SetOutput { role, strength }
+//!   Input::Vote ─────────────┤   ┌──────────────┐   ├─▶ RaiseAlarm / ClearAlarm
+//!   Input::Timer(t) ─────────┼──▶│  Core::step  │───┼─▶ MoveClock (follow the Primary's phase)
+//!   Input::Commands ─────────┤   └──────────────┘   ├─▶ Failed, Exit (leave to be restarted)
+//!   Input::LocalFault ───────┤                      └─▶ StartAgain, NewLife
+//!   Input::StartAgain ───────┘   Core::status() ───▶ (adapter) LEDs, console line, status view
 //! ```
 //!
 //! Time is divided into rounds of one heartbeat period, aligned to multiples of the period on
@@ -41,7 +44,9 @@
 //! Modules: [`types`] (the vocabulary, shared with the model by meaning, never by code),
 //! [`state`] (what one controller knows), [`report`] (the self-report sent as heartbeat and
 //! shown as status), [`io`] (inputs, timers, commands), [`config`] (its own id and its timing
-//! in rounds), and `mutation` (deliberately broken rules, feature `mutation` only).
+//! in rounds), [`phase`] (whose round phase to follow), [`failure`] (why a controller failed
+//! itself, and when it leaves), [`identity`] (which participant speaks for which id), and
+//! `mutation` (deliberately broken rules, feature `mutation` only).
 //! [`network`] is the network alarm participant, a second pure state machine of the same
 //! shape that watches both networks between the like controllers. Private to the crate:
 //! `rules` (the model's rules, one function each), `epochs` (which of two agreed results wins
@@ -52,11 +57,14 @@
 
 pub mod config;
 mod epochs;
+pub mod failure;
+pub mod identity;
 mod invariants;
 pub mod io;
 #[cfg(feature = "mutation")]
 pub mod mutation;
 pub mod network;
+pub mod phase;
 pub mod report;
 mod rules;
 pub mod state;
@@ -64,7 +72,7 @@ mod strength;
 pub mod types;
 
 pub use config::{CoreConfig, Rounds};
-pub use io::{Command, Deadline, Input, Timer};
+pub use io::{Command, Deadline, Input, Restart, Timer};
 pub use report::{Heartbeat, SelfReport, Status};
 pub use state::{ControllerState, Peer};
 pub use types::*;
@@ -86,6 +94,12 @@ pub struct Core {
     window_due_ms: Option<u64>,
     /// Heartbeats that named this controller's id with another incarnation (misconfiguration).
     duplicate_id_heartbeats: u64,
+    /// Whose round phase it follows, and by how much its clock must move (crate::phase).
+    phase: phase::PhaseFollower,
+    /// Set when it failed itself and a delay is configured: when it leaves.
+    exit: Option<failure::PendingExit>,
+    /// A new life hears nothing that arrives before this instant (crate::Core::hears_at).
+    deaf_until_ms: Option<u64>,
 }
 
 impl Core {
@@ -101,6 +115,9 @@ impl Core {
             heartbeat_due_ms: now_ms,
             window_due_ms: None,
             duplicate_id_heartbeats: 0,
+            phase: phase::PhaseFollower::new(period_ms, config.heartbeat_offset_ms()),
+            exit: None,
+            deaf_until_ms: None,
         }
     }
 
@@ -143,6 +160,15 @@ impl Core {
         sent_ms < self.round_end_ms.saturating_sub(period_ms)
     }
 
+    /// Whether a heartbeat arriving at `now_ms` is taken at all. A new life
+    /// ([`Input::StartAgain`]) hears from the next round boundary on: the kernel kept the
+    /// datagrams that came while the process stood still (or dropped the newest ones when its
+    /// buffer filled), and DDS hands them over now, up to a stall old. So the new incarnation
+    /// hears from the next round on, as if it had just started.
+    pub fn hears_at(&self, now_ms: u64) -> bool {
+        self.deaf_until_ms.is_none_or(|until_ms| now_ms >= until_ms)
+    }
+
     /// Durable vote records received, by peer id.
     pub fn durable_votes(&self) -> &BTreeMap<ControllerId, VoteRecord> {
         &self.durable_votes
@@ -158,9 +184,16 @@ impl Core {
             Some(Timer::WindowExpiry)
         } else if now_ms >= self.heartbeat_due_ms {
             Some(Timer::Heartbeat)
+        } else if self.exit_due_ms().is_some_and(|due| now_ms >= due) {
+            Some(Timer::Exit)
         } else {
             None
         }
+    }
+
+    /// When it leaves, once it failed itself and announced it.
+    fn exit_due_ms(&self) -> Option<u64> {
+        self.exit.as_ref().and_then(failure::PendingExit::due_at_ms)
     }
 
     /// When the core must next be stepped with a timer, and which.
@@ -168,6 +201,7 @@ impl Core {
         let at_ms = self
             .window_due_ms
             .into_iter()
+            .chain(self.exit_due_ms())
             .chain([self.round_end_ms, self.heartbeat_due_ms])
             .min()
             .unwrap_or(self.round_end_ms);
@@ -218,8 +252,27 @@ impl Core {
     pub fn step(&mut self, input: Input, now_ms: u64) -> Vec<Command> {
         let before = self.state.clone();
         let mut commands = Vec::new();
+        let local_fault = input == Input::LocalFault;
         match input {
-            Input::Heartbeat(heartbeat) => self.hear(heartbeat),
+            Input::Heartbeat(heartbeat) => {
+                if self.hears_at(now_ms) {
+                    self.hear(heartbeat)
+                }
+            }
+            Input::HeartbeatArrival(heartbeat) => {
+                let phase = self.hears_at(now_ms).then_some(&mut self.phase);
+                if let Some(by_ms) =
+                    phase.and_then(|phase| phase.on_heartbeat(&self.state, &heartbeat, now_ms))
+                {
+                    commands.push(Command::MoveClock {
+                        by_ms,
+                        following: heartbeat.id,
+                    });
+                }
+            }
+            Input::StartAgain { cause, incarnation } => {
+                return self.start_new_life(cause, incarnation, now_ms);
+            }
             Input::Vote(record) => {
                 if record.from != self.state.id {
                     self.durable_votes.insert(record.from, record);
@@ -245,10 +298,60 @@ impl Core {
             }
         }
         changes(&before, &self.state, &mut commands);
+        if before.phase != Phase::Failed && self.state.phase == Phase::Failed {
+            self.failed(before.vote, local_fault, now_ms, &mut commands);
+        }
         if !self.config.is_mutated() {
             invariants::debug_check(&self.state);
         }
         commands
+    }
+
+    /// It has just failed itself: the failure goes out, and with a delay configured, the
+    /// leaving is scheduled (due once a heartbeat has announced FAILED).
+    fn failed(
+        &mut self,
+        own_vote: Option<Assignment>,
+        local_fault: bool,
+        now_ms: u64,
+        commands: &mut Vec<Command>,
+    ) {
+        let failure = failure::Failure::observe(&self.state, own_vote, local_fault);
+        let exit_in_ms = self.config.failed_exit_delay_ms;
+        if let Some(delay_ms) = exit_in_ms {
+            self.exit = Some(failure::PendingExit {
+                failure: failure.clone(),
+                exit_at_ms: now_ms.saturating_add(delay_ms),
+                announced: false,
+            });
+        }
+        commands.push(Command::Failed {
+            failure,
+            exit_in_ms,
+        });
+    }
+
+    /// A new life of this process ([`Input::StartAgain`]), which hears from the next round
+    /// boundary on.
+    fn start_new_life(
+        &mut self,
+        cause: Restart,
+        incarnation: Incarnation,
+        now_ms: u64,
+    ) -> Vec<Command> {
+        if cause == Restart::Detached && !self.config.restarts_when_unplugged() {
+            return Vec::new();
+        }
+        let config = CoreConfig {
+            incarnation,
+            ..self.config
+        };
+        *self = match cause {
+            Restart::Deposed => Core::start_again(config, now_ms),
+            Restart::Stalled { .. } | Restart::Detached => Core::new(config, now_ms),
+        };
+        self.deaf_until_ms = Some(next_boundary(now_ms, config.heartbeat_period_ms.max(1)));
+        vec![Command::NewLife { cause }]
     }
 
     /// A heartbeat is kept for the round's end; one with this controller's own id and another
@@ -286,6 +389,16 @@ impl Core {
             Timer::Heartbeat => {
                 commands.push(Command::PublishHeartbeat(self.report()));
                 self.heartbeat_due_ms = self.round_end_ms + self.config.heartbeat_offset_ms();
+                if self.state.phase == Phase::Failed {
+                    if let Some(exit) = &mut self.exit {
+                        exit.announced = true;
+                    }
+                }
+            }
+            Timer::Exit => {
+                if let Some(exit) = self.exit.take() {
+                    commands.push(Command::Exit(exit.failure));
+                }
             }
         }
     }

@@ -1,7 +1,10 @@
 //! Rule-by-rule tests: literal inputs, literal command vectors. The round is 250 ms, so
 //! round boundaries fall at 250, 500, ... and heartbeats go out 62 ms after each boundary.
+//! `lives`: leaving after failing, new lives, and following the Primary's phase.
 
 use super::*;
+
+mod lives;
 
 const PERIOD_MS: u64 = 250;
 
@@ -471,6 +474,16 @@ fn a_local_fault_stops_commanding_and_withdraws_the_vote() {
             Command::SetOutput {
                 role: None,
                 strength: None
+            },
+            Command::Failed {
+                failure: failure::Failure {
+                    id: 1,
+                    cause: failure::FailureCause::LocalFault,
+                    disagreed_with: Vec::new(),
+                    own_vote: Some(assignment(&[(1, 0), (2, 0), (3, 0)])),
+                    their_vote: None,
+                },
+                exit_in_ms: None
             }
         ]
     );

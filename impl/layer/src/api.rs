@@ -162,7 +162,7 @@ impl Redundancy {
     /// The samples of the writer that owns the application's topic `topic` now (the strongest
     /// live controller's, as an actuator arbitrates), for a standby that must continue from
     /// where the owner was (bumpless transfer). This controller's own samples come too: tell
-    /// them by their writer's participant (`ParticipantKey::of(writer)` against
+    /// them by their writer's participant (`rl_layer::dds::participant_key(writer)` against
     /// `session().participant_key()`).
     pub fn owner_feed<T>(
         &self,

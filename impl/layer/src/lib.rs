@@ -20,13 +20,13 @@
 //!   do not enforce it); [`trust`]: which writers an actuator obeys (a controller's, at most
 //!   at the takeover strength); [`owner_feed`]: a topic's owner's samples through both, for an
 //!   actuator and for a standby that continues from where the owner was.
-//! - [`identity`]: each controller id bound to the DDS participant it speaks from, so a forged
-//!   heartbeat is not believed and a duplicate id is alarmed.
-//! - [`round_clock`]: the voting loop's clock, which follows the Primary's round phase so the
-//!   controllers share round boundaries whatever their wall clocks say.
-//! - [`stall`]: a voting loop that stood still for a peer deadline restarts as a new
-//!   incarnation, so it cannot take the actuator back; [`link_watch`]: so does one whose
-//!   links all lose their carrier (a pulled cable).
+//! - [`identity`] (the core's): each controller id bound to the DDS participant it speaks
+//!   from, so a forged heartbeat is not believed and a duplicate id is alarmed.
+//! - [`round_clock`]: the voting loop's clock, moved as the core says to follow the Primary's
+//!   round phase, so the controllers share round boundaries whatever their wall clocks say.
+//! - [`stall`]: detects a voting loop that stood still for a peer deadline, and
+//!   [`link_watch`] links that all lose their carrier (a pulled cable); the core then starts a
+//!   new incarnation, so it cannot take the actuator back.
 //! - [`network_monitor`]: the Network Alarm Participant, the core's network monitor run over
 //!   one DDS participant per network.
 //! - [`leds`], [`console`]: the status LEDs and the console line, both pure functions of what
@@ -51,7 +51,7 @@ pub mod dds;
 pub mod error;
 pub mod event;
 pub mod failed_exit;
-pub mod identity;
+pub use rl_core::identity;
 pub mod leds;
 pub mod link_watch;
 pub mod logging;

@@ -59,7 +59,7 @@ impl<S: WireSample + 'static> OwnerFeed<S> {
     }
 
     /// The newest sample the owner sent since the last call, if any, with its writer (its
-    /// participant tells whether it is this controller's own: `ParticipantKey::of`).
+    /// participant tells whether it is this controller's own: `crate::dds::participant_key`).
     pub fn take(&mut self, session: &Session, now_ms: u64) -> Option<(S::Value, GUID)> {
         for heartbeat in self.heartbeats.take() {
             self.trust.heartbeat(&heartbeat, now_ms);

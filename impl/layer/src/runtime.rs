@@ -9,9 +9,13 @@
 //! warning, and the controller goes on with console LEDs: the LEDs help an operator, and a
 //! controller without them still votes and commands.
 //!
-//! A controller whose core reports FAILED stops the thread `timing.failed_exit_delay_ms`
-//! later, once a heartbeat has announced FAILED, and the thread ends with
-//! [`crate::Error::Failed`]: `rl controller` exits to be restarted (crate::failed_exit).
+//! Every protocol decision is the core's: when a controller that failed itself leaves
+//! (`Command::Exit`, `timing.failed_exit_delay_ms` after a heartbeat announced FAILED; the
+//! thread then ends with [`crate::Error::Failed`] and `rl controller` exits to be restarted,
+//! crate::failed_exit), how it starts a new life after a stall, a lost carrier or a takeover
+//! (`Input::StartAgain`, `Command::NewLife`), and whose round phase it follows
+//! (`Command::MoveClock`). The thread detects (a stall, the links), measures (arrivals) and
+//! performs.
 //!
 //! The core's clock (crate::round_clock): milliseconds of the wall clock read once at start,
 //! advanced by the monotonic clock, so a wall-clock step while running cannot stall or rush
@@ -23,14 +27,14 @@ pub use self::shared::Options;
 pub(crate) use self::shared::Shared;
 use crate::config::{Config, LedBackend};
 use crate::core::{
-    AlarmReason, Command, ControllerId, Core, CoreConfig, Input, Phase, Status, VoteRecord,
+    AlarmReason, Command, ControllerId, Core, CoreConfig, Input, Restart, Status, VoteRecord,
 };
 use crate::dds::{Reader, Session, Writer};
 use crate::event::Event;
-use crate::failed_exit::{Failure, PendingExit};
+use crate::failed_exit::Failure;
 use crate::leds::{ConsoleLeds, LedPattern};
 use crate::link_watch::{LinkWatch, Links, Watched};
-use crate::round_clock::{PhaseFollower, RoundClock};
+use crate::round_clock::RoundClock;
 use crate::wire::{AlarmSample, ControllerAlarm, HeartbeatSample, ServoControl, VoteSample};
 use rustdds::mio::{Events, Poll, PollOpt, Ready, Token};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -101,7 +105,8 @@ pub(crate) fn spawn(
     // in the same millisecond.
     let incarnation = crate::stall::incarnation(clock.now_ms());
     let timing = &config.timing;
-    let core_config = CoreConfig::new(id, incarnation, timing.heartbeat_period_ms, timing.rounds());
+    let core_config = CoreConfig::new(id, incarnation, timing.heartbeat_period_ms, timing.rounds())
+        .with_failed_exit_delay_ms(timing.failed_exit_delay_ms);
     #[cfg(feature = "mutation")]
     let core_config = core_config.with_mutation(mutation_from_environment()?);
     let core = Core::new(core_config, clock.now_ms());
@@ -116,10 +121,7 @@ pub(crate) fn spawn(
     let thread_shared = Arc::clone(&shared);
     let mut identities = crate::identity::Identities::new(timing.peer_deadline_ms);
     identities.bind_own(id, session.participant_key());
-    let failed_exit_delay_ms = config.timing.failed_exit_delay_ms;
     let links = LinkWatch::new(Watched::from_config(&config.networks));
-    let period_ms = core.config().heartbeat_period_ms;
-    let heartbeat_offset_ms = core.config().heartbeat_offset_ms();
     let arrival = ArrivalWatch::new(timing.command_deadline_ms);
     let thread = std::thread::Builder::new()
         .name(format!("rl-voting-{id}"))
@@ -128,16 +130,13 @@ pub(crate) fn spawn(
             let mut voting = Voting {
                 core,
                 clock,
-                phase: PhaseFollower::new(period_ms, heartbeat_offset_ms),
                 endpoints,
                 shared: thread_shared,
                 options,
                 leds,
                 shown_status,
                 shown_leds: LedPattern::ALL_OFF,
-                failed_exit_delay_ms,
-                pending_exit: None,
-                stale_heartbeats_until_ms: None,
+                leaving: None,
                 heartbeat_woke: false,
                 delays: heartbeat_delay::HeartbeatDelays::default(),
                 links,
@@ -211,22 +210,9 @@ fn led_bank(config: &Config) -> Leds {
     }
 }
 
-/// Why the voting loop starts again as a new incarnation.
-#[derive(Clone, Copy, Debug)]
-enum Restart {
-    /// It did not run for this long (crate::stall).
-    Stalled(Duration),
-    /// Every link lost its carrier (crate::link_watch).
-    Detached,
-    /// A peer took over from this life, whose commands reached it late (F17).
-    Deposed,
-}
-
 struct Voting {
     core: Core,
     clock: RoundClock,
-    /// Moves `clock` onto the Primary's round phase.
-    phase: PhaseFollower,
     endpoints: Endpoints,
     shared: Arc<Shared>,
     options: Options,
@@ -235,12 +221,8 @@ struct Voting {
     shown_status: Status,
     /// The LEDs last shown.
     shown_leds: LedPattern,
-    /// How long it stays up after failing itself (`timing.failed_exit_delay_ms`).
-    failed_exit_delay_ms: u64,
-    /// Set when the core reported FAILED: why, and when the thread stops.
-    pending_exit: Option<PendingExit>,
-    /// After a stall: heartbeats taken before this round-clock time are dropped as stale.
-    stale_heartbeats_until_ms: Option<u64>,
+    /// Set when the core says to leave (`Command::Exit`): why it failed itself.
+    leaving: Option<Failure>,
     /// The last wait ended because a heartbeat arrived.
     heartbeat_woke: bool,
     /// How long peers' heartbeats waited on the way (late ones are lost).
@@ -286,15 +268,16 @@ impl Voting {
                 progress.mark();
             }
             if let Some(stalled) = self.shared.loop_clock.mark() {
-                self.start_again(Restart::Stalled(stalled));
+                let stalled_ms = u64::try_from(stalled.as_millis()).unwrap_or(u64::MAX);
+                self.start_again(Restart::Stalled { stalled_ms });
                 // Only now that the silent status is in place may the writer follow it.
                 self.shared.loop_clock.resumed();
             }
             match self.links.changed(self.links_woke) {
-                Some(Links::Detached) if self.core.config().restarts_when_unplugged() => {
-                    self.start_again(Restart::Detached)
+                Some(Links::Detached) if !self.start_again(Restart::Detached) => {
+                    warn!("every link lost its carrier; going on as before")
                 }
-                Some(Links::Detached) => warn!("every link lost its carrier; going on as before"),
+                Some(Links::Detached) => {}
                 Some(Links::Attached) => info!("a link has its carrier again"),
                 None => {}
             }
@@ -309,18 +292,16 @@ impl Voting {
                 self.step(Input::LocalFault);
             }
             self.fire_due_timers();
-            let now_ms = self.clock.now_ms();
-            if let Some(exit) = self.pending_exit.take_if(|exit| exit.is_due(now_ms)) {
-                failed = Some(exit.failure);
+            if let Some(failure) = self.leaving.take() {
+                failed = Some(failure);
                 break;
             }
-            let exit_wait_ms = self.pending_exit.as_ref().and_then(|e| e.wait_ms(now_ms));
+            let now_ms = self.clock.now_ms();
             let wait_ms = self
                 .core
                 .next_deadline()
                 .at_ms
                 .saturating_sub(now_ms)
-                .min(exit_wait_ms.unwrap_or(FLAG_CHECK_MS))
                 .min(FLAG_CHECK_MS);
             match poll.poll(&mut events, Some(Duration::from_millis(wait_ms))) {
                 Ok(_) => {
@@ -344,50 +325,43 @@ impl Voting {
         }
     }
 
-    /// Back from a stall (crate::stall), or cut off at its own links (crate::link_watch):
-    /// start again as a new incarnation, silent, with what the readers hold now.
-    fn start_again(&mut self, why: Restart) {
+    /// Back from a stall (crate::stall), cut off at its own links (crate::link_watch), or
+    /// deposed (F17): the core starts a new life, silent, with what the readers hold now.
+    /// Whether it did (under the `StayWhenUnplugged` mutation a lost carrier changes nothing).
+    fn start_again(&mut self, cause: Restart) -> bool {
         let now_ms = self.clock.now_ms();
-        let old = *self.core.config();
-        let config = CoreConfig {
-            incarnation: crate::stall::incarnation(now_ms),
-            ..old
-        };
-        match why {
-            Restart::Stalled(stalled) => warn!(
-                "C{} did not run for {} ms (stopped or starved): starting again as a new \
-                 incarnation, silent until it has heard a round and joined below the others",
-                config.id,
-                stalled.as_millis()
-            ),
-            Restart::Detached => warn!(
-                "C{}'s links have all lost their carrier (a pulled cable, a dead switch port): \
-                 starting again as a new incarnation, silent until it has heard a round and \
-                 joined below the others",
-                config.id
-            ),
-            Restart::Deposed => warn!(
-                "C{}'s commands reached its peers late (a starved link?) and its Secondary took \
-                 over: starting again as a new incarnation, silent until it has heard a round \
-                 and joined below the others",
-                config.id
-            ),
+        let incarnation = crate::stall::incarnation(now_ms);
+        let commands = self
+            .core
+            .step(Input::StartAgain { cause, incarnation }, now_ms);
+        let started = !commands.is_empty();
+        for command in commands {
+            self.perform(command);
         }
-        self.core = match why {
-            Restart::Deposed => Core::start_again(config, now_ms),
-            Restart::Stalled(_) | Restart::Detached => Core::new(config, now_ms),
+        started
+    }
+
+    /// The core started a new life: say why, and show its silent status.
+    fn new_life(&mut self, cause: Restart) {
+        let id = self.core.config().id;
+        let why = match cause {
+            Restart::Stalled { stalled_ms } => {
+                format!("C{id} did not run for {stalled_ms} ms (stopped or starved)")
+            }
+            Restart::Detached => format!(
+                "C{id}'s links have all lost their carrier (a pulled cable, a dead switch port)"
+            ),
+            Restart::Deposed => format!(
+                "C{id}'s commands reached its peers late (a starved link?) and its Secondary \
+                 took over"
+            ),
         };
-        self.pending_exit = None;
-        // What arrives before the next boundary may be up to a stall old: the kernel kept the
-        // datagrams that came while the process stood still (or dropped the newest ones when
-        // its buffer filled), and DDS hands them over now. The new incarnation hears from the
-        // next round on, as if it had just started.
-        let period_ms = config.heartbeat_period_ms.max(1);
-        self.stale_heartbeats_until_ms = Some((now_ms / period_ms + 1) * period_ms);
-        self.event(match why {
-            Restart::Stalled(stalled) => Event::Resumed {
-                stalled_ms: u64::try_from(stalled.as_millis()).unwrap_or(u64::MAX),
-            },
+        warn!(
+            "{why}: starting again as a new incarnation, silent until it has heard a round and \
+             joined below the others"
+        );
+        self.event(match cause {
+            Restart::Stalled { stalled_ms } => Event::Resumed { stalled_ms },
             Restart::Detached => Event::Detached,
             Restart::Deposed => Event::Deposed,
         });
@@ -400,47 +374,43 @@ impl Voting {
         }
     }
 
-    /// Moves the round clock if `heartbeat` is from the peer whose phase this controller
-    /// follows and arrived off its expected place in the round (crate::round_clock).
+    /// Tells the core when `heartbeat`, whose arrival woke the loop, arrived: where the
+    /// round boundaries will be, also while the clock holds still after a move back. The core
+    /// answers with a clock move when it came from the peer whose phase this controller
+    /// follows, off its expected place in the round (rl-core's `phase`).
     fn follow_phase(&mut self, heartbeat: &crate::core::Heartbeat) {
-        // Where the boundaries will be: also while the clock holds still after a move back.
-        let now_ms = self.clock.unheld_ms();
-        if let Some(by_ms) = self
-            .phase
-            .on_heartbeat(self.core.state(), heartbeat, now_ms)
+        let arrived_ms = self.clock.unheld_ms();
+        for command in self
+            .core
+            .step(Input::HeartbeatArrival(*heartbeat), arrived_ms)
         {
-            self.clock.shift(by_ms);
-            // Moved forward across a boundary: that round ends before this heartbeat, which
-            // arrived in the next one.
-            self.fire_due_timers();
-            // A newcomer's first move, or clocks that drifted apart: worth a line. Jitter
-            // corrections are small.
-            let period_ms = self.core.config().heartbeat_period_ms;
-            if by_ms.unsigned_abs() >= period_ms / 8 {
-                info!(
-                    "round phase moved by {by_ms} ms to follow C{} ({} ms in all)",
-                    heartbeat.id,
-                    self.clock.moved_ms()
-                );
-            } else {
-                debug!(
-                    "round phase moved by {by_ms} ms to follow C{}",
-                    heartbeat.id
-                );
-            }
+            self.perform(command);
+        }
+    }
+
+    /// Moves the round clock as the core asked, to follow `following`'s phase.
+    fn move_clock(&mut self, by_ms: i64, following: ControllerId) {
+        self.clock.shift(by_ms);
+        // Moved forward across a boundary: that round ends before this heartbeat, which
+        // arrived in the next one.
+        self.fire_due_timers();
+        // A newcomer's first move, or clocks that drifted apart: worth a line. Jitter
+        // corrections are small.
+        let period_ms = self.core.config().heartbeat_period_ms;
+        if by_ms.unsigned_abs() >= period_ms / 8 {
+            info!(
+                "round phase moved by {by_ms} ms to follow C{following} ({} ms in all)",
+                self.clock.moved_ms()
+            );
+        } else {
+            debug!("round phase moved by {by_ms} ms to follow C{following}");
         }
     }
 
     /// Drains both readers (edge-triggered: whatever woke the poll).
     fn take_samples(&mut self) {
-        let now_ms = self.clock.now_ms();
-        if self
-            .stale_heartbeats_until_ms
-            .is_some_and(|until_ms| now_ms >= until_ms)
-        {
-            self.stale_heartbeats_until_ms = None;
-        }
-        let stale = self.stale_heartbeats_until_ms.is_some();
+        // A new life hears nothing before the next boundary (Core::hears_at).
+        let stale = !self.core.hears_at(self.clock.now_ms());
         let heartbeats = self.endpoints.heartbeats_in.take();
         // Only a heartbeat whose arrival woke the loop arrived now (a wake-up can come late:
         // the timeout finds what arrived without one): the newest of those sets the phase.
@@ -475,34 +445,28 @@ impl Voting {
 
     fn step(&mut self, input: Input) {
         let now = self.clock.now_ms();
-        let vote_before = self.core.state().vote;
-        let local_fault = input == Input::LocalFault;
         let commands = self.core.step(input, now);
         // Before the step's events go out: an application told of a new role (Redundancy::
-        // events) that writes at once must find its writer at the new role's strength.
-        *self.shared.status() = self.core.status();
+        // events) that writes at once must find its writer at the new role's strength. (A
+        // step's commands do not change the core: a new life waits for the end of the step.)
+        let status = self.core.status();
+        *self.shared.status() = status.clone();
+        let mut failures = Vec::new();
         for command in commands {
-            self.perform(command);
+            match command {
+                Command::Failed { .. } => failures.push(command),
+                command => self.perform(command),
+            }
         }
-        self.show(self.core.status());
+        self.show(status);
+        // Under the FAILED console line the step's status printed.
+        for failure in failures {
+            self.perform(failure);
+        }
         // After the old life's last status went out, so the record shows where it ended.
         if std::mem::take(&mut self.deposed) {
             self.start_again(Restart::Deposed);
         }
-        if self.pending_exit.is_none() && self.core.state().phase == Phase::Failed {
-            let failure = Failure::observe(self.core.state(), vote_before, local_fault);
-            // The delay counts from after the FAILED status went out.
-            self.failed(failure, self.clock.now_ms());
-        }
-    }
-
-    /// The core has just reported FAILED: say why, and when it exits.
-    fn failed(&mut self, failure: Failure, now_ms: u64) {
-        let exit = PendingExit::new(failure, now_ms, self.failed_exit_delay_ms);
-        // A warning: the terminal (stderr) shows it under the FAILED console line, and
-        // `journalctl -p warning` finds it.
-        warn!("{}", exit.notice(now_ms));
-        self.pending_exit = Some(exit);
     }
 
     fn perform(&mut self, command: Command) {
@@ -510,11 +474,6 @@ impl Voting {
             Command::PublishHeartbeat(heartbeat) => {
                 if let Err(error) = self.endpoints.heartbeats_out.write(&heartbeat) {
                     warn!("heartbeat not sent: {error}");
-                }
-                if heartbeat.phase == Phase::Failed {
-                    if let Some(exit) = &mut self.pending_exit {
-                        exit.announced();
-                    }
                 }
                 // The ROS 2 status goes out with every heartbeat too, so a ROS 2 tool that
                 // starts late sees it within a period.
@@ -532,6 +491,15 @@ impl Voting {
             Command::ClearAlarm { about, reason } => self.alarm(about, reason, false),
             // After the step's other commands: the new life replaces the core.
             Command::StartAgain => self.deposed = true,
+            Command::NewLife { cause } => self.new_life(cause),
+            Command::MoveClock { by_ms, following } => self.move_clock(by_ms, following),
+            // A warning: the terminal (stderr) shows it under the FAILED console line, and
+            // `journalctl -p warning` finds it.
+            Command::Failed {
+                failure,
+                exit_in_ms,
+            } => warn!("{}", crate::failed_exit::notice(&failure, exit_in_ms)),
+            Command::Exit(failure) => self.leaving = Some(failure),
         }
     }
 

@@ -19,7 +19,7 @@
 use crate::core::types::Role;
 use crate::core::types::{ControllerId, TAKEOVER_STRENGTH};
 use crate::core::Heartbeat;
-use crate::dds::{ParticipantKey, Received, GUID};
+use crate::dds::{Received, GUID};
 use crate::identity::{Admission, Identities};
 use std::collections::BTreeSet;
 
@@ -73,7 +73,7 @@ impl CommandTrust {
 
     /// Takes in a heartbeat; `false` if it came from an impostor (not to be believed).
     pub fn heartbeat(&mut self, heartbeat: &Received<Heartbeat>, now_ms: u64) -> bool {
-        let from = ParticipantKey::of(heartbeat.writer);
+        let from = crate::dds::participant_key(heartbeat.writer);
         let admission = self.identities.heartbeat(
             heartbeat.value.id,
             heartbeat.value.incarnation,
@@ -85,7 +85,9 @@ impl CommandTrust {
 
     /// Whether to take a command from `writer` at `strength`.
     pub fn admit(&self, writer: GUID, strength: i32) -> Result<ControllerId, Refusal> {
-        let controller = self.identities.speaks_for(ParticipantKey::of(writer));
+        let controller = self
+            .identities
+            .speaks_for(crate::dds::participant_key(writer));
         if self.any_writer {
             return Ok(controller.unwrap_or(0));
         }

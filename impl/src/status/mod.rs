@@ -350,7 +350,7 @@ impl BoardFeed {
         let now = self.now_ms();
         let mut heartbeats = Vec::new();
         for received in self.heartbeats.take() {
-            let from = rl_layer::dds::ParticipantKey::of(received.writer);
+            let from = rl_layer::dds::participant_key(received.writer);
             let admission =
                 self.identities
                     .heartbeat(received.value.id, received.value.incarnation, from, now);

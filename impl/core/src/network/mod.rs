@@ -10,7 +10,7 @@
 //!
 //! ```text
 //!   NapInput::Heartbeat ─┐  ┌────────────────────────────────────────────┐  ┌▶ PublishHeartbeat{A|B}
-//!   NapInput::Tick ──────┴─▶│ observe ─▶ matrix ─▶ conclude ─▶ alarms    │──┼▶ RaiseAlarm{subject, cause}
+//!   NapInput::Timer(t) ──┴─▶│ observe ─▶ matrix ─▶ conclude ─▶ alarms    │──┼▶ RaiseAlarm{subject, cause}
 //!                           └────────────────────────────────────────────┘  └▶ ClearAlarm{subject}
 //! ```
 //!
@@ -21,12 +21,14 @@
 //! # use rl_core::network::{Nap, NapConfig, NapInput};
 //! let mut nap = Nap::new(NapConfig::new(1), 0);
 //! let now_ms = 250;
-//! for command in nap.step(NapInput::Tick, now_ms) {
-//!     // publish on the network it names, or raise / clear the alarm
-//! #   let _ = command;
+//! while let Some(timer) = nap.due_timer(now_ms) {
+//!     for command in nap.step(NapInput::Timer(timer), now_ms) {
+//!         // publish on the network it names, or raise / clear the alarm
+//! #       let _ = command;
+//!     }
 //! }
 //! // `nap.step(NapInput::Heartbeat { received_on, heartbeat }, now_ms)` for each heartbeat
-//! // read; sleep until `nap.next_wakeup_ms(now_ms)`.
+//! // read; sleep until `nap.next_deadline().at_ms`.
 //! ```
 //!
 //! Modules: [`links`] (networks, links, the matrix, the heartbeat), [`observe`] (per-link
@@ -48,7 +50,7 @@ pub use links::{
     Hearing, Link, LinkMatrix, LinkSet, LinkState, Members, Network, NetworkHeartbeat,
     NAP_CONTROLLERS,
 };
-pub use nap::{Nap, NapCommand, NapConfig, NapInput};
+pub use nap::{Nap, NapCommand, NapConfig, NapDeadline, NapInput, NapTimer};
 pub use observe::Observer;
 
 #[cfg(test)]

@@ -1,9 +1,12 @@
-//! The Network Alarm Participant of one controller: heartbeats in, a tick now and then,
-//! commands out (publish the network heartbeat on each network, raise or clear an alarm).
+//! The Network Alarm Participant of one controller: heartbeats and named timers in, commands
+//! out (publish the network heartbeat on each network, raise or clear an alarm).
 //!
 //! Every input is followed by an evaluation: the link matrix as of `now_ms`, its conclusion,
 //! and the alarm book's hysteresis. So a heartbeat that brings a link back counts from the
-//! instant it arrives, and a tick at [`Nap::next_wakeup_ms`] catches every deadline.
+//! instant it arrives, and a timer stepped at [`Nap::next_deadline`] catches every deadline.
+//! Like the voting core, it names its timers ([`NapTimer`]: the periodic heartbeat, a link's
+//! deadline, an alarm's hysteresis) and checks its invariants after every step in debug
+//! builds (no timer left due, its own row published as it stands).
 
 use super::alarms::{AlarmBook, AlarmCause, AlarmChange, AlarmSubject, AlarmTiming};
 use super::conclude::{conclude, Conclusion};
@@ -61,6 +64,28 @@ impl NapConfig {
     }
 }
 
+/// The monitor's timers. When several are due at once they run in this order (it concludes
+/// before it speaks); each step evaluates everything due, whichever timer it was given.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum NapTimer {
+    /// A link's deadline (or a peer's report's) runs out: the matrix changes by itself.
+    LinkDeadline,
+    /// An alarm has been implicated, or its links good, long enough: it is raised, republished
+    /// with a new cause, or cleared.
+    AlarmHysteresis,
+    /// The periodic network heartbeat is due.
+    Publish,
+}
+
+/// When the monitor must next be stepped, and with which timer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct NapDeadline {
+    /// The instant, on the caller's clock.
+    pub at_ms: u64,
+    /// The timer that fires then.
+    pub timer: NapTimer,
+}
+
 /// An input to the monitor.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum NapInput {
@@ -72,8 +97,8 @@ pub enum NapInput {
         /// The heartbeat.
         heartbeat: NetworkHeartbeat,
     },
-    /// Time passed (call at [`Nap::next_wakeup_ms`] at the latest).
-    Tick,
+    /// A timer fired ([`Nap::due_timer`], [`Nap::next_deadline`]).
+    Timer(NapTimer),
 }
 
 /// What the caller must do.
@@ -110,6 +135,8 @@ pub struct Nap {
     publish_due_ms: u64,
     /// The row the last heartbeat carried.
     published: Option<Hearing>,
+    /// The instant of the last evaluation: deadlines up to it are taken in.
+    evaluated_ms: u64,
 }
 
 impl Nap {
@@ -129,6 +156,7 @@ impl Nap {
             conclusion,
             publish_due_ms: now_ms,
             published: None,
+            evaluated_ms: now_ms,
         }
     }
 
@@ -168,7 +196,28 @@ impl Nap {
             AlarmChange::Raise { subject, cause } => NapCommand::RaiseAlarm { subject, cause },
             AlarmChange::Clear { subject } => NapCommand::ClearAlarm { subject },
         }));
+        self.evaluated_ms = self.evaluated_ms.max(now_ms);
+        self.debug_check(now_ms);
         commands
+    }
+
+    /// Panics (debug builds only) when the monitor breaks an invariant after a step at
+    /// `now_ms`: a timer is still due (a deadline would be missed until the next input), or
+    /// the row it last published is not its row now (a peer would conclude on a stale row).
+    fn debug_check(&self, now_ms: u64) {
+        debug_assert!(
+            self.next_deadline().at_ms > now_ms,
+            "NAP C{}: {:?} still due after a step at {now_ms} ms",
+            self.config.id,
+            self.next_deadline()
+        );
+        debug_assert!(
+            self.published == Some(self.observer.hearing(now_ms)),
+            "NAP C{}: published {:?}, hears {:?} at {now_ms} ms",
+            self.config.id,
+            self.published,
+            self.observer.hearing(now_ms)
+        );
     }
 
     /// The same heartbeat on both networks; a periodic one schedules the next a period on (a
@@ -191,17 +240,42 @@ impl Nap {
         }
     }
 
-    /// When to tick next (after `now_ms`): the next heartbeat, the next deadline to run out,
-    /// or the next alarm due.
-    pub fn next_wakeup_ms(&self, now_ms: u64) -> u64 {
-        let publish_ms = self.publish_due_ms.max(now_ms + 1);
+    /// Its timers with the instant each next fires (a link deadline or an alarm that is not
+    /// pending is absent).
+    fn timers(&self) -> [(NapTimer, Option<u64>); 3] {
+        let evaluated_ms = self.evaluated_ms;
         [
-            self.observer.next_change_ms(now_ms),
-            self.alarms.next_due_ms(self.config.alarm_timing(), now_ms),
+            (
+                NapTimer::LinkDeadline,
+                self.observer.next_change_ms(evaluated_ms),
+            ),
+            (
+                NapTimer::AlarmHysteresis,
+                self.alarms
+                    .next_due_ms(self.config.alarm_timing(), evaluated_ms),
+            ),
+            (NapTimer::Publish, Some(self.publish_due_ms)),
         ]
-        .into_iter()
-        .flatten()
-        .fold(publish_ms, u64::min)
+    }
+
+    /// The timer that runs at `now_ms`, if one is due (the first in [`NapTimer`]'s order).
+    pub fn due_timer(&self, now_ms: u64) -> Option<NapTimer> {
+        self.timers()
+            .into_iter()
+            .find(|(_, at_ms)| at_ms.is_some_and(|at_ms| at_ms <= now_ms))
+            .map(|(timer, _)| timer)
+    }
+
+    /// When the monitor must next be stepped, and which timer fires then: the next
+    /// heartbeat, the next link deadline to run out, or the next alarm due.
+    pub fn next_deadline(&self) -> NapDeadline {
+        let (timer, at_ms) = self
+            .timers()
+            .into_iter()
+            .filter_map(|(timer, at_ms)| at_ms.map(|at_ms| (timer, at_ms)))
+            .min_by_key(|&(timer, at_ms)| (at_ms, timer))
+            .unwrap_or((NapTimer::Publish, self.publish_due_ms));
+        NapDeadline { at_ms, timer }
     }
 
     /// The conclusion of the last evaluation.

@@ -38,7 +38,7 @@ mod wake_switch;
 
 pub use endpoint::{guid_hex, Reader, Received, Writer};
 pub use network::NetworkParticipant;
-pub use participants::{ControllerDirectory, ParticipantKey};
+pub use participants::{participant_key, ControllerDirectory, ParticipantKey};
 pub use role_writer::{Keying, NoKey, StrengthWriter, WithKey};
 pub use ros::StatusPublisher;
 pub use rustdds::{mio, GUID};
@@ -380,7 +380,7 @@ impl Session {
 
     /// The prefix of every GUID of this session's entities.
     pub fn participant_key(&self) -> ParticipantKey {
-        ParticipantKey::of(self.participant.guid())
+        participant_key(self.participant.guid())
     }
 
     /// Whether `topic` lives on the device participant (open device topics).

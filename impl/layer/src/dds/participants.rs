@@ -6,18 +6,14 @@ use super::{Received, GUID};
 use crate::core::{types::ControllerId, Heartbeat};
 use std::collections::HashMap;
 
-/// The 12-byte GUID prefix that identifies a participant (and prefixes all its entities).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub struct ParticipantKey(pub [u8; 12]);
+pub use crate::core::identity::ParticipantKey;
 
-impl ParticipantKey {
-    /// The participant that `guid` (any of its entities, or itself) belongs to.
-    pub fn of(guid: GUID) -> ParticipantKey {
-        let bytes = guid.to_bytes();
-        let mut prefix = [0; 12];
-        prefix.copy_from_slice(&bytes[..12]);
-        ParticipantKey(prefix)
-    }
+/// The participant that `guid` (any of its entities, or itself) belongs to.
+pub fn participant_key(guid: GUID) -> ParticipantKey {
+    let bytes = guid.to_bytes();
+    let mut prefix = [0; 12];
+    prefix.copy_from_slice(&bytes[..12]);
+    ParticipantKey(prefix)
 }
 
 /// Which controller each participant belongs to, learned from heartbeats (see the module
@@ -37,14 +33,12 @@ impl ControllerDirectory {
     /// old entry stays, harmless, as nothing writes from that participant any more.
     pub fn note_heartbeat(&mut self, heartbeat: &Received<Heartbeat>) {
         self.by_participant
-            .insert(ParticipantKey::of(heartbeat.writer), heartbeat.value.id);
+            .insert(participant_key(heartbeat.writer), heartbeat.value.id);
     }
 
     /// The controller whose participant wrote through `writer`.
     pub fn controller_of(&self, writer: GUID) -> Option<ControllerId> {
-        self.by_participant
-            .get(&ParticipantKey::of(writer))
-            .copied()
+        self.by_participant.get(&participant_key(writer)).copied()
     }
 
     /// How many participants it has mapped to a controller (restarts included).

@@ -191,7 +191,7 @@ fn monitor(
     let mut nap = Nap::new(nap_config, clock.now_ms());
     let own: Vec<ParticipantKey> = participants
         .iter()
-        .map(|(_, p)| ParticipantKey::of(p.guid()))
+        .map(|(_, p)| crate::dds::participant_key(p.guid()))
         .collect();
     let poll_error = |doing| move |source| MonitorError::Poll { doing, source };
     let poll = Poll::new().map_err(poll_error("creating the event poll"))?;
@@ -208,11 +208,14 @@ fn monitor(
     let mut shown: Option<Verdict> = None;
     while !stop.load(Ordering::SeqCst) {
         let now_ms = clock.now_ms();
-        let mut commands = nap.step(NapInput::Tick, now_ms);
+        let mut commands = Vec::new();
+        while let Some(timer) = nap.due_timer(now_ms) {
+            commands.extend(nap.step(NapInput::Timer(timer), now_ms));
+        }
         for (network, (_, participant)) in Network::ALL.into_iter().zip(participants.iter_mut()) {
             for received in participant.heartbeats_in.take() {
                 // RustDDS may hand a participant its own samples: they say nothing of a link.
-                if own.contains(&ParticipantKey::of(received.writer)) {
+                if own.contains(&crate::dds::participant_key(received.writer)) {
                     continue;
                 }
                 let input = NapInput::Heartbeat {
@@ -241,7 +244,8 @@ fn monitor(
             shown = Some(nap.conclusion().verdict.clone());
         }
         let wait_ms = nap
-            .next_wakeup_ms(now_ms)
+            .next_deadline()
+            .at_ms
             .saturating_sub(clock.now_ms())
             .clamp(1, FLAG_CHECK_MS);
         match poll.poll(&mut events, Some(Duration::from_millis(wait_ms))) {

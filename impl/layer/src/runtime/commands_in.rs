@@ -53,7 +53,7 @@ impl Voting {
             let Some(written) = command.source_timestamp else {
                 continue;
             };
-            let participant = crate::dds::ParticipantKey::of(command.writer);
+            let participant = crate::dds::participant_key(command.writer);
             let Some(from) = self.identities.speaks_for(participant) else {
                 continue;
             };

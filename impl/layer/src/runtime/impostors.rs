@@ -21,7 +21,7 @@ impl Voting {
             return true;
         }
         let now_ms = self.clock.now_ms();
-        let from = ParticipantKey::of(heartbeat.writer);
+        let from = crate::dds::participant_key(heartbeat.writer);
         let admission = self
             .identities
             .heartbeat(id, heartbeat.value.incarnation, from, now_ms);
@@ -35,7 +35,7 @@ impl Voting {
             return true;
         }
         let now_ms = self.clock.now_ms();
-        let from = ParticipantKey::of(writer);
+        let from = crate::dds::participant_key(writer);
         let admission = self
             .identities
             .vote(id, vote.value.incarnation, from, now_ms);

@@ -1,6 +1,6 @@
 //! Whole monitors: three participants exchange heartbeats through a network whose faults the
-//! test switches on and off, each ticked only at the instant it asks for
-//! ([`Nap::next_wakeup_ms`]), so late wake-ups show as late alarms. Delivery is instant; the
+//! test switches on and off, each stepped only at the instant it asks for
+//! ([`Nap::next_deadline`]), so late wake-ups show as late alarms. Delivery is instant; the
 //! participants start out of phase (0, 70, 160 ms).
 
 use super::*;
@@ -11,6 +11,16 @@ struct Logged {
     at_ms: u64,
     by: ControllerId,
     command: NapCommand,
+}
+
+/// Steps every timer due at `now_ms` (none due: nothing happens), as the monitor's thread
+/// does.
+fn tick(nap: &mut Nap, now_ms: u64) -> Vec<NapCommand> {
+    let mut commands = Vec::new();
+    while let Some(timer) = nap.due_timer(now_ms) {
+        commands.extend(nap.step(NapInput::Timer(timer), now_ms));
+    }
+    commands
 }
 
 struct Lab {
@@ -55,7 +65,7 @@ impl Lab {
                 if faults.contains(&down(id)) || now_ms < self.wake_ms[at] {
                     continue;
                 }
-                let commands = self.naps[at].step(NapInput::Tick, now_ms);
+                let commands = tick(&mut self.naps[at], now_ms);
                 self.perform(at, commands, &faults);
             }
             self.now_ms += 1;
@@ -65,7 +75,7 @@ impl Lab {
     /// Delivers heartbeats along working paths, logs alarm commands, reschedules.
     fn perform(&mut self, at: usize, commands: Vec<NapCommand>, faults: &[Fault]) {
         let (now_ms, by) = (self.now_ms, self.id(at));
-        self.wake_ms[at] = self.naps[at].next_wakeup_ms(now_ms);
+        self.wake_ms[at] = self.naps[at].next_deadline().at_ms;
         for command in commands {
             let NapCommand::PublishHeartbeat { network, heartbeat } = command else {
                 self.alarms.push(Logged {
@@ -335,7 +345,7 @@ fn a_duplex_pair_alarms_a_network_and_reports_its_peer_down() {
 fn heartbeats_from_itself_or_strangers_are_dropped_and_counted() {
     let mut nap = Nap::new(NapConfig::new(1), 0);
     // Its first heartbeat, due at once; ignored heartbeats change nothing, so none follows.
-    assert_eq!(nap.step(NapInput::Tick, 0).len(), 2);
+    assert_eq!(tick(&mut nap, 0).len(), 2);
     let mut hearing = Hearing::default();
     hearing.set(1, A, LinkState::Fail);
     for from in [1, 4, 0] {
@@ -379,7 +389,7 @@ fn links_are_unknown_in_the_start_up_grace_then_fail_at_the_deadline() {
 #[test]
 fn heartbeats_go_out_on_both_networks_every_period_carrying_the_row() {
     let mut nap = Nap::new(NapConfig::new(2), 100);
-    let published = nap.step(NapInput::Tick, 100);
+    let published = tick(&mut nap, 100);
     let heartbeat = NetworkHeartbeat {
         from: 2,
         hearing: Hearing::default(),
@@ -397,9 +407,9 @@ fn heartbeats_go_out_on_both_networks_every_period_carrying_the_row() {
             },
         ]
     );
-    assert_eq!(nap.next_wakeup_ms(100), 350);
-    assert_eq!(nap.step(NapInput::Tick, 349), []);
-    let later = nap.step(NapInput::Tick, 1000);
+    assert_eq!(nap.next_deadline().at_ms, 350);
+    assert_eq!(tick(&mut nap, 349), []);
+    let later = tick(&mut nap, 1000);
     assert_eq!(later.len(), 2, "a late tick publishes once");
     let NapCommand::PublishHeartbeat { heartbeat, .. } = later[0] else {
         panic!("not a heartbeat: {later:?}");
@@ -411,5 +421,5 @@ fn heartbeats_go_out_on_both_networks_every_period_carrying_the_row() {
         LinkState::Unknown,
         "its own slot"
     );
-    assert_eq!(nap.next_wakeup_ms(1000), 1250);
+    assert_eq!(nap.next_deadline().at_ms, 1250);
 }

@@ -20,12 +20,17 @@
 //!   id of a controller that is down, as a restart does. Only DDS Security stops that
 //!   (docs/protocol.md, "Hostile input").
 //!
-//! Pure: participants, ids and times in, admissions out. The voting thread, `rl servo` and
-//! `rl status` use it.
+//! Pure: participants, ids and times in, admissions out. The controller's voting loop, the
+//! actuator's trust in command writers and `rl status` use it.
 
-use crate::core::types::{ControllerId, Incarnation};
-use crate::dds::ParticipantKey;
+use crate::types::{ControllerId, Incarnation};
+use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
+
+/// The 12-byte GUID prefix that identifies a DDS participant (and prefixes all its
+/// entities): who a sample came from, whatever id it names.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+pub struct ParticipantKey(pub [u8; 12]);
 
 /// What the book says of one sample.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -1,0 +1,140 @@
+//! A controller's life cycle as the core decides it: when one that failed itself leaves, how a
+//! new life starts (after a stall, a lost carrier, a takeover), and whose round phase it
+//! follows.
+
+use super::*;
+
+fn with_exit_delay(c: Core, delay_ms: u64) -> Core {
+    let mut c = c;
+    c.config = c.config.with_failed_exit_delay_ms(delay_ms);
+    c
+}
+
+#[test]
+fn a_failed_controller_leaves_after_announcing_it_and_the_delay() {
+    let mut c = with_exit_delay(formed_c(3), 300);
+    let commands = c.step(Input::LocalFault, 850);
+    assert!(
+        commands.iter().any(|command| matches!(
+            command,
+            Command::Failed {
+                exit_in_ms: Some(300),
+                ..
+            }
+        )),
+        "{commands:?}"
+    );
+    // The delay counts from the failure (850 + 300); the heartbeats meanwhile say FAILED.
+    let meanwhile = advance(&mut c, 1_149);
+    assert!(!meanwhile.iter().any(|c| matches!(c, Command::Exit(_))));
+    assert!(meanwhile.iter().any(|command| matches!(
+        command,
+        Command::PublishHeartbeat(h) if h.phase == Phase::Failed
+    )));
+    assert_eq!(c.next_deadline().at_ms, 1_150);
+    assert_eq!(c.next_deadline().timer, Timer::Exit);
+    let leave = advance(&mut c, 1_150);
+    assert!(
+        matches!(leave.as_slice(), [Command::Exit(failure)] if failure.id == 3),
+        "{leave:?}"
+    );
+    // Once.
+    assert_ne!(c.next_deadline().timer, Timer::Exit);
+}
+
+#[test]
+fn it_never_leaves_before_a_heartbeat_said_failed() {
+    let mut c = with_exit_delay(formed_c(3), 0);
+    c.step(Input::LocalFault, 850);
+    // Its heartbeat (due at 812, overdue) goes first, then it leaves.
+    assert_eq!(c.due_timer(850), Some(Timer::Heartbeat));
+    let commands = advance(&mut c, 850);
+    assert!(
+        matches!(
+            commands.as_slice(),
+            [Command::PublishHeartbeat(h), Command::Exit(_)] if h.phase == Phase::Failed
+        ),
+        "{commands:?}"
+    );
+}
+
+#[test]
+fn without_a_delay_configured_a_failed_controller_stays() {
+    let mut c = formed_c(3);
+    c.step(Input::LocalFault, 850);
+    for command in advance(&mut c, 5_000) {
+        assert!(!matches!(command, Command::Exit(_)), "{command:?}");
+    }
+    assert_eq!(c.report().phase, Phase::Failed);
+}
+
+#[test]
+fn a_new_life_is_a_new_incarnation_deaf_until_the_next_boundary() {
+    let mut c = with_exit_delay(formed_c(2), 300);
+    let commands = c.step(
+        Input::StartAgain {
+            cause: Restart::Stalled { stalled_ms: 4_000 },
+            incarnation: 9,
+        },
+        5_100,
+    );
+    assert_eq!(
+        commands,
+        vec![Command::NewLife {
+            cause: Restart::Stalled { stalled_ms: 4_000 }
+        }]
+    );
+    assert_eq!(c.report().incarnation, 9);
+    assert_eq!(c.report().phase, Phase::Initializing);
+    assert_eq!(
+        c.config().failed_exit_delay_ms,
+        Some(300),
+        "the config stays"
+    );
+    // Heartbeats the kernel kept during the stall arrive now: not heard.
+    assert!(!c.hears_at(5_249));
+    c.step(Input::Heartbeat(steady(1, assignment(&[(1, 0)]))), 5_200);
+    assert!(c.inbox.is_empty());
+    assert!(c.hears_at(5_250));
+    c.step(Input::Heartbeat(steady(1, assignment(&[(1, 0)]))), 5_260);
+    assert_eq!(c.inbox.len(), 1);
+}
+
+#[test]
+fn a_deposed_controller_speaks_at_the_rounds_heartbeat_slot() {
+    let mut c = formed_c(1);
+    let commands = c.step(
+        Input::StartAgain {
+            cause: Restart::Deposed,
+            incarnation: 5,
+        },
+        1_000,
+    );
+    assert_eq!(
+        commands,
+        vec![Command::NewLife {
+            cause: Restart::Deposed
+        }]
+    );
+    assert_eq!(c.next_deadline().at_ms, 1_062);
+    assert_eq!(c.next_deadline().timer, Timer::Heartbeat);
+}
+
+#[test]
+fn a_newcomer_is_told_to_move_its_clock_onto_the_primarys_phase() {
+    let mut c = core(3, 0, 0);
+    let from_primary = steady(1, assignment(&[(1, 0), (2, 0)]));
+    // 100 ms ahead: the Primary's heartbeat, sent 62 ms into its round, arrives 163 ms into
+    // ours (1 ms of transit expected).
+    let commands = c.step(Input::HeartbeatArrival(from_primary), 2_500 + 163);
+    assert_eq!(
+        commands,
+        vec![Command::MoveClock {
+            by_ms: -100,
+            following: 1
+        }]
+    );
+    // A higher id sets no phase.
+    let from_c4 = heartbeat(4, Phase::Initializing);
+    assert_eq!(c.step(Input::HeartbeatArrival(from_c4), 2_763), vec![]);
+}
