@@ -91,7 +91,7 @@ fn sample_run(picture: &Path) -> (Outcome, Observations, Vec<Life>) {
             servo_gap: Some((200.0, 3200.0)),
             ..Metrics::default()
         },
-        validation: Ok("accepted".into()),
+        validation: Ok(conformance::validate::Accepted::default()),
         network: None,
         network_alarm_changes: Vec::new(),
         failures: Vec::new(),

@@ -36,15 +36,30 @@ fn spawn_line_reader(
     source: String,
     to: mpsc::Sender<Line>,
 ) {
+    read_lines(input, to, move |text| {
+        Some(Line {
+            at: Instant::now(),
+            source: source.clone(),
+            text,
+        })
+    });
+}
+
+/// The one line reader of every child-process harness (the demo, the bench, the fault lab,
+/// the DDS-level replay, the process tests): a thread that sends `keep(line)` for each line
+/// of `input` (stamped when read, on the harness's own clock; `None` drops the line) until the
+/// input or the channel closes.
+pub fn read_lines<L: Send + 'static>(
+    input: impl std::io::Read + Send + 'static,
+    to: mpsc::Sender<L>,
+    keep: impl Fn(String) -> Option<L> + Send + 'static,
+) {
     std::thread::spawn(move || {
         for text in BufReader::new(input).lines().map_while(Result::ok) {
-            let line = Line {
-                at: Instant::now(),
-                source: source.clone(),
-                text,
-            };
-            if to.send(line).is_err() {
-                break;
+            if let Some(line) = keep(text) {
+                if to.send(line).is_err() {
+                    break;
+                }
             }
         }
     });

@@ -17,10 +17,8 @@ mod lan;
 
 use lan::{MulticastRoute, Net, TwoBridgeLan};
 use rl_layer::event::{Event, EventLine};
-use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Stdio};
 use std::sync::mpsc::{channel, Receiver};
-use std::thread;
 use std::time::{Duration, Instant};
 
 /// Each test its own domain (and the monitor's two above it), so they can run side by side.
@@ -62,15 +60,11 @@ impl Controllers {
                 .expect("rl controller starts");
             let stdout = child.stdout.take().expect("piped stdout");
             let tx = tx.clone();
-            thread::spawn(move || {
-                for text in BufReader::new(stdout).lines().map_while(Result::ok) {
-                    if let Some(line) = EventLine::parse(&text) {
-                        let _ = tx.send(Seen {
-                            at: Instant::now(),
-                            line,
-                        });
-                    }
-                }
+            rl::procs::read_lines(stdout, tx, |text| {
+                EventLine::parse(&text).map(|line| Seen {
+                    at: Instant::now(),
+                    line,
+                })
             });
             children.push(child);
         }

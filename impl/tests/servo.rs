@@ -13,7 +13,6 @@ use rl_layer::core::Heartbeat;
 use rl_layer::dds::{guid_hex, Session};
 use rl_layer::wire::ServoControl;
 use serde_json::Value;
-use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Stdio};
 use std::sync::atomic::{AtomicBool, AtomicI32, Ordering};
 use std::sync::mpsc::{self, Receiver};
@@ -51,14 +50,7 @@ impl Servo {
             .expect("start rl servo");
         let stdout = child.stdout.take().unwrap();
         let (sender, lines) = mpsc::channel();
-        thread::spawn(move || {
-            for line in BufReader::new(stdout).lines() {
-                let Ok(line) = line else { break };
-                if sender.send(line).is_err() {
-                    break;
-                }
-            }
-        });
+        rl::procs::read_lines(stdout, sender, Some);
         Servo { child, lines }
     }
 

@@ -90,12 +90,39 @@ fn start_explorer(model: &RlModel) -> Result<SocketAddr, ExploreError> {
     Err(ExploreError::Explorer(failures.join("; ")))
 }
 
+/// Why a request could not be forwarded to stateright's explorer, or its answer not used.
+#[derive(Debug, thiserror::Error)]
+enum ForwardError {
+    #[error("reading the request's body: {0}")]
+    RequestBody(std::io::Error),
+    #[error("{0}")]
+    Io(#[from] std::io::Error),
+    #[error("an answer without the end of its header")]
+    NoHeaderEnd,
+    #[error("a malformed status line {0:?}")]
+    StatusLine(String),
+    #[error("a malformed Content-Length {0:?}")]
+    ContentLength(String),
+    #[error("{got} of {length} bytes")]
+    Truncated { got: usize, length: usize },
+    #[error("the initial states are not JSON: {0}")]
+    NotJson(#[from] serde_json::Error),
+    #[error("the initial states are not a JSON array of objects")]
+    NotAList,
+    #[error("{got} initial states, the model has {model}")]
+    Count { got: usize, model: usize },
+    #[error("it stopped (its port was probably taken)")]
+    Stopped,
+    #[error("no answer within 30 s")]
+    NoAnswer,
+}
+
 /// Waits until the explorer at `addr` answers `GET /.status` while `serving` still runs.
-fn wait_answering(addr: SocketAddr, serving: &JoinHandle<()>) -> Result<(), String> {
+fn wait_answering(addr: SocketAddr, serving: &JoinHandle<()>) -> Result<(), ForwardError> {
     let deadline = Instant::now() + Duration::from_secs(30);
     loop {
         if serving.is_finished() {
-            return Err("it stopped (its port was probably taken)".to_string());
+            return Err(ForwardError::Stopped);
         }
         let timeout = Some(Duration::from_secs(2));
         let answer = exchange(addr, "GET", "/.status", None, &[], timeout);
@@ -103,7 +130,7 @@ fn wait_answering(addr: SocketAddr, serving: &JoinHandle<()>) -> Result<(), Stri
             return Ok(());
         }
         if Instant::now() >= deadline {
-            return Err("no answer within 30 s".to_string());
+            return Err(ForwardError::NoAnswer);
         }
         std::thread::sleep(Duration::from_millis(50));
     }
@@ -149,12 +176,12 @@ fn answer(mut request: Request, explorer: SocketAddr, names: &[String]) {
     let _ = request.respond(response);
 }
 
-fn forward(request: &mut Request, explorer: SocketAddr) -> Result<Reply, String> {
+fn forward(request: &mut Request, explorer: SocketAddr) -> Result<Reply, ForwardError> {
     let mut body = Vec::new();
     request
         .as_reader()
         .read_to_end(&mut body)
-        .map_err(|error| format!("reading the request's body: {error}"))?;
+        .map_err(ForwardError::RequestBody)?;
     let content_type = request
         .headers()
         .iter()
@@ -179,28 +206,27 @@ fn exchange(
     content_type: Option<&str>,
     body: &[u8],
     timeout: Option<Duration>,
-) -> Result<Reply, String> {
-    let io = |error: std::io::Error| error.to_string();
-    let mut stream = TcpStream::connect(addr).map_err(io)?;
-    stream.set_read_timeout(timeout).map_err(io)?;
+) -> Result<Reply, ForwardError> {
+    let mut stream = TcpStream::connect(addr)?;
+    stream.set_read_timeout(timeout)?;
     let mut head = format!("{method} {url} HTTP/1.0\r\nHost: {addr}\r\n");
     if let Some(content_type) = content_type {
         head.push_str(&format!("Content-Type: {content_type}\r\n"));
     }
     head.push_str(&format!("Content-Length: {}\r\n\r\n", body.len()));
-    stream.write_all(head.as_bytes()).map_err(io)?;
-    stream.write_all(body).map_err(io)?;
+    stream.write_all(head.as_bytes())?;
+    stream.write_all(body)?;
     let mut raw = Vec::new();
-    stream.read_to_end(&mut raw).map_err(io)?;
+    stream.read_to_end(&mut raw)?;
     parse_reply(&raw)
 }
 
 /// Status, Content-Type and body of an HTTP/1.x answer.
-fn parse_reply(raw: &[u8]) -> Result<Reply, String> {
+fn parse_reply(raw: &[u8]) -> Result<Reply, ForwardError> {
     let end = raw
         .windows(4)
         .position(|window| window == b"\r\n\r\n")
-        .ok_or("an answer without the end of its header")?;
+        .ok_or(ForwardError::NoHeaderEnd)?;
     let head = String::from_utf8_lossy(&raw[..end]);
     let mut lines = head.split("\r\n");
     let status_line = lines.next().unwrap_or_default();
@@ -208,7 +234,7 @@ fn parse_reply(raw: &[u8]) -> Result<Reply, String> {
         [version, code, ..] if version.starts_with("HTTP/1.") => code.parse().ok(),
         _ => None,
     }
-    .ok_or_else(|| format!("a malformed status line {status_line:?}"))?;
+    .ok_or_else(|| ForwardError::StatusLine(status_line.to_string()))?;
     let mut reply = Reply {
         status,
         content_type: None,
@@ -221,9 +247,12 @@ fn parse_reply(raw: &[u8]) -> Result<Reply, String> {
         } else if name.eq_ignore_ascii_case("Content-Length") {
             let length: usize = value
                 .parse()
-                .map_err(|_| format!("a malformed Content-Length {value:?}"))?;
+                .map_err(|_| ForwardError::ContentLength(value.to_string()))?;
             if reply.body.len() < length {
-                return Err(format!("{} of {length} bytes", reply.body.len()));
+                return Err(ForwardError::Truncated {
+                    got: reply.body.len(),
+                    length,
+                });
             }
             reply.body.truncate(length);
         }
@@ -232,26 +261,20 @@ fn parse_reply(raw: &[u8]) -> Result<Reply, String> {
 }
 
 /// Adds `"action": names[i]` to element i of the initial-state list.
-fn name_initial_states(body: &[u8], names: &[String]) -> Result<Vec<u8>, String> {
-    let mut states: serde_json::Value = serde_json::from_slice(body)
-        .map_err(|error| format!("the initial states are not JSON: {error}"))?;
-    let list = states
-        .as_array_mut()
-        .ok_or("the initial states are not a JSON array")?;
+fn name_initial_states(body: &[u8], names: &[String]) -> Result<Vec<u8>, ForwardError> {
+    let mut states: serde_json::Value = serde_json::from_slice(body)?;
+    let list = states.as_array_mut().ok_or(ForwardError::NotAList)?;
     if list.len() != names.len() {
-        return Err(format!(
-            "{} initial states, the model has {}",
-            list.len(),
-            names.len()
-        ));
+        return Err(ForwardError::Count {
+            got: list.len(),
+            model: names.len(),
+        });
     }
     for (state, name) in list.iter_mut().zip(names) {
-        let fields = state
-            .as_object_mut()
-            .ok_or("an initial state is not a JSON object")?;
+        let fields = state.as_object_mut().ok_or(ForwardError::NotAList)?;
         fields.insert("action".to_string(), name.clone().into());
     }
-    serde_json::to_vec(&states).map_err(|error| error.to_string())
+    Ok(serde_json::to_vec(&states)?)
 }
 
 #[cfg(test)]

@@ -87,7 +87,8 @@ fn main() -> ExitCode {
                 replayed += 1;
                 println!("{report}");
             }
-            Err(message) => {
+            Err(error) => {
+                let message = failure_text(&error, wanted.mutation.is_some());
                 println!("{} FAILED\n{message}\n", trace.file);
                 failures.push(trace.file.clone());
             }
@@ -112,29 +113,32 @@ fn main() -> ExitCode {
 }
 
 /// Replays one trace on real processes (the recording validated strictly); the line to
-/// print, or why it does not conform (only the problem under a mutation).
+/// print, or why it does not conform.
 fn replay(
     trace: &Trace,
     plan: &dds_replay::Plan,
     exe: &Path,
     record_dir: &Path,
     mutation: Option<String>,
-) -> Result<String, String> {
-    let brief = mutation.is_some();
+) -> Result<String, dds_replay::ReplayError> {
     let setup = Setup {
         exe,
         domain: DOMAIN,
         record_dir,
         mutation,
     };
-    match dds_replay::replay(plan, &setup) {
-        Ok(done) => Ok(format!(
-            "{} conforms ({}, attempt {}); its recording: {}",
-            trace.file, trace.purpose, done.attempts, done.validation
-        )),
-        Err(error) => match error.problem() {
-            Some(problem) if brief => Err(format!("{problem}")),
-            _ => Err(error.to_string()),
-        },
+    let done = dds_replay::replay(plan, &setup)?;
+    Ok(format!(
+        "{} conforms ({}, attempt {}); its recording: {}",
+        trace.file, trace.purpose, done.attempts, done.validation
+    ))
+}
+
+/// Why a replay failed, for the report: only the problem under a mutation (the point is that
+/// one is found), everything otherwise.
+fn failure_text(error: &dds_replay::ReplayError, brief: bool) -> String {
+    match error.problem() {
+        Some(problem) if brief => problem.to_string(),
+        _ => error.to_string(),
     }
 }

@@ -6,7 +6,7 @@
 
 use rl::procs::wall_ms;
 use rl_layer::core::ControllerId;
-use std::io::{BufRead, BufReader, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdin, Command, ExitStatus, Stdio};
 use std::sync::mpsc::{self, Receiver, Sender};
@@ -192,18 +192,13 @@ impl Drop for Processes {
     }
 }
 
-/// A thread that sends each line of `input` until it or the channel closes.
+/// Each line of `input`, stamped with the wall clock, until it or the channel closes.
 fn read_lines(input: impl std::io::Read + Send + 'static, source: String, to: Sender<Line>) {
-    std::thread::spawn(move || {
-        for text in BufReader::new(input).lines().map_while(Result::ok) {
-            let line = Line {
-                wall_ms: wall_ms(),
-                source: source.clone(),
-                text,
-            };
-            if to.send(line).is_err() {
-                break;
-            }
-        }
+    rl::procs::read_lines(input, to, move |text| {
+        Some(Line {
+            wall_ms: wall_ms(),
+            source: source.clone(),
+            text,
+        })
     });
 }

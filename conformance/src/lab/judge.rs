@@ -340,7 +340,11 @@ pub fn measure(
 }
 
 /// The judges' verdict: every expectation `metrics` misses, in words (empty: pass).
-pub fn failures(metrics: &Metrics, expected: &Expected, accepted: Result<(), &str>) -> Vec<String> {
+pub fn failures(
+    metrics: &Metrics,
+    expected: &Expected,
+    accepted: Result<(), &super::validation::NotAccepted>,
+) -> Vec<String> {
     let mut failed = owner_change_failures(metrics, expected);
     failed.extend(gap_failures(metrics, expected));
     // Controller events carry whole milliseconds: an overlap below one is their resolution.

@@ -9,8 +9,8 @@
 //! network heartbeat deadlines), with the expected certainty, and cleared within
 //! [`CLEAR_WITHIN_MS`] of the heal
 //! (a period to hear the link again, four of good links) and not before; no other network
-//! alarm at all; the conclusion mentioning what it must (the double fault a monitor that hears
-//! nobody cannot rule out); the controller alarms (RLCHB's `alarm` events) exactly as
+//! alarm at all; the conclusion's verdict holding what it must (the double fault a monitor that
+//! hears nobody cannot rule out; read typed from the `verdict`, never from the words); the controller alarms (RLCHB's `alarm` events) exactly as
 //! expected; and, where voting must be unaffected, no role change and no restart. It measures
 //! each raise and clear latency per controller for the outcome and docs/faults.md.
 //!
@@ -20,15 +20,13 @@
 //! (`network_alarms/tests.rs`) feed it literal lines and show that each check can fail.
 
 use super::judge::FaultRecord;
-use super::lan::Net;
 use super::observe::ControllerEvent;
 use super::procs::Life;
-use rl_layer::core::network::Network;
+use rl_layer::core::network::{AlarmCause, AlarmSubject as Subject, Finding, Network, Verdict};
 use rl_layer::core::AlarmReason;
 use rl_layer::event::{Event, EventLine};
 use rl_layer::wire::Certainty;
 use serde::Serialize;
-use std::fmt;
 
 /// From a net fault to the alarm, two network heartbeat deadlines: the links' deadline (2
 /// periods of 250 ms), then the subject implicated until it is raised (375 ms,
@@ -37,41 +35,18 @@ pub const RAISE_WITHIN_MS: f64 = 1000.0;
 /// From the heal to the clear: a period to hear the links again, 4 periods of good links.
 pub const CLEAR_WITHIN_MS: f64 = 1500.0;
 
-/// How a conclusion names the double fault (both nets failed) among its alternatives.
-pub const DOUBLE_FAULT: &str = "both networks failed";
-
-/// What a network alarm is about.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize)]
-pub enum Subject {
-    /// A whole net.
-    Network(Net),
-    /// One controller's transceiver (its link) on one net.
-    Transceiver { controller: u8, net: Net },
-}
-
-impl fmt::Display for Subject {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Subject::Network(net) => write!(f, "{net}"),
-            Subject::Transceiver { controller, net } => {
-                write!(f, "C{controller}'s transceiver on {net}")
-            }
-        }
-    }
-}
-
 /// A network line of a controller.
 #[derive(Clone, Debug, PartialEq)]
 pub enum NapEvent {
     Alarm {
         subject: Subject,
         raised: bool,
-        certainty: Option<String>,
-        cause: Option<String>,
+        certainty: Option<Certainty>,
+        cause: Option<AlarmCause>,
     },
     Conclusion {
         text: String,
-        findings: Vec<String>,
+        verdict: Verdict,
     },
 }
 
@@ -102,36 +77,27 @@ pub fn nap_event(event: &Event) -> Option<NapEvent> {
             certainty,
             cause,
         } => {
-            let net = match network {
-                Network::A => Net::A,
-                Network::B => Net::B,
-            };
+            let network = *network;
             Some(NapEvent::Alarm {
-                subject: controller.map_or(Subject::Network(net), |controller| {
-                    Subject::Transceiver { controller, net }
+                subject: controller.map_or(Subject::Network(network), |controller| {
+                    Subject::Transceiver {
+                        controller,
+                        network,
+                    }
                 }),
                 raised: *raised,
-                certainty: certainty.map(|c| certainty_name(c).to_string()),
+                certainty: *certainty,
                 cause: cause.clone(),
             })
         }
         Event::NetworkConclusion {
             conclusion,
-            findings,
+            verdict,
         } => Some(NapEvent::Conclusion {
             text: conclusion.clone(),
-            findings: findings.clone(),
+            verdict: verdict.clone(),
         }),
         _ => None,
-    }
-}
-
-/// A certainty as the event line writes it.
-fn certainty_name(certainty: Certainty) -> &'static str {
-    match certainty {
-        Certainty::Concluded => "concluded",
-        Certainty::Suspected => "suspected",
-        Certainty::Unexplained => "unexplained",
     }
 }
 
@@ -150,7 +116,7 @@ pub fn changes(network: &[NapRecord]) -> Vec<String> {
                 "{}: {subject} {} at {:.3} s",
                 r.life,
                 match (raised, certainty) {
-                    (true, Some(c)) => format!("raised ({c})"),
+                    (true, Some(c)) => format!("raised ({})", c.name()),
                     (true, None) => "raised".into(),
                     (false, _) => "cleared".into(),
                 },
@@ -166,9 +132,10 @@ pub fn changes(network: &[NapRecord]) -> Vec<String> {
 pub struct NapExpected {
     /// Alarms every controller that ran through the fault raises and clears, with the
     /// certainty it must end the fault on (`None`: any); any other raise fails.
-    pub alarms: Vec<(Subject, Option<&'static str>)>,
-    /// Text (any case) every such controller's conclusion must contain during the fault.
-    pub conclusion_mentions: Option<&'static str>,
+    pub alarms: Vec<(Subject, Option<Certainty>)>,
+    /// A finding every such controller's conclusion must hold during the fault, as certain or
+    /// among its alternatives.
+    pub conclusion_allows: Option<Finding>,
     /// Controller alarms `(observer, about)` raised as `lost`; any other raise fails.
     pub controller_alarms: Vec<(u8, u8)>,
     /// Voting unaffected: no role change and no restart from judging on.
@@ -179,7 +146,7 @@ pub struct NapExpected {
 pub fn for_scenario(name: &str) -> Option<NapExpected> {
     let nothing = NapExpected {
         alarms: Vec::new(),
-        conclusion_mentions: None,
+        conclusion_allows: None,
         controller_alarms: Vec::new(),
         roles_unchanged: true,
     };
@@ -190,16 +157,16 @@ pub fn for_scenario(name: &str) -> Option<NapExpected> {
     };
     match name {
         "net-b-down" => Some(NapExpected {
-            alarms: vec![(Subject::Network(Net::B), Some("concluded"))],
+            alarms: vec![(Subject::Network(Network::B), Some(Certainty::Concluded))],
             ..nothing
         }),
         "c2-transceiver-a-down" => Some(NapExpected {
             alarms: vec![(
                 Subject::Transceiver {
                     controller: 2,
-                    net: Net::A,
+                    network: Network::A,
                 },
-                Some("concluded"),
+                Some(Certainty::Concluded),
             )],
             ..nothing
         }),
@@ -214,8 +181,7 @@ pub fn for_scenario(name: &str) -> Option<NapExpected> {
         // (the paper's double-fault row needs a second pair), so no network alarm, the double
         // fault named as a possibility.
         "both-networks-down" => Some(NapExpected {
-            // The double fault, as rl words it (`Finding::DoubleFault`).
-            conclusion_mentions: Some(DOUBLE_FAULT),
+            conclusion_allows: Some(Finding::DoubleFault),
             controller_alarms: everyone_loses(&[1, 2, 3]),
             roles_unchanged: false,
             ..nothing
@@ -233,7 +199,7 @@ pub struct AlarmTiming {
     /// From the fault to the first raise (ms).
     pub raised_after_ms: Option<f64>,
     /// The certainty of the last raise before the heal.
-    pub certainty: Option<String>,
+    pub certainty: Option<Certainty>,
     /// From the heal to the clear (ms); negative: cleared while the fault lasted.
     pub cleared_after_ms: Option<f64>,
     /// From the heal to a raise after that clear (ms), if it was raised again.
@@ -330,7 +296,7 @@ fn alarm_lines<'a>(
     network: &'a [NapRecord],
     life: &'a Life,
     subject: Subject,
-) -> impl Iterator<Item = (f64, bool, Option<&'a String>)> + 'a {
+) -> impl Iterator<Item = (f64, bool, Option<Certainty>)> + 'a {
     let label = life.label();
     network
         .iter()
@@ -341,7 +307,7 @@ fn alarm_lines<'a>(
                 raised,
                 certainty,
                 ..
-            } if *s == subject => Some((r.at_ms, *raised, certainty.as_ref())),
+            } if *s == subject => Some((r.at_ms, *raised, *certainty)),
             _ => None,
         })
 }
@@ -361,7 +327,7 @@ fn alarm_timing(
     let certainty = lines
         .iter()
         .rfind(|(at, raised, _)| *raised && *at >= applied_ms && *at <= healed_ms)
-        .and_then(|(_, _, c)| c.cloned());
+        .and_then(|(_, _, c)| *c);
     let clear_at = first_raise.and_then(|raised_at| {
         lines
             .iter()
@@ -384,7 +350,7 @@ fn alarm_timing(
     }
 }
 
-fn timing_failures(timing: &AlarmTiming, certainty: Option<&str>) -> Vec<String> {
+fn timing_failures(timing: &AlarmTiming, certainty: Option<Certainty>) -> Vec<String> {
     let who = format!("{}: {}", timing.observer, timing.subject);
     let mut failed = Vec::new();
     match timing.raised_after_ms {
@@ -394,10 +360,11 @@ fn timing_failures(timing: &AlarmTiming, certainty: Option<&str>) -> Vec<String>
         )),
         Some(_) => {}
     }
-    if let Some(want) = certainty.filter(|want| timing.certainty.as_deref() != Some(*want)) {
+    if let Some(want) = certainty.filter(|want| timing.certainty != Some(*want)) {
         failed.push(format!(
-            "{who}: certainty {} at the heal (expected {want})",
-            timing.certainty.as_deref().unwrap_or("-")
+            "{who}: certainty {} at the heal (expected {})",
+            timing.certainty.map_or("-", Certainty::name),
+            want.name()
         ));
     }
     match (timing.raised_after_ms, timing.cleared_after_ms) {
@@ -444,7 +411,9 @@ fn other_alarms(recorded: &Recorded, expected: &NapExpected, report: &mut NapRep
                 "{}: {subject} raised at {:.3} s ({})",
                 record.life,
                 record.at_ms / 1000.0,
-                cause.as_deref().unwrap_or("no cause")
+                cause
+                    .as_ref()
+                    .map_or_else(|| "no cause".to_string(), ToString::to_string)
             );
             report
                 .failures
@@ -465,28 +434,37 @@ fn conclusions(
 ) {
     for life in observers {
         let label = life.label();
-        let texts: Vec<&String> = recorded
+        let conclusions: Vec<(&String, &Verdict)> = recorded
             .network
             .iter()
             .filter(|r| r.life == label && r.at_ms >= applied_ms && r.at_ms <= healed_ms)
             .filter_map(|r| match &r.event {
-                NapEvent::Conclusion { text, .. } => Some(text),
+                NapEvent::Conclusion { text, verdict } => Some((text, verdict)),
                 _ => None,
             })
             .collect();
         report
             .conclusions
-            .extend(texts.iter().map(|t| format!("{label}: {t}")));
-        if let Some(mention) = expected.conclusion_mentions {
-            let found = texts
-                .iter()
-                .any(|t| t.to_lowercase().contains(&mention.to_lowercase()));
-            if !found {
+            .extend(conclusions.iter().map(|(t, _)| format!("{label}: {t}")));
+        if let Some(finding) = expected.conclusion_allows {
+            if !conclusions.iter().any(|(_, v)| allows(v, finding)) {
                 report.failures.push(format!(
-                    "{label}: no conclusion during the fault mentions \"{mention}\""
+                    "{label}: no conclusion during the fault holds \"{finding}\", as certain or \
+                     as an alternative"
                 ));
             }
         }
+    }
+}
+
+/// Whether `verdict` holds `finding`, in every smallest explanation or in one of them.
+fn allows(verdict: &Verdict, finding: Finding) -> bool {
+    match verdict {
+        Verdict::Explained {
+            certain,
+            alternatives,
+        } => certain.contains(&finding) || alternatives.iter().any(|a| a.contains(&finding)),
+        Verdict::None | Verdict::Unexplained { .. } => false,
     }
 }
 

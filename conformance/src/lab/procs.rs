@@ -14,7 +14,6 @@ use super::error::LabError;
 use super::host::LIBFAKETIME;
 use super::lan::{Lan, Net, Node};
 use std::collections::BTreeMap;
-use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::sync::mpsc::Sender;
@@ -441,24 +440,19 @@ fn close_pause(life: &mut Life, now: f64) {
     }
 }
 
-/// A thread that sends each line of `input` until it or the channel closes.
+/// Each line of `input`, stamped on the lab clock, until it or the channel closes.
 fn spawn_reader(
     input: impl std::io::Read + Send + 'static,
     source: String,
     clock: LabClock,
     to: Sender<Line>,
 ) {
-    std::thread::spawn(move || {
-        for text in BufReader::new(input).lines().map_while(Result::ok) {
-            let line = Line {
-                at_ms: clock.now_ms(),
-                source: source.clone(),
-                text,
-            };
-            if to.send(line).is_err() {
-                break;
-            }
-        }
+    rl::procs::read_lines(input, to, move |text| {
+        Some(Line {
+            at_ms: clock.now_ms(),
+            source: source.clone(),
+            text,
+        })
     });
 }
 

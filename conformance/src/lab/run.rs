@@ -14,6 +14,7 @@ use super::plot;
 use super::scenario::Scenario;
 use super::session::{Session, Setup};
 use super::validation::{self, Verdict};
+use rl_layer::wire::Certainty;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -35,6 +36,7 @@ pub struct Outcome {
     pub mutation: Option<String>,
     pub faults: Vec<FaultRecord>,
     pub metrics: Metrics,
+    #[serde(serialize_with = "validation::serialize_verdict")]
     pub validation: Verdict,
     /// The network alarm judge's measurements and verdict (net scenarios only).
     pub network: Option<NapReport>,
@@ -125,11 +127,7 @@ pub fn run(scenario: &Scenario, seed: u64, setup: &Setup, out: &Path) -> Result<
     let events = dir.join("events");
     validation::write_recording(&events, &session.observed, &lives)?;
     let validation = validate_with_timeout(events);
-    let mut failures = judge::failures(
-        &metrics,
-        &expected,
-        validation.as_ref().map(|_| ()).map_err(String::as_str),
-    );
+    let mut failures = judge::failures(&metrics, &expected, validation.as_ref().map(|_| ()));
     let network = scenario.network.as_ref().map(|expected| {
         let monitored = session.procs.two_networks;
         if !monitored {
@@ -179,12 +177,7 @@ pub fn validate_with_timeout(dir: PathBuf) -> Verdict {
     });
     receiver
         .recv_timeout(VALIDATION_TIMEOUT)
-        .unwrap_or_else(|_| {
-            Err(format!(
-                "did not finish within {} s",
-                VALIDATION_TIMEOUT.as_secs()
-            ))
-        })
+        .unwrap_or(Err(validation::NotAccepted::TimedOut(VALIDATION_TIMEOUT)))
 }
 
 fn write_outputs(dir: &Path, outcome: &Outcome, session: &Session) -> Result<(), LabError> {
@@ -294,7 +287,10 @@ pub fn summary(outcome: &Outcome) -> String {
         m.settle_rounds.map_or("never".into(), |r| format!("{r} rounds after the last heal or restart (model's bound {SETTLE_ROUNDS})")),
         match &outcome.validation {
             Ok(_) => "accepted".to_string(),
-            Err(why) => format!("rejected or unchecked: {}", why.lines().next().unwrap_or("")),
+            Err(why) => format!(
+                "rejected or unchecked: {}",
+                why.to_string().lines().next().unwrap_or("")
+            ),
         },
         m.final_roles.join(" "),
         outcome.picture.display(),
@@ -337,7 +333,7 @@ fn network_summary(report: &NapReport) -> String {
             t.subject,
             t.observer,
             ms(t.raised_after_ms),
-            t.certainty.as_deref().unwrap_or("-"),
+            t.certainty.map_or("-", Certainty::name),
             ms(t.cleared_after_ms),
         ));
     }

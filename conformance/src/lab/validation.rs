@@ -8,13 +8,46 @@
 use super::error::LabError;
 use super::observe::Observations;
 use super::procs::Life;
-use crate::record::Recording;
-use crate::validate::{self, Timing};
+use crate::record::{RecordError, Recording};
+use crate::validate::{self, Accepted, Rejection, Timing, TimingError};
 use std::io::Write;
 use std::path::Path;
+use std::sync::Arc;
+use std::time::Duration;
 
-/// The recording's verdict: `Ok(summary)` or `Err(why)`.
-pub type Verdict = Result<String, String>;
+/// The recording's verdict: accepted by the model (with the search's size), or why not.
+pub type Verdict = Result<Accepted, NotAccepted>;
+
+/// Why a run's recording was not accepted.
+#[derive(Clone, Debug, thiserror::Error)]
+pub enum NotAccepted {
+    /// RL's default timing cannot be checked against the model.
+    #[error("rl's default timing: {0}")]
+    Timing(Arc<TimingError>),
+    /// The recorded events could not be read.
+    #[error(transparent)]
+    Recording(Arc<RecordError>),
+    /// The model does not explain the run.
+    #[error("{0}")]
+    Rejected(Rejection),
+    /// The search did not finish in time.
+    #[error("did not finish within {} s", .0.as_secs())]
+    TimedOut(Duration),
+}
+
+/// The verdict in `result.json`: `{"accepted": summary}` or `{"rejected": why}`.
+pub fn serialize_verdict<S: serde::Serializer>(
+    verdict: &Verdict,
+    serializer: S,
+) -> Result<S::Ok, S::Error> {
+    use serde::ser::SerializeMap;
+    let mut map = serializer.serialize_map(Some(1))?;
+    match verdict {
+        Ok(accepted) => map.serialize_entry("accepted", &accepted.to_string())?,
+        Err(why) => map.serialize_entry("rejected", &why.to_string())?,
+    }
+    map.end()
+}
 
 /// Writes every life's events under `dir` (created).
 pub fn write_recording(
@@ -44,10 +77,7 @@ pub fn write_recording(
 /// Validates the recording in `dir` against the model with `rl`'s default timing.
 pub fn validate_recording(dir: &Path) -> Verdict {
     let timing = Timing::from_config(&rl_layer::config::Config::default().timing)
-        .map_err(|e| e.to_string())?;
-    let recording = Recording::read_dir(dir).map_err(|e| e.to_string())?;
-    match validate::validate(&recording, &timing) {
-        Ok(accepted) => Ok(accepted.to_string()),
-        Err(rejection) => Err(rejection.to_string()),
-    }
+        .map_err(|e| NotAccepted::Timing(Arc::new(e)))?;
+    let recording = Recording::read_dir(dir).map_err(|e| NotAccepted::Recording(Arc::new(e)))?;
+    validate::validate(&recording, &timing).map_err(|rejection| NotAccepted::Rejected(*rejection))
 }

@@ -12,7 +12,7 @@
 //! Fields may be added later, never removed or renamed; readers ignore fields they do not
 //! know.
 
-use crate::core::network::Network;
+use crate::core::network::{AlarmCause, Network, Verdict};
 use crate::core::{AlarmReason, Assignment, ControllerId, Incarnation, Role, Status};
 use crate::failed_exit::{Failure, FailureCause, EXIT_STATUS};
 use crate::wire::Certainty;
@@ -84,17 +84,19 @@ pub enum Event {
         /// How sure the monitor is; absent when cleared.
         #[serde(default, skip_serializing_if = "Option::is_none")]
         certainty: Option<Certainty>,
-        /// Why it is raised, in words; absent when cleared.
+        /// Why it is raised (the monitor's finding, its alternatives, or the links no small
+        /// set of faults explains); absent when cleared.
         #[serde(default, skip_serializing_if = "Option::is_none")]
-        cause: Option<String>,
+        cause: Option<AlarmCause>,
     },
-    /// The network monitor's conclusion changed: in words (`none` when every link is good),
-    /// and the findings every smallest explanation shares (empty when none or ambiguous).
+    /// The network monitor's conclusion changed: in words (`none` when every link is good)
+    /// and as the verdict itself (the findings every smallest explanation shares, the
+    /// alternatives, or the links left unexplained).
     NetworkConclusion {
         /// The conclusion in words; `none` when every link is good.
         conclusion: String,
-        /// The findings every smallest explanation shares; empty when none or ambiguous.
-        findings: Vec<String>,
+        /// The conclusion as the monitor reached it.
+        verdict: Verdict,
     },
     /// A heartbeat of peer `from` arrived and was dropped by the fault-injection control (a
     /// `fault-injection` build only): the DDS-level replay checks every loss it injects
@@ -209,6 +211,7 @@ impl EventLine {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::core::network::{Finding, Part};
     use crate::core::{Holder, Phase, SelfReport};
 
     fn line(event: Event) -> EventLine {
@@ -287,12 +290,32 @@ mod tests {
             controller: None,
             raised: true,
             certainty: Some(Certainty::Concluded),
-            cause: Some("network B failed".into()),
+            cause: Some(AlarmCause::Concluded(Finding::NetworkFailure(Network::B))),
         })
         .to_json();
         assert_eq!(
             text,
-            r#"{"t_ms":1000,"id":2,"incarnation":77,"event":"network_alarm","network":"B","controller":null,"raised":true,"certainty":"concluded","cause":"network B failed"}"#
+            r#"{"t_ms":1000,"id":2,"incarnation":77,"event":"network_alarm","network":"B","controller":null,"raised":true,"certainty":"concluded","cause":{"concluded":{"network_failure":"B"}}}"#
+        );
+        let transceiver = line(Event::NetworkAlarm {
+            network: Network::A,
+            controller: Some(2),
+            raised: true,
+            certainty: Some(Certainty::Suspected),
+            cause: Some(AlarmCause::Suspected {
+                alternatives: vec![vec![Finding::Transceiver {
+                    controller: 2,
+                    network: Network::A,
+                    part: Part::Transmitter,
+                }]],
+            }),
+        })
+        .to_json();
+        assert!(
+            transceiver.ends_with(
+                r#""cause":{"suspected":{"alternatives":[[{"transceiver":{"controller":2,"network":"A","part":"transmitter"}}]]}}}"#
+            ),
+            "{transceiver}"
         );
     }
 
@@ -343,7 +366,7 @@ mod tests {
                 controller: None,
                 raised: true,
                 certainty: Some(Certainty::Concluded),
-                cause: Some("network B failed".into()),
+                cause: Some(AlarmCause::Concluded(Finding::NetworkFailure(Network::B))),
             },
             Event::NetworkAlarm {
                 network: Network::A,
@@ -354,7 +377,10 @@ mod tests {
             },
             Event::NetworkConclusion {
                 conclusion: "network B failed".into(),
-                findings: vec!["network B failed".into()],
+                verdict: Verdict::Explained {
+                    certain: vec![Finding::NetworkFailure(Network::B)],
+                    alternatives: Vec::new(),
+                },
             },
             Event::stopped(),
             Event::Stopped {

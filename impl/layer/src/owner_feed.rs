@@ -1,21 +1,59 @@
-//! The samples of the writer that owns a role-written topic, as an actuator sees them: the topic
-//! read through the ownership arbiter (crate::arbiter, DDS exclusive ownership on the reading
-//! side) and the writer trust (crate::trust: only a live controller's writers, at most at the
-//! takeover strength 35).
+//! The one actuator view of a role-written topic: its samples read through the writer trust
+//! (crate::trust: only a live controller's writers, at most at the takeover strength 35, unless
+//! any writer is taken) and the ownership arbiter (crate::arbiter, DDS exclusive ownership on
+//! the reading side), with each writer's strength from discovery and its controller from the
+//! heartbeats.
 //!
-//! `rl controller` follows the commanding controller's commands with it while it stands by
-//! (bumpless transfer), and the camera simulator's gimbal obeys the owner's commands with it, as
-//! the real pan-tilt does; an application follows the owner of its own topic the same way
-//! (crate::api::Redundancy::owner_feed).
+//! Discovery normally precedes a writer's data; a sample from a writer not yet discovered
+//! triggers a re-read of discovery (at most every 10 ms) and, if still unknown, is offered at
+//! strength 0 (the DDS default), so it can only win when no other writer is live. Writers that
+//! disappear from discovery (deleted, e.g. re-created at a new strength) are reported lost to
+//! the arbiter. Samples taken together arrived together (a stall of this process or of the
+//! network delivers a burst): the strongest writer's go first, so ownership passes to the
+//! strongest live writer and not to whichever sample leads the burst.
+//!
+//! `rl servo` reports every sample's fate ([`OwnerFeed::deliveries`]); `rl controller` follows
+//! the commanding controller's commands while it stands by (bumpless transfer), the camera
+//! simulator's gimbal obeys the owner, and an application follows the owner of its own topic
+//! (crate::api::Redundancy::owner_feed), all with [`OwnerFeed::take`].
 
-use crate::arbiter::Arbiter;
-use crate::dds::{DdsError, Reader, Session, GUID};
-use crate::trust::CommandTrust;
+use crate::arbiter::{Arbiter, Decision};
+use crate::core::types::ControllerId;
+use crate::dds::{ControllerDirectory, DdsError, Reader, Session, GUID};
+use crate::trust::{CommandTrust, Refusal};
 use crate::wire::{HeartbeatSample, WireSample};
 use std::collections::BTreeMap;
 
-/// How often discovery is re-read for writers' strengths.
+/// How often discovery is re-read for writers' strengths and removed writers.
 const STRENGTH_REFRESH_MS: u64 = 100;
+/// The soonest discovery is re-read again for a writer of unknown strength.
+const UNKNOWN_WRITER_REFRESH_MS: u64 = 10;
+
+/// What became of one sample.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Delivery<V> {
+    /// The writer is not trusted: not offered to the arbiter.
+    Refused {
+        /// Its writer.
+        writer: GUID,
+        /// Why.
+        refusal: Refusal,
+    },
+    /// Offered to the arbiter at `strength`: accepted (the owner's) or not, and whether it
+    /// made its writer the owner.
+    Offered {
+        /// The sample.
+        value: V,
+        /// Its writer.
+        writer: GUID,
+        /// The writer's strength (0 while discovery has not announced it).
+        strength: i32,
+        /// Whether discovery had announced the writer's strength.
+        strength_known: bool,
+        /// The arbiter's decision.
+        decision: Decision<GUID>,
+    },
+}
 
 /// The owner's samples of one topic, as they arrive.
 pub struct OwnerFeed<S: WireSample> {
@@ -23,6 +61,7 @@ pub struct OwnerFeed<S: WireSample> {
     heartbeats: Reader<HeartbeatSample>,
     arbiter: Arbiter<GUID>,
     trust: CommandTrust,
+    directory: ControllerDirectory,
     strengths: BTreeMap<GUID, i32>,
     last_refresh_ms: Option<u64>,
 }
@@ -39,14 +78,36 @@ impl<S: WireSample + 'static> OwnerFeed<S> {
         deadline_ms: u64,
         peer_deadline_ms: u64,
     ) -> Result<OwnerFeed<S>, DdsError> {
+        Self::open_trusting(
+            session,
+            samples,
+            deadline_ms,
+            CommandTrust::new(peer_deadline_ms, false),
+        )
+    }
+
+    /// As [`OwnerFeed::open`], with the writer trust given (`rl servo --any-writer` takes every
+    /// writer, as plain DDS exclusive ownership does).
+    pub fn open_trusting(
+        session: &Session,
+        samples: Reader<S>,
+        deadline_ms: u64,
+        trust: CommandTrust,
+    ) -> Result<OwnerFeed<S>, DdsError> {
         Ok(OwnerFeed {
             samples,
             heartbeats: session.heartbeat_reader()?,
             arbiter: Arbiter::new(deadline_ms),
-            trust: CommandTrust::new(peer_deadline_ms, false),
+            trust,
+            directory: ControllerDirectory::new(),
             strengths: BTreeMap::new(),
             last_refresh_ms: None,
         })
+    }
+
+    /// The sample reader and the heartbeat reader, to register with a poll.
+    pub fn readers(&self) -> [&dyn rustdds::mio::Evented; 2] {
+        [&self.samples, &self.heartbeats]
     }
 
     fn refresh(&mut self, session: &Session, now_ms: u64) {
@@ -58,43 +119,86 @@ impl<S: WireSample + 'static> OwnerFeed<S> {
         self.last_refresh_ms = Some(now_ms);
     }
 
-    /// The newest sample the owner sent since the last call, if any, with its writer (its
-    /// participant tells whether it is this controller's own: `crate::dds::participant_key`).
-    pub fn take(&mut self, session: &Session, now_ms: u64) -> Option<(S::Value, GUID)> {
+    fn refresh_due(&self, now_ms: u64, period_ms: u64) -> bool {
+        self.last_refresh_ms
+            .is_none_or(|last| now_ms.saturating_sub(last) >= period_ms)
+    }
+
+    /// Every sample that arrived since the last call, in the order offered (heartbeats first:
+    /// they name the controllers of the samples that follow), with what became of it.
+    pub fn deliveries(&mut self, session: &Session, now_ms: u64) -> Vec<Delivery<S::Value>> {
         for heartbeat in self.heartbeats.take() {
-            self.trust.heartbeat(&heartbeat, now_ms);
+            if self.trust.heartbeat(&heartbeat, now_ms) {
+                self.directory.note_heartbeat(&heartbeat);
+            }
         }
-        if self
-            .last_refresh_ms
-            .is_none_or(|last| now_ms.saturating_sub(last) >= STRENGTH_REFRESH_MS)
-        {
+        if self.refresh_due(now_ms, STRENGTH_REFRESH_MS) {
             self.refresh(session, now_ms);
         }
         let mut batch = Vec::new();
         for sample in self.samples.take() {
-            // A writer not yet in discovery: look again, at most every 10 ms.
             if !self.strengths.contains_key(&sample.writer)
-                && self
-                    .last_refresh_ms
-                    .is_none_or(|last| now_ms.saturating_sub(last) >= 10)
+                && self.refresh_due(now_ms, UNKNOWN_WRITER_REFRESH_MS)
             {
                 self.refresh(session, now_ms);
             }
-            let strength = self.strengths.get(&sample.writer).copied().unwrap_or(0);
+            let strength = self.strengths.get(&sample.writer).copied();
             batch.push((strength, sample));
         }
-        // A burst goes strongest first, as at `rl servo`.
-        batch.sort_by_key(|(strength, _)| std::cmp::Reverse(*strength));
-        let mut newest = None;
-        for (strength, sample) in batch {
-            let writer = sample.writer;
-            if self.trust.admit(writer, strength).is_err() {
+        // Stable: each writer's samples keep their order.
+        batch.sort_by_key(|(strength, _)| std::cmp::Reverse(strength.unwrap_or(0)));
+        let mut deliveries = Vec::with_capacity(batch.len());
+        for (known, sample) in batch {
+            let (writer, strength) = (sample.writer, known.unwrap_or(0));
+            if let Err(refusal) = self.trust.admit(writer, strength) {
+                deliveries.push(Delivery::Refused { writer, refusal });
                 continue;
             }
-            if self.arbiter.offer(writer, strength, now_ms).accepted {
-                newest = Some((sample.value, writer));
-            }
+            deliveries.push(Delivery::Offered {
+                value: sample.value,
+                writer,
+                strength,
+                strength_known: known.is_some(),
+                decision: self.arbiter.offer(writer, strength, now_ms),
+            });
         }
-        newest
+        deliveries
+    }
+
+    /// The newest sample the owner sent since the last call, if any, with its writer (its
+    /// participant tells whether it is this controller's own: `crate::dds::participant_key`).
+    pub fn take(&mut self, session: &Session, now_ms: u64) -> Option<(S::Value, GUID)> {
+        self.deliveries(session, now_ms)
+            .into_iter()
+            .filter_map(|delivery| match delivery {
+                Delivery::Offered {
+                    value,
+                    writer,
+                    decision,
+                    ..
+                } if decision.accepted => Some((value, writer)),
+                _ => None,
+            })
+            .last()
+    }
+
+    /// The controller `writer` belongs to, learned from its participant's heartbeats.
+    pub fn controller_of(&self, writer: GUID) -> Option<ControllerId> {
+        self.directory.controller_of(writer)
+    }
+
+    /// The owner at `now_ms`, if its deadline has not run out.
+    pub fn owner(&self, now_ms: u64) -> Option<GUID> {
+        self.arbiter.owner(now_ms)
+    }
+
+    /// The strength the arbiter last saw `writer` at.
+    pub fn strength_of(&self, writer: GUID) -> Option<i32> {
+        self.arbiter.strength_of(writer)
+    }
+
+    /// Whether this is the first refusal of `writer` (to warn once per writer).
+    pub fn first_refusal(&mut self, writer: GUID) -> bool {
+        self.trust.first_warning(writer)
     }
 }

@@ -1,14 +1,8 @@
 //! `rl servo`: the actuator simulator. It reads the command topic (`pixy/servo_control`) the
-//! way the camera's gimbal does, as an EXCLUSIVE-ownership reader: a RustDDS reader (which
-//! delivers every writer) plus [`Arbiter`] (which keeps only the owner's samples, with the
-//! command deadline from the configuration).
-//!
-//! Each writer's strength comes from discovery (the QoS it announced). Discovery normally
-//! precedes a writer's data; a sample from a writer not yet discovered triggers an immediate
-//! re-read of discovery and, if still unknown, is offered at strength 0 (the DDS default), so
-//! it can only win when no other writer is live. Writers that disappear from discovery
-//! (deleted, e.g. re-created at a new strength) are reported lost to the arbiter. The
-//! controller behind each writer is learned from heartbeats ([`ControllerDirectory`]).
+//! way the camera's gimbal does, as an EXCLUSIVE-ownership reader, through the layer's one
+//! actuator view ([`OwnerFeed`]: the writer trust, each writer's strength from discovery, the
+//! arbiter with the command deadline from the configuration, the controller behind each
+//! writer from the heartbeats), and reports every sample's fate.
 //!
 //! Output: by default one human line per ownership change and a summary every few seconds.
 //! With `--json`, exactly one JSON object per line on stdout, flushed per line; fields may be
@@ -26,13 +20,13 @@
 //! `gap_ms` is the time since the previous owner's last accepted command.
 
 use crate::Error;
-use rl_layer::arbiter::Arbiter;
 use rl_layer::core::types::ControllerId;
-use rl_layer::dds::{guid_hex, mio, ControllerDirectory, Reader, Received, Session, GUID};
+use rl_layer::dds::{guid_hex, mio, Session, GUID};
+use rl_layer::owner_feed::{Delivery, OwnerFeed};
 use rl_layer::trust::CommandTrust;
-use rl_layer::wire::{HeartbeatSample, ServoControl};
+use rl_layer::wire::ServoControl;
 use serde::Serialize;
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::BTreeSet;
 use std::io::{self, Write};
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
@@ -86,10 +80,6 @@ pub enum ServoEvent {
     },
 }
 
-/// How often discovery is re-read for strengths and removed writers.
-const DISCOVERY_REFRESH_MS: u64 = 100;
-/// The soonest discovery is re-read again for a writer of unknown strength.
-const UNKNOWN_WRITER_REFRESH_MS: u64 = 10;
 /// Poll timeout: bounds how late a sample, a stop request or the end of `--duration-ms` is
 /// noticed. RustDDS's readiness events for unkeyed readers do not reliably wake the poll
 /// (measured: command times quantized to this timeout), so the servo also wakes every
@@ -128,42 +118,6 @@ impl Output {
     }
 }
 
-/// The servo's view of the writers: strengths from discovery, controllers from heartbeats.
-struct Writers {
-    strengths: BTreeMap<GUID, i32>,
-    /// Writers already reported as of unknown strength (warned once each).
-    unknown_warned: BTreeSet<GUID>,
-    directory: ControllerDirectory,
-    last_refresh_ms: Option<u64>,
-}
-
-impl Writers {
-    fn controller(&self, writer: GUID) -> Option<ControllerId> {
-        self.directory.controller_of(writer)
-    }
-
-    /// Re-reads discovery; returns the writers that disappeared.
-    fn refresh(&mut self, session: &Session, now_ms: u64) -> Vec<GUID> {
-        let current = session.command_writer_strengths();
-        let gone = self
-            .strengths
-            .keys()
-            .filter(|guid| !current.contains_key(guid))
-            .copied()
-            .collect();
-        self.strengths = current;
-        self.last_refresh_ms = Some(now_ms);
-        gone
-    }
-
-    fn refresh_due(&self, now_ms: u64, period_ms: u64) -> bool {
-        match self.last_refresh_ms {
-            Some(last) => now_ms.saturating_sub(last) >= period_ms,
-            None => true,
-        }
-    }
-}
-
 /// Runs the servo simulator until SIGINT/SIGTERM or `--duration-ms`.
 pub fn run(args: ServoArgs) -> Result<(), Error> {
     let config = crate::cli::load_config(args.config.as_deref(), args.domain)?;
@@ -199,16 +153,14 @@ pub fn run(args: ServoArgs) -> Result<(), Error> {
     Ok(())
 }
 
-/// The running simulator: its readers, the arbiter and what it has counted.
+/// The running simulator: the actuator view, its poll and what it has counted.
 struct Servo {
-    commands: Reader<ServoControl>,
-    heartbeats: Reader<HeartbeatSample>,
+    feed: OwnerFeed<ServoControl>,
     poll: mio::Poll,
     events: mio::Events,
     output: Output,
-    arbiter: Arbiter<GUID>,
-    writers: Writers,
-    trust: CommandTrust,
+    /// Writers already reported as of unknown strength (warned once each).
+    unknown_warned: BTreeSet<GUID>,
     start: Instant,
     accepted_count: u64,
     rejected_count: u64,
@@ -217,7 +169,7 @@ struct Servo {
 }
 
 impl Servo {
-    /// Creates the readers and registers them with a poll.
+    /// Creates the actuator view and registers its readers with a poll.
     fn open(
         session: &Session,
         output: Output,
@@ -225,29 +177,19 @@ impl Servo {
         trust: CommandTrust,
     ) -> Result<Servo, Error> {
         let commands = session.command_reader().map_err(dds_error)?;
-        let heartbeats = session.heartbeat_reader().map_err(dds_error)?;
+        let feed =
+            OwnerFeed::open_trusting(session, commands, deadline_ms, trust).map_err(dds_error)?;
         let poll = mio::Poll::new().map_err(|e| Error::io("creating a poll", e))?;
-        for (reader, token) in [
-            (&commands as &dyn mio::Evented, COMMANDS),
-            (&heartbeats as &dyn mio::Evented, HEARTBEATS),
-        ] {
+        for (reader, token) in feed.readers().into_iter().zip([COMMANDS, HEARTBEATS]) {
             poll.register(reader, token, mio::Ready::readable(), mio::PollOpt::edge())
                 .map_err(|e| Error::io("registering a DDS reader", e))?;
         }
         Ok(Servo {
-            commands,
-            heartbeats,
+            feed,
             poll,
             events: mio::Events::with_capacity(16),
             output,
-            arbiter: Arbiter::new(deadline_ms),
-            writers: Writers {
-                strengths: BTreeMap::new(),
-                unknown_warned: BTreeSet::new(),
-                directory: ControllerDirectory::new(),
-                last_refresh_ms: None,
-            },
-            trust,
+            unknown_warned: BTreeSet::new(),
             start: Instant::now(),
             accepted_count: 0,
             rejected_count: 0,
@@ -271,84 +213,51 @@ impl Servo {
         }
     }
 
-    /// Re-reads discovery and tells the arbiter of writers that are gone.
-    fn refresh_writers(&mut self, session: &Session, now: u64) {
-        for lost in self.writers.refresh(session, now) {
-            self.arbiter.writer_lost(lost);
-        }
-    }
-
-    /// Heartbeats, discovery, then commands; `Ok(false)` when stdout is gone.
+    /// Every command's fate, printed; `Ok(false)` when stdout is gone.
     fn take_samples(&mut self, session: &Session) -> Result<bool, Error> {
-        // Heartbeats first: they name the controllers of the commands that follow.
         let now = self.now_ms();
-        for heartbeat in self.heartbeats.take() {
-            if self.trust.heartbeat(&heartbeat, now) {
-                self.writers.directory.note_heartbeat(&heartbeat);
-            }
-        }
-        if self.writers.refresh_due(now, DISCOVERY_REFRESH_MS) {
-            self.refresh_writers(session, now);
-        }
-        // Samples taken together arrived together (a stall of this process or of the network
-        // delivers a burst): the strongest writer's go first, so that ownership passes to the
-        // strongest live writer and not to whichever sample happens to lead the burst. The
-        // sort is stable: each writer's samples keep their order.
-        let now = self.now_ms();
-        let mut batch: Vec<(i32, Received<ServoControl>)> = Vec::new();
-        for command in self.commands.take() {
-            batch.push((self.strength_of(session, command.writer, now), command));
-        }
-        batch.sort_by_key(|(strength, _)| std::cmp::Reverse(*strength));
-        for (strength, command) in batch {
-            if !self.offer(command, strength)? {
+        for delivery in self.feed.deliveries(session, now) {
+            if !self.report(delivery, now)? {
                 return Ok(false);
             }
         }
         Ok(true)
     }
 
-    /// The strength `writer` announced; discovery is re-read for a writer not yet known, and
-    /// one still unknown is offered at 0 (warned once).
-    fn strength_of(&mut self, session: &Session, writer: GUID, now: u64) -> i32 {
-        if !self.writers.strengths.contains_key(&writer)
-            && self.writers.refresh_due(now, UNKNOWN_WRITER_REFRESH_MS)
-        {
-            self.refresh_writers(session, now);
-        }
-        if let Some(strength) = self.writers.strengths.get(&writer) {
-            return *strength;
-        }
-        if self.writers.unknown_warned.insert(writer) {
-            tracing::warn!(
-                writer = %guid_hex(writer),
-                "command from a writer not yet discovered: strength 0 until it is"
-            );
-        }
-        0
-    }
-
-    /// Offers one command to the arbiter and prints what changed; `Ok(false)` when stdout is
-    /// gone.
-    fn offer(&mut self, command: Received<ServoControl>, strength: i32) -> Result<bool, Error> {
-        let now = self.now_ms();
-        let writer = command.writer;
-        if let Err(refusal) = self.trust.admit(writer, strength) {
-            if self.trust.first_warning(writer) {
-                tracing::warn!(
-                    writer = %guid_hex(writer),
-                    "command refused: {refusal} (rl servo --any-writer takes every writer)"
-                );
+    /// Prints what became of one command; `Ok(false)` when stdout is gone.
+    fn report(&mut self, delivery: Delivery<ServoControl>, now: u64) -> Result<bool, Error> {
+        let (command, writer, strength, decision) = match delivery {
+            Delivery::Refused { writer, refusal } => {
+                if self.feed.first_refusal(writer) {
+                    tracing::warn!(
+                        writer = %guid_hex(writer),
+                        "command refused: {refusal} (rl servo --any-writer takes every writer)"
+                    );
+                }
+                self.rejected_count += 1;
+                return Ok(true);
             }
-            self.rejected_count += 1;
-            return Ok(true);
-        }
-        let decision = self.arbiter.offer(writer, strength, now);
+            Delivery::Offered {
+                value,
+                writer,
+                strength,
+                strength_known,
+                decision,
+            } => {
+                if !strength_known && self.unknown_warned.insert(writer) {
+                    tracing::warn!(
+                        writer = %guid_hex(writer),
+                        "command from a writer not yet discovered: strength 0 until it is"
+                    );
+                }
+                (value, writer, strength, decision)
+            }
+        };
         if let Some(change) = decision.owner_changed {
             let event = ServoEvent::OwnerChanged {
                 t_ms: now,
-                from_controller_id: change.from.and_then(|w| self.writers.controller(w)),
-                to_controller_id: self.writers.controller(change.to),
+                from_controller_id: change.from.and_then(|w| self.feed.controller_of(w)),
+                to_controller_id: self.feed.controller_of(change.to),
                 gap_ms: change.gap_ms,
                 from_writer_guid: change.from.map(guid_hex),
                 to_writer_guid: guid_hex(change.to),
@@ -368,18 +277,18 @@ impl Servo {
             return Ok(true);
         }
         self.accepted_count += 1;
-        self.last_command = Some(command.value);
+        self.last_command = Some(command);
         if !self.output.json {
             return Ok(true);
         }
         self.output.event(&ServoEvent::Command {
             t_ms: now,
             writer_guid: guid_hex(writer),
-            controller_id: self.writers.controller(writer),
+            controller_id: self.feed.controller_of(writer),
             strength,
-            pan: command.value.pan,
-            tilt: command.value.tilt,
-            frequency: command.value.frequency,
+            pan: command.pan,
+            tilt: command.tilt,
+            frequency: command.frequency,
         })
     }
 
@@ -391,11 +300,11 @@ impl Servo {
             return Ok(true);
         }
         self.last_summary_ms = now;
-        let owner = match self.arbiter.owner(now) {
+        let owner = match self.feed.owner(now) {
             Some(writer) => format!(
                 "{} at strength {}",
-                controller_name(self.writers.controller(writer), writer),
-                self.arbiter.strength_of(writer).unwrap_or(0)
+                controller_name(self.feed.controller_of(writer), writer),
+                self.feed.strength_of(writer).unwrap_or(0)
             ),
             None => "none".to_string(),
         };

@@ -10,7 +10,6 @@
 use rl::procs::ServoEvent;
 use std::collections::BTreeMap;
 use std::fmt;
-use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Stdio};
 use std::sync::mpsc::{self, Receiver};
 use std::time::{Instant, SystemTime, UNIX_EPOCH};
@@ -242,13 +241,7 @@ impl ConnextReader {
             .expect("start connext_reader.py");
         let stdout = child.stdout.take().expect("the reader's stdout");
         let (sender, lines) = mpsc::channel();
-        std::thread::spawn(move || {
-            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-                if sender.send(line).is_err() {
-                    break;
-                }
-            }
-        });
+        rl::procs::read_lines(stdout, sender, Some);
         ConnextReader {
             child,
             lines,

@@ -304,7 +304,12 @@ fn a_rejection_a_dead_process_or_a_panic_fails() {
         failures(
             &kill_run(),
             &kill(),
-            Err("round 26: no behaviour votes P=1#1")
+            Err(&crate::lab::validation::NotAccepted::Rejected(
+                crate::validate::Rejection {
+                    round: Some(26),
+                    message: "round 26: no behaviour votes P=1#1".into(),
+                }
+            ))
         ),
         ["the model rejects the recorded events: round 26: no behaviour votes P=1#1"]
     );

@@ -56,7 +56,7 @@ fn raise(id: u8, at_ms: f64, network: &str, controller: &str, certainty: &str) -
         id,
         at_ms,
         &format!(
-            r#""event":"network_alarm","network":"{network}","controller":{controller},"raised":true,"certainty":"{certainty}","cause":"network {network} failed""#
+            r#""event":"network_alarm","network":"{network}","controller":{controller},"raised":true,"certainty":"{certainty}","cause":{{"concluded":{{"network_failure":"{network}"}}}}"#
         ),
     )
 }
@@ -121,17 +121,17 @@ fn assert_fails_with(report: &NapReport, words: &str) {
 #[test]
 fn the_lines_of_the_contract_parse() {
     let (t_ms, id, event) = parse(
-        r#"{"t_ms":5,"id":2,"incarnation":1,"event":"network_alarm","network":"B","controller":null,"raised":true,"certainty":"concluded","cause":"network B failed"}"#,
+        r#"{"t_ms":5,"id":2,"incarnation":1,"event":"network_alarm","network":"B","controller":null,"raised":true,"certainty":"concluded","cause":{"concluded":{"network_failure":"B"}}}"#,
     )
     .expect("an alarm");
     assert_eq!((t_ms, id), (5, 2));
     assert_eq!(
         event,
         NapEvent::Alarm {
-            subject: Subject::Network(Net::B),
+            subject: Subject::Network(Network::B),
             raised: true,
-            certainty: Some("concluded".into()),
-            cause: Some("network B failed".into()),
+            certainty: Some(Certainty::Concluded),
+            cause: Some(AlarmCause::Concluded(Finding::NetworkFailure(Network::B))),
         }
     );
     let cleared = parse(
@@ -145,7 +145,7 @@ fn the_lines_of_the_contract_parse() {
             NapEvent::Alarm {
                 subject: Subject::Transceiver {
                     controller: 2,
-                    net: Net::A
+                    network: Network::A
                 },
                 raised: false,
                 certainty: None,
@@ -154,11 +154,18 @@ fn the_lines_of_the_contract_parse() {
         ))
     ));
     let conclusion = parse(
-        r#"{"t_ms":5,"id":1,"incarnation":1,"event":"network_conclusion","conclusion":"all good","findings":[]}"#,
+        r#"{"t_ms":5,"id":1,"incarnation":1,"event":"network_conclusion","conclusion":"none","verdict":"none"}"#,
     );
     assert!(matches!(
         conclusion,
-        Some((_, 1, NapEvent::Conclusion { .. }))
+        Some((
+            _,
+            1,
+            NapEvent::Conclusion {
+                verdict: Verdict::None,
+                ..
+            }
+        ))
     ));
     assert!(parse(r#"{"t_ms":5,"id":1,"incarnation":1,"event":"started"}"#).is_none());
     assert!(parse("not json").is_none());
@@ -172,7 +179,7 @@ fn alarms_as_promised_pass_and_are_measured() {
     for timing in &report.timings {
         assert_eq!(timing.raised_after_ms, Some(600.0));
         assert_eq!(timing.cleared_after_ms, Some(1200.0));
-        assert_eq!(timing.certainty.as_deref(), Some("concluded"));
+        assert_eq!(timing.certainty, Some(Certainty::Concluded));
     }
 }
 
@@ -182,7 +189,7 @@ fn a_missing_raise_fails() {
     lines.retain(|r| r.id != 3);
     assert_fails_with(
         &judged("net-b-down", &lines, &[]),
-        "C3: net B: alarm never raised",
+        "C3: network B: alarm never raised",
     );
 }
 
@@ -193,12 +200,12 @@ fn an_extra_alarm_fails() {
     let report = judged("net-b-down", &lines, &[]);
     assert_fails_with(
         &report,
-        "unexpected network alarm: C1: C3's transceiver on net A",
+        "unexpected network alarm: C1: controller 3's transceiver on A",
     );
     assert_eq!(report.other_alarms.len(), 1);
     // An alarm where none is expected at all: both links of C2 down.
     let report = judged("c2-both-links-down", &net_b_alarms(), &[]);
-    assert_fails_with(&report, "unexpected network alarm: C2: net B");
+    assert_fails_with(&report, "unexpected network alarm: C2: network B");
 }
 
 #[test]
@@ -207,7 +214,7 @@ fn a_late_raise_fails() {
     lines[0] = raise(1, FAULT_MS + 1100.0, "B", "null", "concluded");
     assert_fails_with(
         &judged("net-b-down", &lines, &[]),
-        "C1: net B: alarm raised 1100 ms after the fault",
+        "C1: network B: alarm raised 1100 ms after the fault",
     );
 }
 
@@ -218,7 +225,7 @@ fn a_raise_before_the_fault_fails() {
     lines.insert(1, clear(2, FAULT_MS - 1000.0, "B", "null"));
     assert_fails_with(
         &judged("net-b-down", &lines, &[]),
-        "unexpected network alarm: C2: net B",
+        "unexpected network alarm: C2: network B",
     );
 }
 
@@ -228,7 +235,7 @@ fn a_wrong_certainty_fails() {
     lines[2] = raise(2, FAULT_MS + 600.0, "B", "null", "suspected");
     assert_fails_with(
         &judged("net-b-down", &lines, &[]),
-        "C2: net B: certainty suspected at the heal (expected concluded)",
+        "C2: network B: certainty suspected at the heal (expected concluded)",
     );
 }
 
@@ -239,19 +246,22 @@ fn clears_early_late_missing_or_undone_fail() {
         lines[1] = clear(1, HEAL_MS - 500.0, "B", "null");
         judged("net-b-down", &lines, &[])
     };
-    assert_fails_with(&early, "C1: net B: alarm cleared 500 ms before the heal");
+    assert_fails_with(
+        &early,
+        "C1: network B: alarm cleared 500 ms before the heal",
+    );
     let late = {
         let mut lines = net_b_alarms();
         lines[1] = clear(1, HEAL_MS + 2000.0, "B", "null");
         judged("net-b-down", &lines, &[])
     };
-    assert_fails_with(&late, "C1: net B: alarm cleared 2000 ms after the heal");
+    assert_fails_with(&late, "C1: network B: alarm cleared 2000 ms after the heal");
     let missing = {
         let mut lines = net_b_alarms();
         lines.remove(1);
         judged("net-b-down", &lines, &[])
     };
-    assert_fails_with(&missing, "C1: net B: alarm never cleared");
+    assert_fails_with(&missing, "C1: network B: alarm never cleared");
     let undone = {
         let mut lines = net_b_alarms();
         lines.push(raise(1, HEAL_MS + 3000.0, "B", "null", "concluded"));
@@ -259,7 +269,7 @@ fn clears_early_late_missing_or_undone_fail() {
     };
     assert_fails_with(
         &undone,
-        "C1: net B: alarm raised again 3000 ms after the heal",
+        "C1: network B: alarm raised again 3000 ms after the heal",
     );
 }
 
@@ -298,26 +308,33 @@ fn a_controller_alarm_or_role_change_under_a_net_fault_fails() {
 
 #[test]
 fn both_nets_down_needs_the_double_fault_and_every_controller_alarm() {
-    let conclusion = |id: u8, text: &str| {
+    let conclusion = |id: u8, verdict: &str| {
         nap(
             id,
             FAULT_MS + 900.0,
-            &format!(r#""event":"network_conclusion","conclusion":"{text}","findings":[]"#),
+            &format!(
+                r#""event":"network_conclusion","conclusion":"as the verdict says","verdict":{verdict}"#
+            ),
         )
     };
     let every_lost: Vec<ControllerEvent> = [(1, 2), (1, 3), (2, 1), (2, 3), (3, 1), (3, 2)]
         .into_iter()
         .map(|(a, b)| lost(a, b, FAULT_MS + 500.0))
         .collect();
-    let ambiguous = "one of: both networks failed | controller 2 down or cut off on both networks, controller 3 down or cut off on both networks";
+    // One of: both networks failed | controllers 2 and 3 down or cut off on both networks.
+    let ambiguous = r#"{"explained":{"certain":[],"alternatives":[["double_fault"],[{"controller_down":2},{"controller_down":3}]]}}"#;
     let good: Vec<NapRecord> = (1..=3).map(|id| conclusion(id, ambiguous)).collect();
     let report = judged("both-networks-down", &good, &every_lost);
     assert!(report.failures.is_empty(), "{:?}", report.failures);
     let mut vague = good.clone();
-    vague[1] = conclusion(2, "network B failed");
+    // The same words, but a verdict without the double fault: the judge reads the verdict.
+    vague[1] = conclusion(
+        2,
+        r#"{"explained":{"certain":[{"network_failure":"B"}],"alternatives":[]}}"#,
+    );
     assert_fails_with(
         &judged("both-networks-down", &vague, &every_lost),
-        "C2: no conclusion during the fault mentions \"both networks failed\"",
+        "C2: no conclusion during the fault holds \"both networks failed\"",
     );
     assert_fails_with(
         &judged("both-networks-down", &good, &every_lost[1..]),

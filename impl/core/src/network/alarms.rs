@@ -26,6 +26,7 @@ use std::fmt;
 
 /// What a network alarm is about.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum AlarmSubject {
     /// A whole network.
     Network(Network),
@@ -84,6 +85,7 @@ impl AlarmSubject {
 
 /// Why a network alarm is raised.
 #[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum AlarmCause {
     /// Every minimum explanation holds this finding about the subject.
     Concluded(Finding),

@@ -36,6 +36,7 @@ pub const MAX_EXPLANATION_FAULTS: usize = 4;
 
 /// One failed component.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Fault {
     /// A whole network.
     Network(Network),
@@ -119,6 +120,7 @@ pub fn links_failed_by(faults: &[Fault]) -> LinkSet {
 
 /// Which part of a transceiver failed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Part {
     /// Its transmitter: what it sends on the network is lost.
     Transmitter,
@@ -130,6 +132,7 @@ pub enum Part {
 
 /// A fault as reported: components grouped as a person names them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Finding {
     /// One network failed.
     NetworkFailure(Network),
@@ -196,6 +199,7 @@ pub fn findings(faults: &[Fault]) -> Vec<Finding> {
 
 /// The conclusion in the paper's terms.
 #[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Verdict {
     /// No link is observed failed.
     None,

@@ -5,7 +5,7 @@
 //! roles and the controller's own state, and an operator reads network alarms from the
 //! console, the journal and `rl status` (docs/protocol.md, "Network monitoring").
 
-use crate::core::network::{AlarmCause, AlarmSubject, Conclusion, Verdict};
+use crate::core::network::{AlarmCause, AlarmSubject, Conclusion};
 use crate::core::types::{ControllerId, Incarnation};
 use crate::dds::Writer;
 use crate::event::{Event, EventLine};
@@ -81,7 +81,7 @@ impl Reporter {
                 controller: controller_of(subject),
                 raised: raised.is_some(),
                 certainty: raised,
-                cause: cause_text,
+                cause: cause.cloned(),
             },
             t_ms,
         );
@@ -93,10 +93,6 @@ impl Reporter {
 
     /// Logs and records a new conclusion.
     pub fn conclusion(&self, conclusion: &Conclusion, t_ms: u64) {
-        let findings = match &conclusion.verdict {
-            Verdict::Explained { certain, .. } => certain.iter().map(ToString::to_string).collect(),
-            Verdict::None | Verdict::Unexplained { .. } => Vec::new(),
-        };
         info!(
             "C{}: network monitor concludes: {}",
             self.id, conclusion.verdict
@@ -104,7 +100,7 @@ impl Reporter {
         self.event(
             Event::NetworkConclusion {
                 conclusion: conclusion.verdict.to_string(),
-                findings,
+                verdict: conclusion.verdict.clone(),
             },
             t_ms,
         );
