@@ -193,7 +193,7 @@ pub fn abstract_controller(
         incarnation: number(id, status.report.incarnation)?,
         phase: Some(phase(status.report.phase)),
         role: status.report.role.map(role),
-        strength: status.report.strength,
+        strength: status.report.strength.map(strength),
         sees,
         failed,
         alarms,
@@ -230,6 +230,13 @@ pub fn role(role: core::Role) -> Role {
     }
 }
 
+/// A command strength as the model counts it (RL's strengths are 10 to 35; the model's
+/// are the same numbers in a byte). One outside a byte cannot be RL's: it maps to 255, above
+/// every strength the model knows, so any comparison that sees it fails.
+pub fn strength(strength: core::Strength) -> u8 {
+    u8::try_from(strength.value()).unwrap_or(u8::MAX)
+}
+
 /// A vote or agreed result that controller `observer` holds, as the model renders it
 /// (`P=1 S=2 T=3#1`), holder incarnations numbered as the model counts them.
 pub fn render_assignment(
@@ -263,13 +270,13 @@ pub fn render_assignment(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rl_layer::core::{AlarmReason, Holder};
+    use rl_layer::core::{AlarmReason, Holder, Strength};
 
     fn status(id: ControllerId, incarnation: Incarnation) -> Status {
         let mut status = Status::initial(id, incarnation);
         status.report.phase = core::Phase::Steady;
         status.report.role = Some(core::Role::Secondary);
-        status.report.strength = Some(20);
+        status.report.strength = Some(Strength(20));
         status.sees = vec![3, 1];
         status.alarms = vec![(3, AlarmReason::Lost), (1, AlarmReason::Failed)];
         status
@@ -332,7 +339,11 @@ mod tests {
             Observed::Up(Box::new(s))
         };
         let state = abstract_state(
-            &[up(1, Some(20)), up(2, Some(30)), up(3, Some(30))],
+            &[
+                up(1, Some(Strength(20))),
+                up(2, Some(Strength(30))),
+                up(3, Some(Strength(30))),
+            ],
             &numbers,
         )
         .expect("known lives");
@@ -340,7 +351,7 @@ mod tests {
         let state = abstract_state(
             &[
                 Observed::Down { incarnation: 0 },
-                up(2, Some(10)),
+                up(2, Some(Strength(10))),
                 up(3, None),
             ],
             &numbers,

@@ -86,7 +86,7 @@ impl LifeLog {
 /// Folds one event into the reported state.
 pub fn apply_event(status: &mut Status, event: &EventLine) {
     match &event.event {
-        Event::Status { status: reported } => *status = reported.clone(),
+        Event::Status { status: reported } => *status = (**reported).clone(),
         Event::Alarm {
             about,
             reason,

@@ -40,7 +40,9 @@ fn status_event(id: u8, at_ms: f64, role: Role) -> ControllerEvent {
             t_ms: at_ms as u64,
             id,
             incarnation: 7,
-            event: Event::Status { status },
+            event: Event::Status {
+                status: Box::new(status),
+            },
         },
     }
 }

@@ -8,7 +8,7 @@
 
 use crate::procs::{parse_servo_event, Fleet, Line, ServoEvent};
 use crate::sim::shapes::CameraFrame;
-use rl_layer::core::{ControllerId, Phase, Role};
+use rl_layer::core::{ControllerId, Phase, Role, Strength};
 use rl_layer::event::{Event, EventLine};
 use std::collections::BTreeMap;
 use std::io::Write;
@@ -50,7 +50,7 @@ pub use crate::error::DemoError;
 struct Seen {
     phase: Option<Phase>,
     role: Option<Role>,
-    strength: Option<u8>,
+    strength: Option<Strength>,
 }
 
 /// The next line printed by a child, or `None` once `until` has passed.
@@ -270,7 +270,7 @@ impl Demo {
                     let role = status
                         .report
                         .role
-                        .map(|r| format!("{r} ({})", status.report.strength.unwrap_or(0)))
+                        .map(|r| format!("{r} ({})", status.report.strength.unwrap_or_default()))
                         .unwrap_or_else(|| "no role".into());
                     println!("{stamp} C{}: {} {role}", line.id, status.report.phase);
                 }

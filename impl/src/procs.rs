@@ -318,7 +318,7 @@ mod tests {
                 t_ms: 12,
                 writer_guid: "01.02".into(),
                 controller_id: None,
-                strength: 30,
+                strength: rl_layer::core::Strength(30),
                 pan: 500,
                 tilt: 400,
                 frequency: 60

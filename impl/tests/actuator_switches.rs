@@ -47,7 +47,7 @@ const T: Option<Role> = Some(Role::Tertiary);
 static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
 
 /// What a controller reports of itself: phase, role, strength.
-type Reported = (Phase, Option<Role>, Option<u8>);
+type Reported = (Phase, Option<Role>, Option<rl_layer::core::Strength>);
 
 /// A system of three controllers and both judges.
 struct Judged {

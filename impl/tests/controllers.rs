@@ -150,7 +150,9 @@ fn sigstop_sigcont_primary_resumes_commanding() {
         let primaries: Vec<u8> = c
             .status
             .values()
-            .filter(|s| s.report.role == P && s.report.strength == Some(30))
+            .filter(|s| {
+                s.report.role == P && s.report.strength == Some(rl_layer::core::Strength(30))
+            })
             .map(|s| s.report.id)
             .collect();
         steady && primaries.len() == 1 && c.servo_commander() == primaries.first().copied()

@@ -10,6 +10,7 @@ use rl_layer::arbiter::Arbiter;
 use rl_layer::config::{Dds, Timing};
 use rl_layer::core::types::{Assignment, Holder, Phase, Role, VoteRecord};
 use rl_layer::core::Heartbeat;
+use rl_layer::core::Strength;
 use rl_layer::dds::{mio, ControllerDirectory, Session, GUID};
 use rl_layer::wire::{HeartbeatSample, RosString, ServoControl, WireSample, HEARTBEAT_TYPE_NAME};
 use rustdds::{
@@ -80,7 +81,7 @@ struct Publisher {
 
 impl Publisher {
     fn start(session: Session, strength: i32, pan: u16) -> Publisher {
-        let mut writer = session.command_writer(Some(strength)).unwrap();
+        let mut writer = session.command_writer(Some(Strength(strength))).unwrap();
         let guid = writer.guid().unwrap();
         let publishing = Arc::new(AtomicBool::new(true));
         let running = Arc::new(AtomicBool::new(true));
@@ -159,7 +160,7 @@ impl Actuator {
         }
     }
 
-    fn strengths(&self) -> BTreeMap<GUID, i32> {
+    fn strengths(&self) -> BTreeMap<GUID, Strength> {
         self.session.command_writer_strengths()
     }
 
@@ -175,7 +176,7 @@ impl Actuator {
                 if !strengths.contains_key(&sample.writer) {
                     strengths = self.strengths();
                 }
-                let strength = strengths.get(&sample.writer).copied().unwrap_or(0);
+                let strength = strengths.get(&sample.writer).copied().unwrap_or_default();
                 let now_ms = self.start.elapsed().as_millis() as u64;
                 let decision = self.arbiter.offer(sample.writer, strength, now_ms);
                 self.log.push((now_ms, sample.writer, decision.accepted));
@@ -205,8 +206,9 @@ fn arbiter_follows_the_strongest_writer_and_fails_over_within_the_deadline() {
     let secondary = Publisher::start(session(DOMAIN), 20, 200);
     wait_for(DISCOVERY_TIMEOUT, "both command writers discovered", || {
         let strengths = actuator.strengths();
-        (strengths.get(&primary.guid) == Some(&30) && strengths.get(&secondary.guid) == Some(&20))
-            .then_some(())
+        (strengths.get(&primary.guid) == Some(&Strength(30))
+            && strengths.get(&secondary.guid) == Some(&Strength(20)))
+        .then_some(())
     });
 
     // Let the first samples settle ownership, then watch one second of steady state.
@@ -263,8 +265,8 @@ fn recreated_command_writer_is_seen_with_its_new_strength() {
     let reader_session = session(DOMAIN);
     let mut reader = reader_session.command_reader().unwrap();
     let writer_session = session(DOMAIN);
-    let mut writer = writer_session.command_writer(Some(20)).unwrap();
-    assert_eq!(writer.strength(), Some(20));
+    let mut writer = writer_session.command_writer(Some(Strength(20))).unwrap();
+    assert_eq!(writer.strength(), Some(Strength(20)));
     let old_guid = writer.guid().unwrap();
     assert_eq!(
         rl_layer::dds::participant_key(old_guid),
@@ -272,14 +274,15 @@ fn recreated_command_writer_is_seen_with_its_new_strength() {
         "a writer's GUID starts with its participant's prefix"
     );
     wait_for(DISCOVERY_TIMEOUT, "the strength-20 writer", || {
-        (reader_session.command_writer_strengths().get(&old_guid) == Some(&20)).then_some(())
+        (reader_session.command_writer_strengths().get(&old_guid) == Some(&Strength(20)))
+            .then_some(())
     });
 
     // Unchanged strength: the same writer.
-    writer.set_strength(Some(20)).unwrap();
+    writer.set_strength(Some(Strength(20))).unwrap();
     assert_eq!(writer.guid(), Some(old_guid));
 
-    writer.set_strength(Some(30)).unwrap();
+    writer.set_strength(Some(Strength(30))).unwrap();
     let new_guid = writer.guid().unwrap();
     assert_ne!(new_guid, old_guid, "a new strength is a new writer");
     let command = ServoControl {
@@ -295,7 +298,7 @@ fn recreated_command_writer_is_seen_with_its_new_strength() {
         || {
             assert!(writer.write(command).unwrap());
             let strengths = reader_session.command_writer_strengths();
-            (strengths.get(&new_guid) == Some(&30) && !strengths.contains_key(&old_guid))
+            (strengths.get(&new_guid) == Some(&Strength(30)) && !strengths.contains_key(&old_guid))
                 .then_some(())
         },
     );
@@ -344,7 +347,7 @@ fn heartbeats_and_votes_round_trip_and_name_their_participant() {
     );
     let mut directory = ControllerDirectory::new();
     directory.note_heartbeat(&received);
-    let command_writer = writer_session.command_writer(Some(20)).unwrap();
+    let command_writer = writer_session.command_writer(Some(Strength(20))).unwrap();
     assert_eq!(
         directory.controller_of(command_writer.guid().unwrap()),
         Some(2),
@@ -368,7 +371,7 @@ fn heartbeats_and_votes_round_trip_and_name_their_participant() {
 
     // Invalid values are refused before they reach the wire.
     let invalid = Heartbeat {
-        strength: Some(30),
+        strength: Some(Strength(30)),
         ..heartbeat(3, Role::Tertiary)
     };
     let error = heartbeat_writer.write(&invalid).unwrap_err().to_string();
@@ -569,31 +572,39 @@ fn a_standby_raise_waits_two_command_deadlines_and_a_first_writer_or_primary_rai
     let writer_session = session(DOMAIN);
     let wait = Duration::from_millis(Timing::default().command_deadline_ms * 2);
     let mut standby = writer_session.command_writer(None).unwrap();
-    standby.set_strength(Some(10)).unwrap();
+    standby.set_strength(Some(Strength(10))).unwrap();
     assert_eq!(
         standby.strength(),
-        Some(10),
+        Some(Strength(10)),
         "a first writer is created at once"
     );
     let asked = Instant::now();
-    standby.set_strength(Some(20)).unwrap();
-    assert_eq!(standby.strength(), Some(10), "a standby's raise waits");
+    standby.set_strength(Some(Strength(20))).unwrap();
+    assert_eq!(
+        standby.strength(),
+        Some(Strength(10)),
+        "a standby's raise waits"
+    );
     let raised = wait_for(wait * 3, "the standby's raise", || {
-        standby.set_strength(Some(20)).unwrap();
-        (standby.strength() == Some(20)).then(|| asked.elapsed())
+        standby.set_strength(Some(Strength(20))).unwrap();
+        (standby.strength() == Some(Strength(20))).then(|| asked.elapsed())
     });
-    assert_eq!(standby.strength(), Some(20));
+    assert_eq!(standby.strength(), Some(Strength(20)));
     assert!(
         raised >= wait,
         "raised after {raised:?}, before two command deadlines ({wait:?})"
     );
-    let mut primary = writer_session.command_writer(Some(10)).unwrap();
-    primary.set_strength(Some(30)).unwrap();
+    let mut primary = writer_session.command_writer(Some(Strength(10))).unwrap();
+    primary.set_strength(Some(Strength(30))).unwrap();
     assert_eq!(
         primary.strength(),
-        Some(30),
+        Some(Strength(30)),
         "a Primary's raise is immediate"
     );
-    primary.set_strength(Some(10)).unwrap();
-    assert_eq!(primary.strength(), Some(10), "lowering is immediate");
+    primary.set_strength(Some(Strength(10))).unwrap();
+    assert_eq!(
+        primary.strength(),
+        Some(Strength(10)),
+        "lowering is immediate"
+    );
 }

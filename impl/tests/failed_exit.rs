@@ -144,7 +144,9 @@ fn an_outvoted_controller_exits_with_its_status_and_is_back_as_tertiary_after_a_
     cluster.wait_for("C3 back as Tertiary", FORM, |c| c.steady_with(3, T));
     let (back_seen, _) = first_event(&cluster, restarted_from, 3, |e| {
         e.status().is_some_and(|s| {
-            s.report.phase == Phase::Steady && s.report.role == T && s.report.strength == Some(10)
+            s.report.phase == Phase::Steady
+                && s.report.role == T
+                && s.report.strength == Some(rl_layer::core::Strength(10))
         })
     })
     .unwrap();

@@ -169,7 +169,7 @@ impl Formation {
                 ..
             }) = EventLine::parse(&line.text)
             {
-                self.status.insert(id, status);
+                self.status.insert(id, *status);
             }
         }
     }

@@ -151,7 +151,7 @@ struct Controller {
 impl Controller {
     fn start(domain: u16, id: u8, role: Role) -> Controller {
         let commanding = Arc::new(AtomicBool::new(true));
-        let strength = Arc::new(AtomicI32::new(i32::from(role.strength())));
+        let strength = Arc::new(AtomicI32::new(role.strength().value()));
         let running = Arc::new(AtomicBool::new(true));
         let writer_guid = Arc::new(std::sync::Mutex::new(None));
         let (commanding_flag, strength_wanted, running_flag, guid_out) = (
@@ -186,7 +186,7 @@ impl Controller {
             while running_flag.load(Ordering::Relaxed) {
                 let wanted = match strength_wanted.load(Ordering::Relaxed) {
                     0 => None,
-                    s => Some(s),
+                    s => Some(rl_layer::core::Strength(s)),
                 };
                 commands.set_strength(wanted).unwrap();
                 *guid_out.lock().unwrap() = commands.guid().map(guid_hex);

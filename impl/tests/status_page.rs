@@ -259,7 +259,11 @@ fn metrics_parse_with_the_prometheus_client() {
         let role = cluster.role_of(id).expect("a role");
         let c = id.to_string();
         let strength = value_of(&samples, "rl_strength", &[("controller", &c)]);
-        assert_eq!(strength, Some(f64::from(role.strength())), "C{id}\n{text}");
+        assert_eq!(
+            strength,
+            Some(f64::from(role.strength().value())),
+            "C{id}\n{text}"
+        );
         let held = value_of(
             &samples,
             "rl_role",

@@ -71,7 +71,10 @@ fn check_output(
     problems: &mut Vec<String>,
 ) {
     let last = emitted.iter().rev().find_map(|c| match c {
-        Command::SetOutput { role, strength } => Some((role.map(abstraction::role), *strength)),
+        Command::SetOutput { role, strength } => Some((
+            role.map(abstraction::role),
+            strength.map(abstraction::strength),
+        )),
         _ => None,
     });
     let changed = (was.role, was.strength) != (now.role, now.strength);

@@ -303,6 +303,7 @@ mod tests {
     use crate::abstraction::IncarnationNumbers;
     use model::traces::AbstractController;
     use model::Life;
+    use rl_layer::core::Strength;
     use rl_layer::core::{AlarmReason, Command, Role};
 
     fn controller(id: u8) -> AbstractController {
@@ -361,7 +362,7 @@ mod tests {
         };
         let set_output = Command::SetOutput {
             role: Some(Role::Primary),
-            strength: Some(30),
+            strength: Some(Strength(30)),
         };
         assert_eq!(
             problems(before.clone(), promoted.clone(), vec![set_output.clone()]),

@@ -221,7 +221,7 @@ impl<'a> CoreNetwork<'a> {
             .filter_map(|slot| {
                 slot.core
                     .as_ref()
-                    .map(|core| (slot.id, core.state().output))
+                    .map(|core| (slot.id, core.state().output.map(abstraction::strength)))
             })
             .collect()
     }
@@ -239,8 +239,8 @@ impl<'a> CoreNetwork<'a> {
             if before.get(&id) != Some(&output) {
                 // A takeover moves to the writer the runtime keeps ready, which every reader
                 // knows already (F17).
-                let ready =
-                    matches!(action, Action::Starve { .. }) && output == Some(TAKEOVER_STRENGTH);
+                let ready = matches!(action, Action::Starve { .. })
+                    && output == Some(abstraction::strength(TAKEOVER_STRENGTH));
                 match output {
                     Some(_) if !ready => self.actuator.undiscovered.insert(id),
                     _ => self.actuator.undiscovered.remove(&id),
@@ -264,7 +264,7 @@ impl<'a> CoreNetwork<'a> {
                     .filter(|_| !self.actuator.undiscovered.contains(&slot.id));
                 newest
                     .max(state.writer.retiring)
-                    .map(|strength| (slot.id, strength))
+                    .map(|strength| (slot.id, abstraction::strength(strength)))
             })
             .collect();
         if let Some(to) = model::protocol::actuator::next_owner(

@@ -210,7 +210,13 @@ mod tests {
         let mut c2 = Life::new(2, 0, 10, 10 * PERIOD_MS + 10);
         let mut status = Status::initial(2, c2.log.incarnation);
         status.sees = vec![1];
-        let seen = event(&c2, 12 * PERIOD_MS + 1, Event::Status { status });
+        let seen = event(
+            &c2,
+            12 * PERIOD_MS + 1,
+            Event::Status {
+                status: Box::new(status),
+            },
+        );
         c2.log.events.push(seen);
         vec![c1, c2]
     }

@@ -122,7 +122,7 @@ mod tests {
             t_ms,
             writer_guid: "00".into(),
             controller_id,
-            strength: 30,
+            strength: rl_layer::core::Strength(30),
             pan: 500,
             tilt: 500,
             frequency: 60,

@@ -7,7 +7,7 @@
 use super::expect::{Expected, OwnerChanges, SETTLE_ROUNDS};
 use super::observe::{largest_gap, owner_spans, ActuatorSample, Observations, OwnerSpan};
 use super::procs::Life;
-use rl_layer::core::{Phase, Status};
+use rl_layer::core::{Phase, Status, Strength};
 use rl_layer::event::Event;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -117,7 +117,7 @@ pub fn all_held_ms(faults: &[FaultRecord], end_ms: f64) -> f64 {
 /// `status` name it; a controller back from a stall (`resumed`, a new incarnation whose
 /// writer is silent until its voting loop has run), cut off at its links (`detached`, the
 /// same), deposed by a takeover (`deposed`, the same) or `stopped` commands nothing.
-fn claimed_strength(event: &Event) -> Option<Option<u8>> {
+fn claimed_strength(event: &Event) -> Option<Option<Strength>> {
     match event {
         Event::Output { strength, .. } => Some(*strength),
         Event::Status { status } => Some(status.report.strength),
@@ -143,7 +143,10 @@ pub fn top_strength_intervals(
         let Some(strength) = claimed_strength(&event.line.event) else {
             continue;
         };
-        match (since, strength == Some(30)) {
+        match (
+            since,
+            strength == Some(rl_layer::core::Role::Primary.strength()),
+        ) {
             (None, true) => since = Some(event.at_ms),
             (Some(from), false) => {
                 intervals.push((from, event.at_ms));

@@ -4,7 +4,7 @@
 
 use crate::failure::Failure;
 use crate::report::Heartbeat;
-use crate::types::{AlarmReason, Arrival, ControllerId, Incarnation, Role, VoteRecord};
+use crate::types::{AlarmReason, Arrival, ControllerId, Incarnation, Role, Strength, VoteRecord};
 
 /// The core's timers. When several are due at once they run in this order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -92,7 +92,7 @@ pub enum Command {
         /// The role it now holds.
         role: Option<Role>,
         /// The ownership strength to command with.
-        strength: Option<u8>,
+        strength: Option<Strength>,
     },
     /// Raise a controller alarm about a peer.
     RaiseAlarm {

@@ -1,7 +1,9 @@
 //! What a controller says of itself: one struct, sent as the heartbeat and shown as the
 //! status, so the two can never disagree on a field.
 
-use crate::types::{AlarmReason, Assignment, ControllerId, Holder, Incarnation, Phase, Role};
+use crate::types::{
+    AlarmReason, Assignment, ControllerId, Holder, Incarnation, Phase, Role, Strength,
+};
 use serde::{Deserialize, Serialize};
 
 /// A controller's own protocol state, as it announces it (paper: "the RLCHB topic should
@@ -17,7 +19,7 @@ pub struct SelfReport {
     /// The role it holds.
     pub role: Option<Role>,
     /// The ownership strength it commands with; `None` = it does not command.
-    pub strength: Option<u8>,
+    pub strength: Option<Strength>,
     /// Its last agreed result: `Some` makes it an incumbent of a running system.
     pub agreed: Option<Assignment>,
     /// Its current vote.
@@ -31,7 +33,7 @@ pub struct SelfReport {
     /// The strength of its established command writer: what every reader knows by now. A
     /// writer created in this round is not reported until the next.
     #[serde(default)]
-    pub established_strength: Option<u8>,
+    pub established_strength: Option<Strength>,
     /// F17: the Primary life it took over from, whose commands arrived late. That life, on
     /// hearing it, starts again as a new incarnation.
     #[serde(default)]

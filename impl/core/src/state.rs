@@ -3,7 +3,7 @@
 //! (`model/src/state.rs`), so the conformance abstraction is a plain mapping.
 
 use crate::types::{
-    AlarmReason, Arrival, Assignment, ControllerId, Holder, Incarnation, Phase, Role,
+    AlarmReason, Arrival, Assignment, ControllerId, Holder, Incarnation, Phase, Role, Strength,
     TAKEOVER_STRENGTH,
 };
 use std::collections::{BTreeMap, BTreeSet};
@@ -33,7 +33,7 @@ pub struct Peer {
     /// Its last heartbeat's result was provisional (agreed without a majority).
     pub heard_provisional: bool,
     /// The strength of its established command writer, as its last heartbeat reported it.
-    pub heard_strength: Option<u8>,
+    pub heard_strength: Option<Strength>,
     /// How its commands arrive (F17), as the adapter last measured them: measured by id,
     /// apart from its heartbeats, so kept when it is lost or starts a new life.
     pub commands: Arrival,
@@ -58,7 +58,7 @@ pub struct ControllerState {
     /// The role it holds.
     pub role: Option<Role>,
     /// The ownership strength it commands with; `None` = silent.
-    pub output: Option<u8>,
+    pub output: Option<Strength>,
     /// It heard an incumbent before voting: it joins a running system.
     pub late_joiner: bool,
     /// Rounds since the last new peer was heard, while initializing.
@@ -97,7 +97,7 @@ pub struct ControllerState {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Writer {
     /// The previous, weaker writer that still writes during this round.
-    pub retiring: Option<u8>,
+    pub retiring: Option<Strength>,
     /// The newest writer was created in this round.
     pub fresh: bool,
 }
@@ -129,7 +129,7 @@ impl ControllerState {
 
     /// The strength its heartbeat reports: a writer created in this round is not yet known
     /// to every reader, so the previous one's strength is reported.
-    pub fn established_strength(&self) -> Option<u8> {
+    pub fn established_strength(&self) -> Option<Strength> {
         if self.writer.fresh {
             self.writer.retiring
         } else {
@@ -140,7 +140,7 @@ impl ControllerState {
     /// Changes the command strength as the DDS adapter does (see [`Writer`]). Leaving the
     /// takeover strength for another hands over like a raise (F17): the takeover writer owns
     /// the actuator, and nobody else commands above 30 meanwhile.
-    pub fn set_output(&mut self, strength: Option<u8>) {
+    pub fn set_output(&mut self, strength: Option<Strength>) {
         if strength == self.output {
             return;
         }

@@ -11,11 +11,11 @@
 
 use crate::epochs::{hears_majority, lost_could_outvote};
 use crate::state::ControllerState;
-use crate::types::{Phase, Role, PROVISIONAL_PRIMARY_STRENGTH, TAKEOVER_STRENGTH};
+use crate::types::{Phase, Role, Strength, PROVISIONAL_PRIMARY_STRENGTH, TAKEOVER_STRENGTH};
 
 /// The strength its role and result entitle it to now; `None` before a Primary exists or
 /// without a role.
-pub(crate) fn entitled_strength(c: &ControllerState) -> Option<u8> {
+pub(crate) fn entitled_strength(c: &ControllerState) -> Option<Strength> {
     if c.took_over_from.is_some() {
         // F17: a takeover holds until it is released (crate::rules, `release_takeover`).
         return Some(TAKEOVER_STRENGTH);
@@ -74,7 +74,7 @@ pub(crate) fn apply_output(c: &mut ControllerState) {
 
 /// Every holder of a role above its own in its agreed result reported, in its last heartbeat,
 /// an established strength above `strength` and at least its own role's.
-fn above_established(c: &ControllerState, strength: u8) -> bool {
+fn above_established(c: &ControllerState, strength: Strength) -> bool {
     let (Some(agreed), Some(role)) = (c.agreed, c.role) else {
         return true;
     };

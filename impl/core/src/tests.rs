@@ -188,7 +188,7 @@ fn three_heads_close_the_window_and_the_vote_goes_by_lowest_id() {
 fn a_majority_of_identical_votes_gives_the_role_and_its_strength() {
     let c = formed_c(2);
     assert_eq!(c.state().role, Some(Role::Secondary));
-    assert_eq!(c.state().output, Some(20));
+    assert_eq!(c.state().output, Some(Strength(20)));
     let mut c = core(1, 0, 0);
     let vote = assignment(&[(1, 0), (2, 0), (3, 0)]);
     advance(&mut c, 62);
@@ -218,7 +218,7 @@ fn a_majority_of_identical_votes_gives_the_role_and_its_strength() {
         fire(&mut c, 500),
         vec![Command::SetOutput {
             role: Some(Role::Primary),
-            strength: Some(30)
+            strength: Some(Strength(30))
         }]
     );
 }
@@ -288,7 +288,7 @@ fn a_peer_silent_for_the_dead_man_deadline_is_lost_alarmed_and_re_voted() {
     assert_eq!(c.state().phase, Phase::Voting);
     assert_eq!(
         c.state().output,
-        Some(20),
+        Some(Strength(20)),
         "keeps commanding at its old strength"
     );
     // Round ending 1500: C3's heartbeat carries the same vote: promoted.
@@ -306,7 +306,7 @@ fn a_peer_silent_for_the_dead_man_deadline_is_lost_alarmed_and_re_voted() {
         fire(&mut c, 1500),
         vec![Command::SetOutput {
             role: Some(Role::Primary),
-            strength: Some(30)
+            strength: Some(Strength(30))
         }]
     );
 }
@@ -344,7 +344,7 @@ fn a_late_joiner_takes_the_lowest_free_role() {
         fire(&mut c, 500),
         vec![Command::SetOutput {
             role: Some(Role::Tertiary),
-            strength: Some(10)
+            strength: Some(Strength(10))
         }]
     );
 }
@@ -455,7 +455,7 @@ fn a_new_primary_holds_secondary_strength_while_the_old_one_claims_primary() {
     assert_eq!(c.state().role, Some(Role::Primary));
     assert_eq!(
         c.state().output,
-        Some(20),
+        Some(Strength(20)),
         "two writers at 30 would let DDS pick"
     );
 }

@@ -17,16 +17,42 @@ pub type Incarnation = u64;
 /// The number of roles; a controller beyond this many is ignored.
 pub const ROLE_COUNT: usize = 3;
 
+/// A DDS ownership strength (the OWNERSHIP_STRENGTH QoS, a `long`): how strongly a writer
+/// claims an exclusive-ownership topic. A reader obeys the strongest live writer. RL's command
+/// writers use 30/20/10 by role (the paper), 15 for a provisional Primary and 35 for a
+/// takeover; a reader may meet any other value from writers that are not RL's.
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
+)]
+#[serde(transparent)]
+pub struct Strength(pub i32);
+
+impl Strength {
+    /// The DDS default, a writer that announced none.
+    pub const DEFAULT: Strength = Strength(0);
+
+    /// The QoS value.
+    pub fn value(self) -> i32 {
+        self.0
+    }
+}
+
+impl fmt::Display for Strength {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.0)
+    }
+}
+
 /// The strength a Primary commands with while its result is provisional (agreed without a
 /// majority, a side cut off from the rest): above a lone standby's 10, below the Secondary
 /// strength of the side that kept the majority, so that side's Primary wins even while it
 /// holds 20 (finding F11).
-pub const PROVISIONAL_PRIMARY_STRENGTH: u8 = 15;
+pub const PROVISIONAL_PRIMARY_STRENGTH: Strength = Strength(15);
 
 /// The strength a Secondary commands with when it takes over from a Primary whose commands
 /// arrive late (finding F17): above the Primary's 30, so none of the late Primary's samples
 /// still in flight can take the actuator back.
-pub const TAKEOVER_STRENGTH: u8 = 35;
+pub const TAKEOVER_STRENGTH: Strength = Strength(35);
 
 /// How a peer's commands reach this controller, as the adapter measures them: each sample's
 /// delay against the least delay seen from the same writer, so no clocks need agree (F17).
@@ -69,16 +95,16 @@ impl Role {
     }
 
     /// DDS ownership strength of the command writer for this role (paper: 30/20/10).
-    pub fn strength(self) -> u8 {
-        match self {
+    pub fn strength(self) -> Strength {
+        Strength(match self {
             Role::Primary => 30,
             Role::Secondary => 20,
             Role::Tertiary => 10,
-        }
+        })
     }
 
     /// The role a command strength stands for, if any.
-    pub fn from_strength(strength: u8) -> Option<Role> {
+    pub fn from_strength(strength: Strength) -> Option<Role> {
         Role::ALL
             .into_iter()
             .find(|role| role.strength() == strength)

@@ -31,7 +31,7 @@
 
 pub use crate::config::AperiodicPolicy;
 use crate::config::Config;
-use crate::core::types::{AlarmReason, ControllerId, Role};
+use crate::core::types::{AlarmReason, ControllerId, Role, Strength};
 use crate::core::Status;
 use crate::dds::{DdsError, Session, StrengthWriter};
 pub use crate::dds::{Keying, NoKey, WithKey};
@@ -85,7 +85,7 @@ impl Redundancy {
     }
 
     /// The ownership strength its commands carry now (`None`: it must not command).
-    pub fn strength(&self) -> Option<u8> {
+    pub fn strength(&self) -> Option<Strength> {
         self.shared.status().report.strength
     }
 
@@ -292,7 +292,7 @@ impl<T: Clone, K: Keying<T>> RoleWriter<T, K> {
         // Back from a stop before the voting loop has noticed: what the status says is stale
         // (a new Primary commands meanwhile), so the writer goes and nothing is written.
         let allowed = allowed.filter(|_| !self.shared.loop_clock.stalled());
-        self.writer.set_strength(allowed.map(i32::from))?;
+        self.writer.set_strength(allowed)?;
         match sample {
             Some(sample) => self.writer.write(sample),
             None => Ok(false),
@@ -300,7 +300,7 @@ impl<T: Clone, K: Keying<T>> RoleWriter<T, K> {
     }
 
     /// The strength of the DDS writer now (`None`: no writer).
-    pub fn strength(&self) -> Option<i32> {
+    pub fn strength(&self) -> Option<Strength> {
         self.writer.strength()
     }
 

@@ -23,6 +23,7 @@
 //!   applies from its next sample. RustDDS cannot change a writer's strength: it re-creates
 //!   the writer, which is a new GUID; the old one ages out or is reported lost.
 
+use crate::core::types::Strength;
 use std::collections::BTreeMap;
 
 /// The outcome of offering one sample.
@@ -57,7 +58,7 @@ enum Renewal {
 #[derive(Clone, Copy, Debug)]
 struct Owner<W> {
     writer: W,
-    strength: i32,
+    strength: Strength,
     last_accepted_ms: u64,
 }
 
@@ -70,7 +71,7 @@ pub struct Arbiter<W> {
     /// gap of the next change.
     previous: Option<Owner<W>>,
     /// Last known strength of each writer seen.
-    strengths: BTreeMap<W, i32>,
+    strengths: BTreeMap<W, Strength>,
     /// Time of each writer's last sample (accepted or not): whether it is alive.
     last_seen_ms: BTreeMap<W, u64>,
     /// Time of the last sample of any writer, used only by `Renewal::AnySample`.
@@ -100,7 +101,7 @@ impl<W: Ord + Copy> Arbiter<W> {
     }
 
     /// Does `a` (strength, id) outrank `b`?
-    fn outranks(a: (i32, W), b: (i32, W)) -> bool {
+    fn outranks(a: (Strength, W), b: (Strength, W)) -> bool {
         a.0 > b.0 || (a.0 == b.0 && a.1 < b.1)
     }
 
@@ -127,7 +128,7 @@ impl<W: Ord + Copy> Arbiter<W> {
 
     /// Offers a sample of `writer`, whose ownership strength is `strength`, received at
     /// `now_ms`. Times must not go backwards (an earlier time is treated as `now`).
-    pub fn offer(&mut self, writer: W, strength: i32, now_ms: u64) -> Decision<W> {
+    pub fn offer(&mut self, writer: W, strength: Strength, now_ms: u64) -> Decision<W> {
         self.strengths.insert(writer, strength);
         self.expire(now_ms);
         self.last_any_ms = self.last_any_ms.max(now_ms);
@@ -191,7 +192,7 @@ impl<W: Ord + Copy> Arbiter<W> {
     }
 
     /// Another writer that outranks `writer` has sent a sample within the deadline.
-    fn stronger_writer_alive(&self, writer: W, strength: i32, now_ms: u64) -> bool {
+    fn stronger_writer_alive(&self, writer: W, strength: Strength, now_ms: u64) -> bool {
         self.last_seen_ms.iter().any(|(&other, &seen)| {
             other != writer
                 && now_ms.saturating_sub(seen) <= self.deadline_ms
@@ -219,7 +220,7 @@ impl<W: Ord + Copy> Arbiter<W> {
     }
 
     /// The owner's strength at `now_ms`, if there is a live owner.
-    pub fn owner_strength(&self, now_ms: u64) -> Option<i32> {
+    pub fn owner_strength(&self, now_ms: u64) -> Option<Strength> {
         let writer = self.owner(now_ms)?;
         self.strengths.get(&writer).copied()
     }
@@ -232,7 +233,7 @@ impl<W: Ord + Copy> Arbiter<W> {
     }
 
     /// The last strength offered by a writer still known.
-    pub fn strength_of(&self, writer: W) -> Option<i32> {
+    pub fn strength_of(&self, writer: W) -> Option<Strength> {
         self.strengths.get(&writer).copied()
     }
 
@@ -276,14 +277,14 @@ mod tests {
     #[test]
     fn after_a_miss_the_strongest_live_writer_owns_not_the_first_to_speak() {
         let mut arbiter = Arbiter::new(DEADLINE_MS);
-        arbiter.offer(PRIMARY, 30, 0);
-        arbiter.offer(SECONDARY, 20, 5);
-        arbiter.offer(TERTIARY, 10, 6);
+        arbiter.offer(PRIMARY, Strength(30), 0);
+        arbiter.offer(SECONDARY, Strength(20), 5);
+        arbiter.offer(TERTIARY, Strength(10), 6);
         // The Primary is silent from t=0; at 101 its deadline has passed. The Tertiary speaks
         // first, but the Secondary (last heard at 95) is alive and outranks it.
-        arbiter.offer(SECONDARY, 20, 95);
-        assert!(!accepted(arbiter.offer(TERTIARY, 10, 101)));
-        let decision = arbiter.offer(SECONDARY, 20, 105);
+        arbiter.offer(SECONDARY, Strength(20), 95);
+        assert!(!accepted(arbiter.offer(TERTIARY, Strength(10), 101)));
+        let decision = arbiter.offer(SECONDARY, Strength(20), 105);
         assert_eq!(
             decision.owner_changed,
             Some(OwnerChange {
@@ -293,13 +294,13 @@ mod tests {
             })
         );
         // Once the Secondary too has been silent past the deadline, the Tertiary may own.
-        assert!(accepted(arbiter.offer(TERTIARY, 10, 206)));
+        assert!(accepted(arbiter.offer(TERTIARY, Strength(10), 206)));
     }
 
     #[test]
     fn first_sample_makes_the_first_owner() {
         let mut arbiter = Arbiter::new(DEADLINE_MS);
-        let decision = arbiter.offer(SECONDARY, 20, 5);
+        let decision = arbiter.offer(SECONDARY, Strength(20), 5);
         assert_eq!(
             decision,
             Decision {
@@ -312,15 +313,15 @@ mod tests {
             }
         );
         assert_eq!(arbiter.owner(5), Some(SECONDARY));
-        assert_eq!(arbiter.owner_strength(5), Some(20));
+        assert_eq!(arbiter.owner_strength(5), Some(Strength(20)));
     }
 
     #[test]
     fn stronger_writer_takes_over_at_once() {
         let mut arbiter = Arbiter::new(DEADLINE_MS);
-        arbiter.offer(SECONDARY, 20, 0);
-        arbiter.offer(SECONDARY, 20, 33);
-        let decision = arbiter.offer(PRIMARY, 30, 40);
+        arbiter.offer(SECONDARY, Strength(20), 0);
+        arbiter.offer(SECONDARY, Strength(20), 33);
+        let decision = arbiter.offer(PRIMARY, Strength(30), 40);
         assert!(decision.accepted);
         assert_eq!(
             decision.owner_changed,
@@ -330,7 +331,7 @@ mod tests {
                 gap_ms: Some(7)
             })
         );
-        assert!(!accepted(arbiter.offer(SECONDARY, 20, 66)));
+        assert!(!accepted(arbiter.offer(SECONDARY, Strength(20), 66)));
     }
 
     #[test]
@@ -341,7 +342,7 @@ mod tests {
             (SECONDARY, 20, 33, 1, 1000),
             (TERTIARY, 10, 50, 2, 1000),
         ]) {
-            let decision = arbiter.offer(writer, strength, t);
+            let decision = arbiter.offer(writer, Strength(strength), t);
             assert_eq!(
                 decision.accepted,
                 writer == PRIMARY,
@@ -361,7 +362,7 @@ mod tests {
         for (t, writer, strength) in
             schedule(&[(PRIMARY, 30, 33, 0, 300), (SECONDARY, 20, 33, 10, 1000)])
         {
-            let decision = arbiter.offer(writer, strength, t);
+            let decision = arbiter.offer(writer, Strength(strength), t);
             if writer == SECONDARY {
                 // Accepted exactly from the first sample after the deadline ran out.
                 assert_eq!(decision.accepted, t > 297 + DEADLINE_MS, "t={t}");
@@ -382,20 +383,24 @@ mod tests {
     #[test]
     fn deadline_edge_is_inclusive() {
         let mut arbiter = Arbiter::new(DEADLINE_MS);
-        arbiter.offer(PRIMARY, 30, 0);
-        assert!(!arbiter.offer(SECONDARY, 20, DEADLINE_MS).accepted);
+        arbiter.offer(PRIMARY, Strength(30), 0);
+        assert!(!arbiter.offer(SECONDARY, Strength(20), DEADLINE_MS).accepted);
         assert_eq!(arbiter.owner(DEADLINE_MS), Some(PRIMARY));
         assert_eq!(arbiter.owner(DEADLINE_MS + 1), None);
-        assert!(arbiter.offer(SECONDARY, 20, DEADLINE_MS + 1).accepted);
+        assert!(
+            arbiter
+                .offer(SECONDARY, Strength(20), DEADLINE_MS + 1)
+                .accepted
+        );
     }
 
     #[test]
     fn owner_returning_takes_over_at_once() {
         let mut arbiter = Arbiter::new(DEADLINE_MS);
-        arbiter.offer(PRIMARY, 30, 0);
-        arbiter.offer(SECONDARY, 20, 150); // Primary expired at 100
-        arbiter.offer(SECONDARY, 20, 180);
-        let decision = arbiter.offer(PRIMARY, 30, 190);
+        arbiter.offer(PRIMARY, Strength(30), 0);
+        arbiter.offer(SECONDARY, Strength(20), 150); // Primary expired at 100
+        arbiter.offer(SECONDARY, Strength(20), 180);
+        let decision = arbiter.offer(PRIMARY, Strength(30), 190);
         assert!(decision.accepted);
         assert_eq!(
             decision.owner_changed,
@@ -405,14 +410,14 @@ mod tests {
                 gap_ms: Some(10)
             })
         );
-        assert!(!arbiter.offer(SECONDARY, 20, 200).accepted);
+        assert!(!arbiter.offer(SECONDARY, Strength(20), 200).accepted);
     }
 
     #[test]
     fn owner_back_after_silence_without_rival_is_no_change() {
         let mut arbiter = Arbiter::new(DEADLINE_MS);
-        arbiter.offer(PRIMARY, 30, 0);
-        let decision = arbiter.offer(PRIMARY, 30, 500);
+        arbiter.offer(PRIMARY, Strength(30), 0);
+        let decision = arbiter.offer(PRIMARY, Strength(30), 500);
         assert!(decision.accepted);
         assert_eq!(decision.owner_changed, None);
     }
@@ -421,15 +426,15 @@ mod tests {
     fn equal_strength_goes_to_the_lower_guid() {
         let (low, high) = (0x0100_u32, 0x0200_u32);
         let mut arbiter = Arbiter::new(DEADLINE_MS);
-        arbiter.offer(high, 30, 0);
-        let decision = arbiter.offer(low, 30, 10);
+        arbiter.offer(high, Strength(30), 0);
+        let decision = arbiter.offer(low, Strength(30), 10);
         assert!(decision.accepted);
         assert_eq!(decision.owner_changed.map(|c| c.to), Some(low));
-        assert!(!arbiter.offer(high, 30, 20).accepted);
+        assert!(!arbiter.offer(high, Strength(30), 20).accepted);
         // The other order: the higher GUID never displaces the lower one while it is live.
         let mut arbiter = Arbiter::new(DEADLINE_MS);
-        arbiter.offer(low, 30, 0);
-        assert!(!arbiter.offer(high, 30, 10).accepted);
+        arbiter.offer(low, Strength(30), 0);
+        assert!(!arbiter.offer(high, Strength(30), 10).accepted);
         assert_eq!(arbiter.owner(10), Some(low));
     }
 
@@ -439,13 +444,13 @@ mod tests {
         // (new GUID); the Primary it replaces is dead.
         let (old_secondary, new_primary) = (0x21_u32, 0x31_u32);
         let mut arbiter = Arbiter::new(DEADLINE_MS);
-        arbiter.offer(PRIMARY, 30, 0);
-        assert!(!arbiter.offer(old_secondary, 20, 30).accepted);
+        arbiter.offer(PRIMARY, Strength(30), 0);
+        assert!(!arbiter.offer(old_secondary, Strength(20), 30).accepted);
         // Primary dies after 0; Secondary fails over at 130.
-        assert!(arbiter.offer(old_secondary, 20, 130).accepted);
+        assert!(arbiter.offer(old_secondary, Strength(20), 130).accepted);
         // Writer re-created at strength 30: takes over at once from its old self.
         arbiter.writer_lost(old_secondary);
-        let decision = arbiter.offer(new_primary, 30, 140);
+        let decision = arbiter.offer(new_primary, Strength(30), 140);
         assert!(decision.accepted);
         assert_eq!(
             decision.owner_changed,
@@ -456,17 +461,17 @@ mod tests {
             })
         );
         assert_eq!(arbiter.strength_of(old_secondary), None);
-        assert_eq!(arbiter.owner_strength(140), Some(30));
+        assert_eq!(arbiter.owner_strength(140), Some(Strength(30)));
     }
 
     #[test]
     fn strength_change_of_a_live_writer_applies_to_its_next_sample() {
         let mut arbiter = Arbiter::new(DEADLINE_MS);
-        arbiter.offer(PRIMARY, 30, 0);
-        assert!(!arbiter.offer(SECONDARY, 20, 10).accepted);
+        arbiter.offer(PRIMARY, Strength(30), 0);
+        assert!(!arbiter.offer(SECONDARY, Strength(20), 10).accepted);
         // The owner lowers itself to 10: the Secondary now outranks it.
-        assert!(arbiter.offer(PRIMARY, 10, 20).accepted);
-        let decision = arbiter.offer(SECONDARY, 20, 30);
+        assert!(arbiter.offer(PRIMARY, Strength(10), 20).accepted);
+        let decision = arbiter.offer(SECONDARY, Strength(20), 30);
         assert!(decision.accepted);
         assert_eq!(decision.owner_changed.map(|c| c.to), Some(SECONDARY));
     }
@@ -474,10 +479,10 @@ mod tests {
     #[test]
     fn lost_owner_is_replaced_by_the_next_sample_without_waiting() {
         let mut arbiter = Arbiter::new(DEADLINE_MS);
-        arbiter.offer(PRIMARY, 30, 0);
+        arbiter.offer(PRIMARY, Strength(30), 0);
         arbiter.writer_lost(PRIMARY);
         assert_eq!(arbiter.owner(1), None);
-        let decision = arbiter.offer(TERTIARY, 10, 20);
+        let decision = arbiter.offer(TERTIARY, Strength(10), 20);
         assert!(decision.accepted);
         assert_eq!(
             decision.owner_changed,
@@ -497,12 +502,12 @@ mod tests {
         // The paper's aperiodic-topic effect: after a miss, whichever sample comes first wins,
         // until a stronger writer's sample arrives.
         let mut arbiter = Arbiter::new(DEADLINE_MS);
-        arbiter.offer(PRIMARY, 30, 0);
-        assert!(arbiter.offer(TERTIARY, 10, 200).accepted);
-        let decision = arbiter.offer(SECONDARY, 20, 201);
+        arbiter.offer(PRIMARY, Strength(30), 0);
+        assert!(arbiter.offer(TERTIARY, Strength(10), 200).accepted);
+        let decision = arbiter.offer(SECONDARY, Strength(20), 201);
         assert!(decision.accepted);
         assert_eq!(decision.owner_changed.map(|c| c.from), Some(Some(TERTIARY)));
-        assert!(!arbiter.offer(TERTIARY, 10, 202).accepted);
+        assert!(!arbiter.offer(TERTIARY, Strength(10), 202).accepted);
     }
 
     /// How a failover check found the arbiter wanting.
@@ -524,7 +529,7 @@ mod tests {
         for (t, writer, strength) in
             schedule(&[(PRIMARY, 30, 33, 0, 300), (SECONDARY, 20, 33, 10, 2000)])
         {
-            let decision = arbiter.offer(writer, strength, t);
+            let decision = arbiter.offer(writer, Strength(strength), t);
             if writer == PRIMARY {
                 last_primary_ms = t;
             } else if decision.accepted {
@@ -554,9 +559,9 @@ mod tests {
     #[test]
     fn time_going_backwards_does_not_panic_or_extend_ownership() {
         let mut arbiter = Arbiter::new(DEADLINE_MS);
-        arbiter.offer(PRIMARY, 30, 1000);
-        assert!(arbiter.offer(PRIMARY, 30, 10).accepted);
+        arbiter.offer(PRIMARY, Strength(30), 1000);
+        assert!(arbiter.offer(PRIMARY, Strength(30), 10).accepted);
         assert_eq!(arbiter.last_accepted_ms(), Some(1000));
-        assert!(!arbiter.offer(SECONDARY, 20, 5).accepted);
+        assert!(!arbiter.offer(SECONDARY, Strength(20), 5).accepted);
     }
 }

@@ -9,7 +9,7 @@ pub fn console_line(status: &Status) -> String {
     let report = &status.report;
     let role = match (report.phase, report.role) {
         (Phase::Failed, _) => "FAILED".to_string(),
-        (_, Some(role)) => format!("{role} ({})", report.strength.unwrap_or(0)),
+        (_, Some(role)) => format!("{role} ({})", report.strength.unwrap_or_default()),
         (Phase::Steady, None) => "spare (no role)".to_string(),
         (_, None) => "no role yet".to_string(),
     };
@@ -35,7 +35,7 @@ pub fn console_line(status: &Status) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::core::{Assignment, Holder};
+    use crate::core::{Assignment, Holder, Strength};
 
     #[test]
     fn the_line_names_the_role_with_its_strength_and_the_primary() {
@@ -47,7 +47,7 @@ mod tests {
         let agreed = Assignment::from_ranked([1, 2, 3].map(|id| Holder { id, incarnation: 0 }));
         status.report.phase = Phase::Steady;
         status.report.role = Some(Role::Secondary);
-        status.report.strength = Some(20);
+        status.report.strength = Some(Strength(20));
         status.report.agreed = Some(agreed);
         assert_eq!(
             console_line(&status),

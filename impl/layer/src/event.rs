@@ -13,7 +13,7 @@
 //! know.
 
 use crate::core::network::{AlarmCause, Network, Verdict};
-use crate::core::{AlarmReason, Assignment, ControllerId, Incarnation, Role, Status};
+use crate::core::{AlarmReason, Assignment, ControllerId, Incarnation, Role, Status, Strength};
 use crate::failed_exit::{Failure, FailureCause, EXIT_STATUS};
 use crate::wire::Certainty;
 use serde::{Deserialize, Serialize};
@@ -41,8 +41,8 @@ pub enum Event {
     Started,
     /// The protocol state changed (phase, role, strength, agreed result, vote or membership).
     Status {
-        /// The protocol state after the change.
-        status: Status,
+        /// The protocol state after the change (boxed: the largest event by far).
+        status: Box<Status>,
     },
     /// The command output changed: commanding at `strength` for `role`, or silent (`null`).
     Output {
@@ -50,7 +50,7 @@ pub enum Event {
         role: Option<Role>,
         /// The command writer's DDS ownership strength (30, 20, 10; 15 provisional, 35
         /// takeover); `null` when silent.
-        strength: Option<u8>,
+        strength: Option<Strength>,
     },
     /// A durable vote record was published; `null` withdraws the vote.
     Vote {
@@ -232,7 +232,7 @@ mod tests {
         assert_eq!(
             line(Event::Output {
                 role: Some(Role::Secondary),
-                strength: Some(20)
+                strength: Some(Strength(20))
             })
             .to_json(),
             r#"{"t_ms":1000,"id":2,"incarnation":77,"event":"output","role":"secondary","strength":20}"#
@@ -330,7 +330,7 @@ mod tests {
         status.report = SelfReport {
             phase: Phase::Steady,
             role: Some(Role::Secondary),
-            strength: Some(20),
+            strength: Some(Strength(20)),
             agreed: Some(assignment),
             vote: Some(assignment),
             ..status.report
@@ -340,7 +340,9 @@ mod tests {
         status.alarms = vec![(3, AlarmReason::Failed)];
         let events = [
             Event::Started,
-            Event::Status { status },
+            Event::Status {
+                status: Box::new(status),
+            },
             Event::Output {
                 role: None,
                 strength: None,

@@ -18,7 +18,7 @@
 //! (crate::api::Redundancy::owner_feed), all with [`OwnerFeed::take`].
 
 use crate::arbiter::{Arbiter, Decision};
-use crate::core::types::ControllerId;
+use crate::core::types::{ControllerId, Strength};
 use crate::dds::{ControllerDirectory, DdsError, Reader, Session, GUID};
 use crate::trust::{CommandTrust, Refusal};
 use crate::wire::{HeartbeatSample, WireSample};
@@ -47,7 +47,7 @@ pub enum Delivery<V> {
         /// Its writer.
         writer: GUID,
         /// The writer's strength (0 while discovery has not announced it).
-        strength: i32,
+        strength: Strength,
         /// Whether discovery had announced the writer's strength.
         strength_known: bool,
         /// The arbiter's decision.
@@ -62,7 +62,7 @@ pub struct OwnerFeed<S: WireSample> {
     arbiter: Arbiter<GUID>,
     trust: CommandTrust,
     directory: ControllerDirectory,
-    strengths: BTreeMap<GUID, i32>,
+    strengths: BTreeMap<GUID, Strength>,
     last_refresh_ms: Option<u64>,
 }
 
@@ -146,10 +146,10 @@ impl<S: WireSample + 'static> OwnerFeed<S> {
             batch.push((strength, sample));
         }
         // Stable: each writer's samples keep their order.
-        batch.sort_by_key(|(strength, _)| std::cmp::Reverse(strength.unwrap_or(0)));
+        batch.sort_by_key(|(strength, _)| std::cmp::Reverse(strength.unwrap_or_default()));
         let mut deliveries = Vec::with_capacity(batch.len());
         for (known, sample) in batch {
-            let (writer, strength) = (sample.writer, known.unwrap_or(0));
+            let (writer, strength) = (sample.writer, known.unwrap_or_default());
             if let Err(refusal) = self.trust.admit(writer, strength) {
                 deliveries.push(Delivery::Refused { writer, refusal });
                 continue;
@@ -193,7 +193,7 @@ impl<S: WireSample + 'static> OwnerFeed<S> {
     }
 
     /// The strength the arbiter last saw `writer` at.
-    pub fn strength_of(&self, writer: GUID) -> Option<i32> {
+    pub fn strength_of(&self, writer: GUID) -> Option<Strength> {
         self.arbiter.strength_of(writer)
     }
 

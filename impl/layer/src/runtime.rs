@@ -137,6 +137,7 @@ pub(crate) fn spawn(
                 shown_status,
                 shown_leds: LedPattern::ALL_OFF,
                 leaving: None,
+                events_at_ms: None,
                 heartbeat_woke: false,
                 delays: heartbeat_delay::HeartbeatDelays::default(),
                 links,
@@ -223,6 +224,8 @@ struct Voting {
     shown_leds: LedPattern,
     /// Set when the core says to leave (`Command::Exit`): why it failed itself.
     leaving: Option<Failure>,
+    /// While a step's commands are performed: its instant, which its events carry.
+    events_at_ms: Option<u64>,
     /// The last wait ended because a heartbeat arrived.
     heartbeat_woke: bool,
     /// How long peers' heartbeats waited on the way (late ones are lost).
@@ -451,6 +454,9 @@ impl Voting {
         // step's commands do not change the core: a new life waits for the end of the step.)
         let status = self.core.status();
         *self.shared.status() = status.clone();
+        // The step's events carry the step's instant, the core's: a FAILED status then says
+        // when the core failed, which its exit delay counts from.
+        self.events_at_ms = Some(now);
         let mut failures = Vec::new();
         for command in commands {
             match command {
@@ -463,6 +469,7 @@ impl Voting {
         for failure in failures {
             self.perform(failure);
         }
+        self.events_at_ms = None;
         // After the old life's last status went out, so the record shows where it ended.
         if std::mem::take(&mut self.deposed) {
             self.start_again(Restart::Deposed);

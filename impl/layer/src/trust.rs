@@ -17,7 +17,7 @@
 
 #[cfg(test)]
 use crate::core::types::Role;
-use crate::core::types::{ControllerId, TAKEOVER_STRENGTH};
+use crate::core::types::{ControllerId, Strength, TAKEOVER_STRENGTH};
 use crate::core::Heartbeat;
 use crate::dds::{Received, GUID};
 use crate::identity::{Admission, Identities};
@@ -31,7 +31,7 @@ pub enum Refusal {
     /// Above the takeover strength.
     TooStrong {
         /// The writer's announced ownership strength.
-        strength: i32,
+        strength: Strength,
     },
 }
 
@@ -84,7 +84,7 @@ impl CommandTrust {
     }
 
     /// Whether to take a command from `writer` at `strength`.
-    pub fn admit(&self, writer: GUID, strength: i32) -> Result<ControllerId, Refusal> {
+    pub fn admit(&self, writer: GUID, strength: Strength) -> Result<ControllerId, Refusal> {
         let controller = self
             .identities
             .speaks_for(crate::dds::participant_key(writer));
@@ -92,7 +92,7 @@ impl CommandTrust {
             return Ok(controller.unwrap_or(0));
         }
         let controller = controller.ok_or(Refusal::NotAController)?;
-        if strength > i32::from(TAKEOVER_STRENGTH) {
+        if strength > TAKEOVER_STRENGTH {
             return Err(Refusal::TooStrong { strength });
         }
         Ok(controller)
@@ -148,35 +148,45 @@ mod tests {
         // C1's heartbeats lost on a lossy link for twice the peer deadline while C2's arrive:
         // C1's commands are still the Primary's.
         assert!(trust.heartbeat(&heartbeat_from(2, 2, 5), 2 * PEER_DEADLINE_MS));
-        assert_eq!(trust.admit(writer(1), 30), Ok(1));
-        assert_eq!(trust.admit(writer(2), 20), Ok(2));
+        assert_eq!(trust.admit(writer(1), Strength(30)), Ok(1));
+        assert_eq!(trust.admit(writer(2), Strength(20)), Ok(2));
     }
 
     #[test]
     fn a_writer_whose_id_moved_on_or_that_never_heartbeated_is_refused() {
         let mut trust = CommandTrust::new(PEER_DEADLINE_MS, false);
-        assert_eq!(trust.admit(writer(9), 10), Err(Refusal::NotAController));
+        assert_eq!(
+            trust.admit(writer(9), Strength(10)),
+            Err(Refusal::NotAController)
+        );
         trust.heartbeat(&heartbeat_from(1, 1, 7), 0);
         // C1 restarted: a new participant, a new life, after the old one's deadline.
         trust.heartbeat(&heartbeat_from(2, 1, 8), 1_000);
-        assert_eq!(trust.admit(writer(1), 30), Err(Refusal::NotAController));
-        assert_eq!(trust.admit(writer(2), 30), Ok(1));
+        assert_eq!(
+            trust.admit(writer(1), Strength(30)),
+            Err(Refusal::NotAController)
+        );
+        assert_eq!(trust.admit(writer(2), Strength(30)), Ok(1));
     }
 
     #[test]
     fn a_writer_above_the_takeover_strength_is_refused_unless_any_writer() {
         let mut trust = CommandTrust::new(PEER_DEADLINE_MS, false);
         trust.heartbeat(&heartbeat_from(1, 1, 7), 0);
-        assert_eq!(trust.admit(writer(1), 35), Ok(1));
+        assert_eq!(trust.admit(writer(1), Strength(35)), Ok(1));
         assert_eq!(
-            trust.admit(writer(1), 36),
-            Err(Refusal::TooStrong { strength: 36 })
+            trust.admit(writer(1), Strength(36)),
+            Err(Refusal::TooStrong {
+                strength: Strength(36)
+            })
         );
         assert_eq!(
-            trust.admit(writer(1), 100),
-            Err(Refusal::TooStrong { strength: 100 })
+            trust.admit(writer(1), Strength(100)),
+            Err(Refusal::TooStrong {
+                strength: Strength(100)
+            })
         );
         let plain = CommandTrust::new(PEER_DEADLINE_MS, true);
-        assert_eq!(plain.admit(writer(9), 100), Ok(0));
+        assert_eq!(plain.admit(writer(9), Strength(100)), Ok(0));
     }
 }

@@ -4,7 +4,7 @@
 
 use rl_layer::api::{AperiodicPolicy, Options, OwnerFeed, Plain, Redundancy, RoleWriter};
 use rl_layer::config::Config;
-use rl_layer::core::Role;
+use rl_layer::core::{Role, Strength};
 use rl_layer::event::{Event, EventLine};
 use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
@@ -76,7 +76,7 @@ fn role_changes_and_alarms_are_pushed_and_the_role_writer_follows_them() {
             event,
             Event::Output {
                 role: Some(Role::Secondary),
-                strength: Some(20)
+                strength: Some(Strength(20))
             }
         )
     };
@@ -85,7 +85,7 @@ fn role_changes_and_alarms_are_pushed_and_the_role_writer_follows_them() {
         "C2 was not told it is Secondary"
     );
     assert_eq!(setpoints.write(Setpoint { value: 1 }).ok(), Some(true));
-    assert_eq!(setpoints.strength(), Some(20));
+    assert_eq!(setpoints.strength(), Some(Strength(20)));
 
     drop(c1);
     let lost = |event: &Event| {
@@ -107,7 +107,7 @@ fn role_changes_and_alarms_are_pushed_and_the_role_writer_follows_them() {
             event,
             Event::Output {
                 role: Some(Role::Primary),
-                strength: Some(30)
+                strength: Some(Strength(30))
             }
         )
     };
@@ -121,7 +121,7 @@ fn role_changes_and_alarms_are_pushed_and_the_role_writer_follows_them() {
         config.timing.command_republish_ms + 5,
     ));
     assert_eq!(setpoints.keep_alive().ok(), Some(true));
-    assert_eq!(setpoints.strength(), Some(30));
+    assert_eq!(setpoints.strength(), Some(Strength(30)));
     assert_eq!(
         setpoints.keep_alive().ok(),
         Some(false),

@@ -3,7 +3,7 @@
 //! Primary, and the servo's owner changes.
 
 use crate::procs::{parse_servo_event, Line, ServoEvent};
-use rl_layer::core::{ControllerId, Phase, Role, Status};
+use rl_layer::core::{ControllerId, Phase, Role, Status, Strength};
 use rl_layer::event::{Event, EventLine};
 use std::collections::BTreeMap;
 use std::sync::mpsc::Receiver;
@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 pub struct Output {
     pub id: ControllerId,
     pub t_ms: u64,
-    pub strength: Option<u8>,
+    pub strength: Option<Strength>,
 }
 
 /// An owner change at the servo (`owner_changed`).
@@ -104,7 +104,7 @@ impl Watch {
                     {
                         self.steady_primary.push((line.id, line.t_ms));
                     }
-                    self.status.insert(line.id, status);
+                    self.status.insert(line.id, *status);
                 }
                 Event::Output { strength, .. } => self.outputs.push(Output {
                     id: line.id,

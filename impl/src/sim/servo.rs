@@ -20,7 +20,7 @@
 //! `gap_ms` is the time since the previous owner's last accepted command.
 
 use crate::Error;
-use rl_layer::core::types::ControllerId;
+use rl_layer::core::types::{ControllerId, Strength};
 use rl_layer::dds::{guid_hex, mio, Session, GUID};
 use rl_layer::owner_feed::{Delivery, OwnerFeed};
 use rl_layer::trust::CommandTrust;
@@ -64,7 +64,7 @@ pub enum ServoEvent {
         t_ms: u64,
         writer_guid: String,
         controller_id: Option<ControllerId>,
-        strength: i32,
+        strength: Strength,
         pan: u16,
         tilt: u16,
         frequency: u16,
@@ -76,7 +76,7 @@ pub enum ServoEvent {
         gap_ms: Option<u64>,
         from_writer_guid: Option<String>,
         to_writer_guid: String,
-        strength: i32,
+        strength: Strength,
     },
 }
 
@@ -304,7 +304,7 @@ impl Servo {
             Some(writer) => format!(
                 "{} at strength {}",
                 controller_name(self.feed.controller_of(writer), writer),
-                self.feed.strength_of(writer).unwrap_or(0)
+                self.feed.strength_of(writer).unwrap_or_default()
             ),
             None => "none".to_string(),
         };
@@ -363,7 +363,7 @@ mod tests {
             t_ms: 12,
             writer_guid: "00".repeat(16),
             controller_id: Some(1),
-            strength: 30,
+            strength: rl_layer::core::Strength(30),
             pan: 500,
             tilt: 400,
             frequency: 60,
@@ -382,7 +382,7 @@ mod tests {
             gap_ms: None,
             from_writer_guid: None,
             to_writer_guid: "ab".into(),
-            strength: 20,
+            strength: rl_layer::core::Strength(20),
         };
         assert_eq!(
             serde_json::to_string(&first).unwrap(),
@@ -399,7 +399,7 @@ mod tests {
             gap_ms: Some(108),
             from_writer_guid: Some("aa".into()),
             to_writer_guid: "bb".into(),
-            strength: 20,
+            strength: rl_layer::core::Strength(20),
         };
         assert_eq!(
             describe_change(&change),

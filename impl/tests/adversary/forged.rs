@@ -210,7 +210,9 @@ fn strength_100_attack(any_writer: bool, domain: u16) -> (Cluster, usize) {
         c.servo_commander() == Some(1)
     });
     let forger = forger(domain);
-    let mut writer = forger.command_writer(Some(100)).unwrap();
+    let mut writer = forger
+        .command_writer(Some(rl_layer::core::Strength(100)))
+        .unwrap();
     let forged = ServoControl {
         pan: 999,
         tilt: 1,

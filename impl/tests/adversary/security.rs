@@ -49,7 +49,7 @@ fn with_open_device_topics_an_unsecured_actuator_follows_secured_controllers() {
     // It cannot read the (protected) heartbeats, so it cannot name the controller: it sees a
     // writer at the Primary's strength.
     cluster.wait_for("the unsecured servo follows the Primary at 30", FORM, |c| {
-        last_command(c).is_some_and(|(_, strength)| strength == 30)
+        last_command(c).is_some_and(|(_, strength)| strength == rl_layer::core::Strength(30))
     });
 }
 
@@ -78,7 +78,15 @@ fn servo_events<'a>(
 
 fn forged_commands(cluster: &Cluster, source: &str) -> usize {
     servo_events(cluster, source)
-        .filter(|e| matches!(e, ServoEvent::Command { strength: 100, .. }))
+        .filter(|e| {
+            matches!(
+                e,
+                ServoEvent::Command {
+                    strength: rl_layer::core::Strength(100),
+                    ..
+                }
+            )
+        })
         .count()
 }
 
@@ -117,7 +125,9 @@ fn an_unsecured_participant_cannot_forge_heartbeats_or_commands() {
     };
     let session = rl_layer::dds::Session::new(&config.dds, &config.timing).unwrap();
     let heartbeats = session.heartbeat_writer().unwrap();
-    let mut commands = session.command_writer(Some(100)).unwrap();
+    let mut commands = session
+        .command_writer(Some(rl_layer::core::Strength(100)))
+        .unwrap();
     let forged = rl_layer::wire::HeartbeatSample {
         from_id: 1,
         incarnation: u64::MAX / 2,
@@ -212,7 +222,7 @@ fn an_unsecured_participant_cannot_forge_heartbeats_or_commands() {
     // servo was matched) is decoded and followed.
     cluster.fleet.kill(1).unwrap();
     cluster.wait_for("the secured servo follows C2 at 30", FORM, |c| {
-        last_command(c) == Some((Some(2), 30))
+        last_command(c) == Some((Some(2), rl_layer::core::Strength(30)))
     });
 }
 
@@ -328,7 +338,7 @@ fn a_data_frag_announcing_4_gb_is_dropped_by_a_secured_controller() {
 }
 
 /// The controller and strength of the last command the secured servo accepted.
-fn last_command(cluster: &Cluster) -> Option<(Option<u8>, i32)> {
+fn last_command(cluster: &Cluster) -> Option<(Option<u8>, rl_layer::core::Strength)> {
     cluster.servo.iter().rev().find_map(|(_, e)| match e {
         ServoEvent::Command {
             controller_id,

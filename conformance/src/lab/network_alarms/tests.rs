@@ -291,7 +291,9 @@ fn a_controller_alarm_or_role_change_under_a_net_fault_fails() {
                 t_ms: at_ms as u64,
                 id: 3,
                 incarnation: 7,
-                event: Event::Status { status },
+                event: Event::Status {
+                    status: Box::new(status),
+                },
             },
         }
     };

@@ -16,7 +16,7 @@ fn arrival(from: ControllerId, arrival: Arrival) -> Input {
 #[test]
 fn a_secondary_takes_over_at_35_when_the_primary_is_late_and_the_tertiary_on_time() {
     let mut c2 = formed_c(2);
-    assert_eq!(c2.state().output, Some(20));
+    assert_eq!(c2.state().output, Some(Strength(20)));
     let t = FORMED_AT_MS + 10;
     assert_eq!(c2.step(arrival(1, Arrival::Late), t), vec![]);
     assert_eq!(
@@ -49,7 +49,7 @@ fn without_a_tertiary_on_time_a_late_primary_is_left_alone() {
         let t = FORMED_AT_MS + 10;
         c2.step(arrival(1, Arrival::Late), t);
         assert_eq!(c2.step(arrival(3, tertiary), t), vec![], "{tertiary:?}");
-        assert_eq!(c2.state().output, Some(20));
+        assert_eq!(c2.state().output, Some(Strength(20)));
         assert_eq!(c2.state().took_over_from, None);
     }
 }
@@ -65,7 +65,7 @@ fn a_tertiary_on_time_before_the_primarys_late_sample_proves_nothing() {
     assert_eq!(c2.state().took_over_from, None);
     // The Tertiary's next sample comes late too: still nothing.
     assert_eq!(c2.step(arrival(3, Arrival::Late), t + 20), vec![]);
-    assert_eq!(c2.state().output, Some(20));
+    assert_eq!(c2.state().output, Some(Strength(20)));
 }
 
 #[test]
@@ -149,8 +149,8 @@ fn the_takeover_is_released_once_the_old_life_is_gone_and_the_taker_is_the_backe
             agreed: Some(new_result),
             vote: Some(new_result),
             role: Some(Role::Secondary),
-            strength: Some(10),
-            established_strength: Some(10),
+            strength: Some(Strength(10)),
+            established_strength: Some(Strength(10)),
             epoch: 2,
             ..steady(3, result())
         };
@@ -166,7 +166,7 @@ fn the_takeover_is_released_once_the_old_life_is_gone_and_the_taker_is_the_backe
     }
     assert_eq!(c2.state().role, Some(Role::Primary));
     assert_eq!(c2.state().took_over_from, None);
-    assert_eq!(c2.state().output, Some(30));
+    assert_eq!(c2.state().output, Some(Strength(30)));
     // The hand-over from 35 goes like a raise: the takeover writer writes on for the round in
     // which readers discover the new one.
     assert_eq!(c2.state().writer.retiring, Some(TAKEOVER_STRENGTH));
@@ -185,8 +185,8 @@ fn the_takeover_is_held_while_the_deposed_primary_is_lost_and_released_when_hear
     let new_result = assignment(&[(2, 0), (3, 0)]);
     let c3_after = Heartbeat {
         role: Some(Role::Secondary),
-        strength: Some(10),
-        established_strength: Some(10),
+        strength: Some(Strength(10)),
+        established_strength: Some(Strength(10)),
         agreed: Some(new_result),
         vote: Some(new_result),
         epoch: 2,
@@ -215,8 +215,8 @@ fn the_takeover_is_held_while_the_deposed_primary_is_lost_and_released_when_hear
     let c1_alone = Heartbeat {
         phase: Phase::Steady,
         role: Some(Role::Primary),
-        strength: Some(15),
-        established_strength: Some(15),
+        strength: Some(Strength(15)),
+        established_strength: Some(Strength(15)),
         agreed: Some(assignment(&[(1, 0)])),
         vote: Some(assignment(&[(1, 0)])),
         epoch: 1,
@@ -251,7 +251,7 @@ fn the_takeover_is_held_while_the_deposed_primary_is_lost_and_released_when_hear
     }
     assert_eq!(c2.state().took_over_from, None);
     assert_eq!(c2.state().role, Some(Role::Primary));
-    assert_eq!(c2.state().output, Some(30));
+    assert_eq!(c2.state().output, Some(Strength(30)));
 }
 
 #[test]

@@ -54,7 +54,7 @@ fn a_standby_raises_only_once_the_role_above_reports_its_strength_established() 
         fire(&mut c, t),
         vec![Command::SetOutput {
             role: Some(Role::Secondary),
-            strength: Some(20)
+            strength: Some(Strength(20))
         }]
     );
     assert_eq!(

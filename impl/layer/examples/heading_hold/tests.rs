@@ -2,7 +2,7 @@
 //! reader of `nav/heading` beside them, and the Primary stopped.
 
 use super::*;
-use rl_layer::core::TAKEOVER_STRENGTH;
+use rl_layer::core::{Strength, TAKEOVER_STRENGTH};
 use rl_layer::dds::{qos, Session};
 use rustdds::{no_key, CDRDeserializerAdapter, QosPolicies, ReadCondition, TopicKind, GUID};
 use std::collections::{BTreeMap, BTreeSet};
@@ -112,7 +112,7 @@ impl Observer {
         }
     }
 
-    fn strengths(&self) -> BTreeMap<GUID, i32> {
+    fn strengths(&self) -> BTreeMap<GUID, Strength> {
         self.session.writer_strengths(HEADING_TOPIC)
     }
 
@@ -120,13 +120,13 @@ impl Observer {
     /// Secondary's takeover writer at 35, which RL keeps ready and which writes nothing
     /// (`rl_layer::dds::StrengthWriter`).
     fn wait_for_strengths(&self, expected: &[i32], within: Duration) -> bool {
-        let expected: Vec<i32> = expected.to_vec();
+        let expected: Vec<Strength> = expected.iter().map(|&s| Strength(s)).collect();
         let until = Instant::now() + within;
         while Instant::now() < until {
-            let mut now: Vec<i32> = self
+            let mut now: Vec<Strength> = self
                 .strengths()
                 .into_values()
-                .filter(|strength| *strength != i32::from(TAKEOVER_STRENGTH))
+                .filter(|strength| *strength != TAKEOVER_STRENGTH)
                 .collect();
             now.sort_unstable_by(|a, b| b.cmp(a));
             if now == expected {
@@ -142,7 +142,7 @@ impl Observer {
         let writers: BTreeSet<GUID> = self
             .strengths()
             .into_iter()
-            .filter(|(_, s)| *s == strength)
+            .filter(|(_, s)| *s == Strength(strength))
             .map(|(guid, _)| guid)
             .collect();
         let mut reader = self.reader.lock().expect("the reader's lock");

@@ -4,6 +4,7 @@
 //! topics too.
 
 use super::{create_error, create_topic, qos, DdsError, Keying, Reader, Session, StrengthWriter};
+use crate::core::types::Strength;
 use rustdds::{CDRDeserializerAdapter, DomainParticipant, Publisher, Subscriber, TopicKind};
 
 impl Session {
@@ -22,7 +23,7 @@ impl Session {
         &self,
         name: &str,
         type_name: &str,
-        strength: Option<i32>,
+        strength: Option<Strength>,
     ) -> Result<StrengthWriter<T, K>, DdsError>
     where
         T: Clone,

@@ -45,6 +45,7 @@ pub use rustdds::{mio, GUID};
 pub use wake_switch::WakeSwitch;
 
 use crate::config::{Dds, Timing};
+use crate::core::types::Strength;
 use crate::wire::{
     AlarmSample, HeartbeatSample, NetworkAlarmSample, ServoControl, ShapeTypeExtended, VoteSample,
     WireError, WireSample,
@@ -497,7 +498,7 @@ impl Session {
     /// The command writer at `strength` (`None` = no writer until a strength is set).
     pub fn command_writer(
         &self,
-        strength: Option<i32>,
+        strength: Option<Strength>,
     ) -> Result<StrengthWriter<ServoControl>, DdsError> {
         StrengthWriter::new(
             self.publisher_of(&self.topics.command).clone(),
@@ -521,12 +522,12 @@ impl Session {
     /// Ownership strengths of the remote EXCLUSIVE writers of the command topic, by writer
     /// GUID, from discovery. Writers of this session are not included (RustDDS lists only
     /// remote ones); a deleted writer disappears once its removal is discovered.
-    pub fn command_writer_strengths(&self) -> BTreeMap<GUID, i32> {
+    pub fn command_writer_strengths(&self) -> BTreeMap<GUID, Strength> {
         self.writer_strengths(&self.config.command_topic)
     }
 
     /// Ownership strengths of the remote EXCLUSIVE writers of any topic.
-    pub fn writer_strengths(&self, topic_name: &str) -> BTreeMap<GUID, i32> {
+    pub fn writer_strengths(&self, topic_name: &str) -> BTreeMap<GUID, Strength> {
         // RL's own topics are on the main participant; the device topics and every
         // application topic on the device participant, when there is one.
         let control = [

@@ -5,6 +5,7 @@
 //! configuration.
 
 use crate::config::Timing;
+use crate::core::types::Strength;
 use rustdds::{
     policy::{Deadline, Durability, History, Lifespan, Liveliness, Ownership, Reliability},
     Duration, QosPolicies, QosPolicyBuilder,
@@ -99,12 +100,14 @@ pub fn command_liveliness_lease_ms(timing: &Timing) -> u64 {
 /// is never sent nor repaired (RustDDS fix 18), since a reader would take it for the writer
 /// being alive and on time. A command written just before a stall (SIGSTOP) would otherwise
 /// go out when the process resumes and take the actuator back for a moment.
-pub fn command_writer(timing: &Timing, strength: i32) -> QosPolicies {
+pub fn command_writer(timing: &Timing, strength: Strength) -> QosPolicies {
     QosPolicyBuilder::new()
         .reliability(reliable())
         .durability(Durability::Volatile)
         .history(History::KeepLast { depth: 1 })
-        .ownership(Ownership::Exclusive { strength })
+        .ownership(Ownership::Exclusive {
+            strength: strength.value(),
+        })
         .deadline(Deadline(duration_ms(timing.command_deadline_ms)))
         .liveliness(Liveliness::Automatic {
             lease_duration: duration_ms(command_liveliness_lease_ms(timing)),
@@ -170,9 +173,9 @@ pub fn camera_writer() -> QosPolicies {
 }
 
 /// The ownership strength a remote writer announced: `Some` for EXCLUSIVE writers.
-pub fn exclusive_strength(ownership: Option<Ownership>) -> Option<i32> {
+pub fn exclusive_strength(ownership: Option<Ownership>) -> Option<Strength> {
     match ownership {
-        Some(Ownership::Exclusive { strength }) => Some(strength),
+        Some(Ownership::Exclusive { strength }) => Some(Strength(strength)),
         Some(Ownership::Shared) | None => None,
     }
 }

@@ -7,7 +7,7 @@
 
 use super::{qos, DdsError};
 use crate::config::Timing;
-use crate::core::types::{Role, TAKEOVER_STRENGTH};
+use crate::core::types::{Role, Strength, TAKEOVER_STRENGTH};
 use rustdds::{
     dds::{CreateError, WriteError},
     no_key,
@@ -119,13 +119,13 @@ pub struct StrengthWriter<T, K: Keying<T> = NoKey> {
     publisher: Publisher,
     topic: Topic,
     timing: Timing,
-    strength: Option<i32>,
+    strength: Option<Strength>,
     writer: Option<K::Raw>,
     /// The previous, weaker writer during a promotion, and when it is dropped.
     retiring: Option<(K::Raw, Instant)>,
     /// A standby's raise waiting for the writers above it: the strength, and from when it
     /// may be created.
-    waiting_raise: Option<(i32, Instant)>,
+    waiting_raise: Option<(Strength, Instant)>,
     /// The takeover writer kept ready while it commands at the Secondary's strength.
     ready: Option<K::Raw>,
     samples: PhantomData<fn(T)>,
@@ -140,7 +140,7 @@ where
         publisher: Publisher,
         topic: Topic,
         timing: Timing,
-        strength: Option<i32>,
+        strength: Option<Strength>,
     ) -> Result<StrengthWriter<T, K>, DdsError> {
         let mut writer = StrengthWriter {
             publisher,
@@ -161,7 +161,7 @@ where
 
     /// Changes the strength: a no-op when unchanged, else a new writer (or none for `None`).
     /// On error there is no writer and the strength reads `None`.
-    pub fn set_strength(&mut self, strength: Option<i32>) -> Result<(), DdsError> {
+    pub fn set_strength(&mut self, strength: Option<Strength>) -> Result<(), DdsError> {
         if strength == self.strength && strength.is_some() == self.writer.is_some() {
             self.waiting_raise = None;
             return Ok(());
@@ -174,8 +174,8 @@ where
 
     /// Moves to `strength` now: a new writer (or none for `None`), the old one kept retiring
     /// on a raise.
-    fn apply_strength(&mut self, strength: Option<i32>) -> Result<(), DdsError> {
-        let takeover = i32::from(TAKEOVER_STRENGTH);
+    fn apply_strength(&mut self, strength: Option<Strength>) -> Result<(), DdsError> {
+        let takeover = TAKEOVER_STRENGTH;
         let promotion = matches!((self.strength, strength), (Some(old), Some(new)) if new > old)
             || (self.strength == Some(takeover) && strength.is_some());
         let old = self.writer.take();
@@ -197,7 +197,7 @@ where
             self.writer = Some(writer);
             self.strength = Some(strength);
         }
-        let secondary = i32::from(Role::Secondary.strength());
+        let secondary = Role::Secondary.strength();
         if self.strength != Some(secondary) {
             self.ready = None;
         } else if self.ready.is_none() {
@@ -210,7 +210,7 @@ where
         Ok(())
     }
 
-    fn create(&self, strength: i32) -> Result<K::Raw, DdsError> {
+    fn create(&self, strength: Strength) -> Result<K::Raw, DdsError> {
         K::create(
             &self.publisher,
             &self.topic,
@@ -224,14 +224,14 @@ where
     }
 
     /// The strength of the DDS writer now (`None`: no writer).
-    pub fn strength(&self) -> Option<i32> {
+    pub fn strength(&self) -> Option<Strength> {
         self.strength
     }
 
     /// Whether a raise to `strength` must still wait (see the type's notes); starts the wait
     /// at the first request of that strength.
-    fn standby_raise_waits(&mut self, strength: Option<i32>) -> bool {
-        let primary = i32::from(Role::Primary.strength());
+    fn standby_raise_waits(&mut self, strength: Option<Strength>) -> bool {
+        let primary = Role::Primary.strength();
         // Only a standby moving up ties the writer retiring above it; a first writer (at
         // formation or joining) has nobody above re-creating one.
         let standby_raise = match (self.strength, strength) {

@@ -70,7 +70,7 @@ impl Voting {
     pub(super) fn status(&mut self, status: Status) {
         self.publish_ros_status(&status);
         self.event(Event::Status {
-            status: status.clone(),
+            status: Box::new(status.clone()),
         });
         *self.shared.status() = status;
     }
@@ -83,7 +83,7 @@ impl Voting {
             return;
         }
         let line = EventLine {
-            t_ms: self.clock.now_ms(),
+            t_ms: self.events_at_ms.unwrap_or_else(|| self.clock.now_ms()),
             id: self.core.config().id,
             incarnation: self.core.config().incarnation,
             event,

@@ -7,7 +7,9 @@ use super::codes::{
     controller_id, phase_code, phase_from_code, role_code, role_from_code, STRENGTH_NONE,
 };
 use super::{WireError, WireSample};
-use crate::core::types::{Holder, Phase, Role, PROVISIONAL_PRIMARY_STRENGTH, TAKEOVER_STRENGTH};
+use crate::core::types::{
+    Holder, Phase, Role, Strength, PROVISIONAL_PRIMARY_STRENGTH, TAKEOVER_STRENGTH,
+};
 use crate::core::Heartbeat;
 use rustdds::Keyed;
 use serde::{Deserialize, Serialize};
@@ -92,8 +94,9 @@ impl WireSample for HeartbeatSample {
         )?;
         // The round after a takeover is released its writer still retires at the takeover
         // strength, above the one it now commands with (F17: the hand-over goes as a raise).
-        let handing_over =
-            !taking_over && strength.is_some() && self.established_strength == TAKEOVER_STRENGTH;
+        let handing_over = !taking_over
+            && strength.is_some()
+            && strength_code(Some(TAKEOVER_STRENGTH)) == self.established_strength;
         let established_strength = strength_from_code(
             "heartbeat.established_strength",
             self.established_strength,
@@ -144,14 +147,14 @@ impl WireSample for HeartbeatSample {
             incarnation: heartbeat.incarnation,
             phase: phase_code(heartbeat.phase),
             role: role_code(heartbeat.role),
-            strength: heartbeat.strength.unwrap_or(STRENGTH_NONE),
+            strength: strength_code(heartbeat.strength),
             agreed_valid,
             agreed,
             vote_valid,
             vote,
             epoch: heartbeat.epoch,
             provisional: heartbeat.provisional,
-            established_strength: heartbeat.established_strength.unwrap_or(STRENGTH_NONE),
+            established_strength: strength_code(heartbeat.established_strength),
             took_over_from: heartbeat
                 .took_over_from
                 .map_or(HolderSlot::default(), |holder| HolderSlot {
@@ -209,11 +212,12 @@ fn strength_from_code(
     role: Option<Role>,
     phase: Phase,
     taking_over: bool,
-) -> Result<Option<u8>, WireError> {
+) -> Result<Option<Strength>, WireError> {
     if code == STRENGTH_NONE {
         return Ok(None);
     }
-    if code == TAKEOVER_STRENGTH {
+    let strength = Strength(i32::from(code));
+    if strength == TAKEOVER_STRENGTH {
         if !taking_over {
             return Err(WireError::new(
                 field,
@@ -226,9 +230,9 @@ fn strength_from_code(
                 format!("commands at {code} while {phase}"),
             ));
         }
-        return Ok(Some(code));
+        return Ok(Some(strength));
     }
-    if Role::from_strength(code).is_none() && code != PROVISIONAL_PRIMARY_STRENGTH {
+    if Role::from_strength(strength).is_none() && strength != PROVISIONAL_PRIMARY_STRENGTH {
         return Err(WireError::new(
             field,
             format!("{code} is not a role strength"),
@@ -240,7 +244,7 @@ fn strength_from_code(
             format!("commands at {code} without a role"),
         ));
     };
-    if code > role.strength() {
+    if strength > role.strength() {
         return Err(WireError::new(
             field,
             format!("{code} is above the {role} strength {}", role.strength()),
@@ -252,5 +256,12 @@ fn strength_from_code(
             format!("commands at {code} while {phase}"),
         ));
     }
-    Ok(Some(code))
+    Ok(Some(strength))
+}
+
+/// A strength as the heartbeat's octet carries it (RL's strengths are 10 to 35); none is 0.
+fn strength_code(strength: Option<Strength>) -> u8 {
+    strength
+        .and_then(|strength| u8::try_from(strength.value()).ok())
+        .unwrap_or(STRENGTH_NONE)
 }

@@ -14,7 +14,7 @@ mod strategies;
 
 use self::strategies::*;
 use super::*;
-use crate::core::types::{Phase, Role, TAKEOVER_STRENGTH};
+use crate::core::types::{Phase, Role, Strength, TAKEOVER_STRENGTH};
 use proptest::collection::vec;
 use proptest::prelude::*;
 use proptest::sample::{select, Index};
@@ -323,7 +323,8 @@ fn the_strength_rule_of_the_generator_is_the_decoders() {
                         took_over_from,
                         ..base
                     };
-                    let as_option = |code| (code != STRENGTH_NONE).then_some(code);
+                    let as_option =
+                        |code| (code != STRENGTH_NONE).then_some(Strength(i32::from(code)));
                     let (strength, established) =
                         (as_option(strength), as_option(established_strength));
                     // The takeover writer retires above the strength it hands over to.

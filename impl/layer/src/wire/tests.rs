@@ -1,9 +1,7 @@
 //! The wire types' unit tests: CDR layouts, round trips, and every malformed field named.
 
 use super::*;
-use crate::core::types::{
-    AlarmReason, Assignment, Holder, Phase, Role, VoteRecord, PROVISIONAL_PRIMARY_STRENGTH,
-};
+use crate::core::types::{AlarmReason, Assignment, Holder, Phase, Role, Strength, VoteRecord};
 use crate::core::Heartbeat;
 use rustdds::Keyed;
 use rustdds::{
@@ -51,12 +49,12 @@ fn heartbeat() -> Heartbeat {
         incarnation: 1_723_000_000_123,
         phase: Phase::Steady,
         role: Some(Role::Primary),
-        strength: Some(30),
+        strength: Some(Strength(30)),
         agreed: Some(full_assignment()),
         vote: Some(Assignment::from_ranked([holder(2, 77), holder(1, 5)])),
         epoch: 4_000_000_007,
         provisional: false,
-        established_strength: Some(20),
+        established_strength: Some(Strength(20)),
         took_over_from: None,
     }
 }
@@ -133,7 +131,7 @@ fn heartbeat_round_trips_through_cdr() {
     assert_eq!(round_trip::<HeartbeatSample>(&quiet).unwrap(), quiet);
     let handover = Heartbeat {
         phase: Phase::Voting,
-        strength: Some(20),
+        strength: Some(Strength(20)),
         agreed: Some(Assignment::default()),
         ..heartbeat()
     };
@@ -232,7 +230,7 @@ fn a_strength_the_role_or_phase_does_not_allow_is_named() {
     }
     // The same fields within the rules decode.
     for sample in [
-        with(ROLE_PRIMARY, PROVISIONAL_PRIMARY_STRENGTH, PHASE_STEADY),
+        with(ROLE_PRIMARY, 15, PHASE_STEADY), // PROVISIONAL_PRIMARY_STRENGTH
         with(ROLE_PRIMARY, 20, PHASE_VOTING),
         with(ROLE_SECONDARY, 20, PHASE_STEADY),
         with(ROLE_TERTIARY, 10, PHASE_STEADY),

@@ -110,7 +110,7 @@ pub fn render(view: &StatusView, watch: &Watch) -> String {
         "The ownership strength a live controller commands with (0: it does not command).",
     );
     for c in view.controllers.iter().filter(|c| c.alive) {
-        f.sample(&[id(c.report.id)], c.report.strength.unwrap_or(0));
+        f.sample(&[id(c.report.id)], c.report.strength.unwrap_or_default());
     }
     let mut f = family(
         &mut out,

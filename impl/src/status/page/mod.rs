@@ -16,7 +16,7 @@ pub mod http;
 pub mod metrics;
 
 use super::{Board, StatusView};
-use rl_layer::core::types::{AlarmReason, ControllerId};
+use rl_layer::core::types::{AlarmReason, ControllerId, Strength};
 use rl_layer::core::Status;
 use rl_layer::leds::LedColor;
 use serde::Serialize;
@@ -53,7 +53,7 @@ pub struct CommanderChange {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 pub struct Commander {
     pub id: ControllerId,
-    pub strength: u8,
+    pub strength: Strength,
 }
 
 /// What `/live.json` holds: the status object and what the page adds to it.

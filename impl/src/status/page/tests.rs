@@ -89,7 +89,7 @@ fn the_watch_counts_commander_changes_and_the_gap() {
         watch.commander(),
         Some(Commander {
             id: 1,
-            strength: 30
+            strength: rl_layer::core::Strength(30)
         })
     );
     assert_eq!(
@@ -107,7 +107,7 @@ fn the_watch_counts_commander_changes_and_the_gap() {
         watch.commander(),
         Some(Commander {
             id: 2,
-            strength: 20
+            strength: rl_layer::core::Strength(20)
         })
     );
     assert_eq!(watch.commander_changes(), 1);

@@ -4,7 +4,7 @@
 
 use crate::core::network::{AlarmSubject, Hearing, LinkState, Network, NetworkHeartbeat};
 use crate::core::types::{
-    AlarmReason, Assignment, Holder, Incarnation, Phase, Role, VoteRecord,
+    AlarmReason, Assignment, Holder, Incarnation, Phase, Role, Strength, VoteRecord,
     PROVISIONAL_PRIMARY_STRENGTH, ROLE_COUNT, TAKEOVER_STRENGTH,
 };
 use crate::core::Heartbeat;
@@ -17,20 +17,25 @@ use proptest::collection::vec;
 use proptest::prelude::*;
 use proptest::sample::{select, subsequence, Index};
 
-/// Every strength code the heartbeat knows: the three role strengths and the provisional
+/// Every strength the heartbeat knows: the three role strengths and the provisional
 /// Primary's.
-pub const STRENGTH_CODES: [u8; 4] = [10, PROVISIONAL_PRIMARY_STRENGTH, 20, 30];
+pub const STRENGTHS: [Strength; 4] = [
+    Strength(10),
+    PROVISIONAL_PRIMARY_STRENGTH,
+    Strength(20),
+    Strength(30),
+];
 
 /// The strengths a controller in `phase` holding `role` may report (`None`: it does not
 /// command): only a voting or steady controller with a role commands, never above its role's
 /// strength.
-pub fn strengths_allowed(role: Option<Role>, phase: Phase) -> Vec<Option<u8>> {
+pub fn strengths_allowed(role: Option<Role>, phase: Phase) -> Vec<Option<Strength>> {
     let mut allowed = vec![None];
     if let (Some(role), Phase::Voting | Phase::Steady) = (role, phase) {
         allowed.extend(
-            STRENGTH_CODES
+            STRENGTHS
                 .into_iter()
-                .filter(|&code| code <= role.strength())
+                .filter(|&strength| strength <= role.strength())
                 .map(Some),
         );
     }
@@ -43,7 +48,7 @@ pub fn strengths_allowed(role: Option<Role>, phase: Phase) -> Vec<Option<u8>> {
 pub fn strengths_allowed_taking_over(
     role: Option<Role>,
     phase: Phase,
-) -> (Vec<Option<u8>>, Vec<Option<u8>>) {
+) -> (Vec<Option<Strength>>, Vec<Option<Strength>>) {
     if !matches!(phase, Phase::Voting | Phase::Steady) {
         return (Vec::new(), Vec::new());
     }
@@ -133,7 +138,7 @@ pub fn heartbeat() -> impl Strategy<Value = Heartbeat> {
                 let strength = *strength_pick.get(&strengths);
                 // Established is at most what it commands with (`None` below any `Some`), but
                 // for the takeover writer retiring after a takeover was released.
-                let mut established: Vec<Option<u8>> =
+                let mut established: Vec<Option<Strength>> =
                     established.into_iter().filter(|&s| s <= strength).collect();
                 if took_over_from.is_none() && strength.is_some() {
                     established.push(Some(TAKEOVER_STRENGTH));

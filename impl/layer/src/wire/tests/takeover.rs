@@ -9,8 +9,8 @@ fn a_takeover_round_trips_and_its_rules_are_named() {
     // established one in the round of the takeover.
     let taker = Heartbeat {
         role: Some(Role::Secondary),
-        strength: Some(35),
-        established_strength: Some(20),
+        strength: Some(Strength(35)),
+        established_strength: Some(Strength(20)),
         took_over_from: Some(holder(1, 77)),
         ..heartbeat()
     };
@@ -25,8 +25,8 @@ fn a_takeover_round_trips_and_its_rules_are_named() {
     assert_eq!(sample.decode(), Ok(taker));
     // Released: Primary at 30 while the takeover writer still retires at 35.
     let released = Heartbeat {
-        strength: Some(30),
-        established_strength: Some(35),
+        strength: Some(Strength(30)),
+        established_strength: Some(Strength(35)),
         took_over_from: None,
         ..heartbeat()
     };
