@@ -571,40 +571,25 @@ fn a_standby_raise_waits_two_command_deadlines_and_a_first_writer_or_primary_rai
     const DOMAIN: u16 = 108;
     let writer_session = session(DOMAIN);
     let wait = Duration::from_millis(Timing::default().command_deadline_ms * 2);
+    let (s10, s20, s30) = (Some(Strength(10)), Some(Strength(20)), Some(Strength(30)));
     let mut standby = writer_session.command_writer(None).unwrap();
-    standby.set_strength(Some(Strength(10))).unwrap();
-    assert_eq!(
-        standby.strength(),
-        Some(Strength(10)),
-        "a first writer is created at once"
-    );
+    standby.set_strength(s10).unwrap();
+    assert_eq!(standby.strength(), s10, "a first writer is created at once");
     let asked = Instant::now();
-    standby.set_strength(Some(Strength(20))).unwrap();
-    assert_eq!(
-        standby.strength(),
-        Some(Strength(10)),
-        "a standby's raise waits"
-    );
+    standby.set_strength(s20).unwrap();
+    assert_eq!(standby.strength(), s10, "a standby's raise waits");
     let raised = wait_for(wait * 3, "the standby's raise", || {
-        standby.set_strength(Some(Strength(20))).unwrap();
-        (standby.strength() == Some(Strength(20))).then(|| asked.elapsed())
+        standby.set_strength(s20).unwrap();
+        (standby.strength() == s20).then(|| asked.elapsed())
     });
-    assert_eq!(standby.strength(), Some(Strength(20)));
+    assert_eq!(standby.strength(), s20);
     assert!(
         raised >= wait,
         "raised after {raised:?}, before two command deadlines ({wait:?})"
     );
-    let mut primary = writer_session.command_writer(Some(Strength(10))).unwrap();
-    primary.set_strength(Some(Strength(30))).unwrap();
-    assert_eq!(
-        primary.strength(),
-        Some(Strength(30)),
-        "a Primary's raise is immediate"
-    );
-    primary.set_strength(Some(Strength(10))).unwrap();
-    assert_eq!(
-        primary.strength(),
-        Some(Strength(10)),
-        "lowering is immediate"
-    );
+    let mut primary = writer_session.command_writer(s10).unwrap();
+    primary.set_strength(s30).unwrap();
+    assert_eq!(primary.strength(), s30, "a Primary's raise is immediate");
+    primary.set_strength(s10).unwrap();
+    assert_eq!(primary.strength(), s10, "lowering is immediate");
 }

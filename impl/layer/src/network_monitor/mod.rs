@@ -208,10 +208,7 @@ fn monitor(
     let mut shown: Option<Verdict> = None;
     while !stop.load(Ordering::SeqCst) {
         let now_ms = clock.now_ms();
-        let mut commands = Vec::new();
-        while let Some(timer) = nap.due_timer(now_ms) {
-            commands.extend(nap.step(NapInput::Timer(timer), now_ms));
-        }
+        let mut commands = due_timers(&mut nap, now_ms);
         for (network, (_, participant)) in Network::ALL.into_iter().zip(participants.iter_mut()) {
             for received in participant.heartbeats_in.take() {
                 // RustDDS may hand a participant its own samples: they say nothing of a link.
@@ -255,4 +252,13 @@ fn monitor(
         }
     }
     Ok(())
+}
+
+/// Steps every timer of `nap` due at `now_ms`; the commands, in order.
+fn due_timers(nap: &mut Nap, now_ms: u64) -> Vec<NapCommand> {
+    let mut commands = Vec::new();
+    while let Some(timer) = nap.due_timer(now_ms) {
+        commands.extend(nap.step(NapInput::Timer(timer), now_ms));
+    }
+    commands
 }
