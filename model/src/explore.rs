@@ -43,15 +43,10 @@ impl Front {
             addr: addr.to_string(),
             reason: error.to_string(),
         })?;
-        let names = model
-            .init_states()
-            .iter()
-            .map(render::initial_state_name)
-            .collect();
         Ok(Front {
             server,
             explorer: start_explorer(model)?,
-            names: Arc::new(names),
+            names: Arc::new(initial_state_names(model)),
         })
     }
 
@@ -68,6 +63,15 @@ impl Front {
             std::thread::spawn(move || answer(request, explorer, &names));
         }
     }
+}
+
+/// The names of `model`'s initial states, in stateright's order.
+pub fn initial_state_names(model: &RlModel) -> Vec<String> {
+    model
+        .init_states()
+        .iter()
+        .map(render::initial_state_name)
+        .collect()
 }
 
 /// Runs stateright's explorer on a free loopback port; three attempts, since another process
@@ -284,13 +288,8 @@ mod tests {
     #[test]
     fn the_default_initial_states_are_named_by_who_starts() {
         let model = RlModel::new(crate::Config::default());
-        let names: Vec<String> = model
-            .init_states()
-            .iter()
-            .map(render::initial_state_name)
-            .collect();
         assert_eq!(
-            names,
+            initial_state_names(&model),
             [
                 "C1 starts; C2, C3, C4 may join later",
                 "C1, C2 start; C3, C4 may join later",

@@ -125,7 +125,7 @@ impl Core {
     /// took over from it (F17), which it learns at a round's end: its first heartbeat goes at
     /// the round's heartbeat slot rather than at once, so a peer whose round ends at the same
     /// instant counts it in the next round, as the model's restart at a round's end has it.
-    pub fn start_again(config: CoreConfig, now_ms: u64) -> Core {
+    pub(crate) fn start_again(config: CoreConfig, now_ms: u64) -> Core {
         let mut core = Core::new(config, now_ms);
         let period_ms = config.heartbeat_period_ms.max(1);
         let round_start_ms = now_ms / period_ms * period_ms;
