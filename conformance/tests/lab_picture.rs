@@ -144,8 +144,8 @@ fn load_in_chromium(browser: &Path, dir: &Path, svg: &str) -> String {
 fn chromium_renders_a_run_picture() {
     let browser =
         chromium().unwrap_or_else(|| panic!("no chromium on PATH (apt install chromium)"));
-    let dir = std::env::temp_dir().join(format!("rl-lab-picture-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let temporary = rl_testkit::tempdir::Dir::new("lab-picture");
+    let dir = &temporary.0;
     let picture = dir.join("run.svg");
     let (outcome, observed, lives) = sample_run(&picture);
     conformance::lab::plot::draw(&picture, &outcome, &observed, &lives, 8000.0).unwrap();
@@ -157,9 +157,8 @@ fn chromium_renders_a_run_picture() {
     assert!(svg.contains("largest gap 200 ms"), "the gap is not marked");
     std::fs::write(dir.join("broken.svg"), &svg[..svg.len() / 2]).unwrap();
 
-    let drawn = load_in_chromium(&browser, &dir, "run.svg");
-    let broken = load_in_chromium(&browser, &dir, "broken.svg");
-    let _ = std::fs::remove_dir_all(&dir);
+    let drawn = load_in_chromium(&browser, dir, "run.svg");
+    let broken = load_in_chromium(&browser, dir, "broken.svg");
     assert_eq!(drawn, "loaded 1400x460", "the picture did not render");
     assert_eq!(broken, "refused", "a broken picture was not refused");
 }

@@ -46,3 +46,23 @@ pub fn stop_on_signals() -> Result<Arc<AtomicBool>, crate::Error> {
     }
     Ok(stop)
 }
+
+/// What every controller process takes (`rl controller`, `rl chain nav|act`): which one, its
+/// configuration, its events.
+#[derive(clap::Args, Debug)]
+pub struct ControllerRunArgs {
+    /// This controller's id in its group (1, 2, 3; a fourth is ignored by the vote). Roles at
+    /// start go by lowest id.
+    #[arg(long, value_parser = clap::value_parser!(u8).range(1..=250))]
+    pub id: rl_layer::core::ControllerId,
+    /// Configuration file (TOML; every field optional, see rl.toml.example).
+    #[arg(long, value_name = "PATH")]
+    pub config: Option<std::path::PathBuf>,
+    /// DDS domain id (overrides the configuration; default 53).
+    #[arg(long, value_name = "D")]
+    pub domain: Option<u16>,
+    /// Print one JSON event per line on stdout (status, output, vote, alarm) instead of
+    /// console lines: the record tools and the conformance suite read.
+    #[arg(long)]
+    pub json_events: bool,
+}

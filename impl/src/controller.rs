@@ -18,7 +18,6 @@ use rl_layer::owner_feed::OwnerFeed;
 use rl_layer::service::{LoopProgress, Notifier};
 use rl_layer::wire::ServoControl;
 use rustdds::mio::{Events, Poll, PollOpt, Ready, Token};
-use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -27,20 +26,8 @@ use tracing::warn;
 /// Arguments of `rl controller`.
 #[derive(clap::Args, Debug)]
 pub struct ControllerArgs {
-    /// This controller's id (1, 2, 3; a fourth is ignored by the vote). Roles at start go by
-    /// lowest id.
-    #[arg(long, value_parser = clap::value_parser!(u8).range(1..=250))]
-    pub id: ControllerId,
-    /// Configuration file (TOML; every field optional, see rl.toml.example).
-    #[arg(long, value_name = "PATH")]
-    pub config: Option<PathBuf>,
-    /// DDS domain id (overrides the configuration; default 53).
-    #[arg(long, value_name = "D")]
-    pub domain: Option<u16>,
-    /// Print one JSON event per line on stdout (status, output, vote, alarm) instead of
-    /// console lines: the record tools and the conformance suite read.
-    #[arg(long)]
-    pub json_events: bool,
+    #[command(flatten)]
+    pub run: crate::cli::ControllerRunArgs,
     /// Network A: this controller's IPv4 address on it or its interface (`eth0`); with
     /// `--network-b`, RL's traffic goes out on both networks and the network monitor runs
     /// (overrides `[networks] a`).
@@ -58,7 +45,7 @@ const CAMERA: Token = Token(0);
 
 /// Runs `rl controller`.
 pub fn run(args: ControllerArgs) -> Result<(), crate::Error> {
-    let mut config = load_config(args.config.as_deref(), args.domain)?;
+    let mut config = load_config(args.run.config.as_deref(), args.run.domain)?;
     if let (Some(a), Some(b)) = (&args.network_a, &args.network_b) {
         config.networks.a = a.clone();
         config.networks.b = b.clone();
@@ -77,16 +64,16 @@ pub fn run(args: ControllerArgs) -> Result<(), crate::Error> {
     );
     let rl = Redundancy::start(
         &config,
-        args.id,
+        args.run.id,
         Options {
-            json_events: args.json_events,
+            json_events: args.run.json_events,
             console_leds: true,
             voting_progress: Some(voting_progress),
         },
     )?;
     let participant = rl.session().participant().clone();
     notifier.watch_dds_loop(move || participant.event_loop_iterations());
-    let network_monitor = start_network_monitor(&rl, &config, args.id, args.json_events)?;
+    let network_monitor = start_network_monitor(&rl, &config, args.run.id, args.run.json_events)?;
     let result = track(&rl, &config, &stop, args.duration_ms, &mut notifier);
     drop(network_monitor);
     notifier.stopping();

@@ -5,7 +5,12 @@
 //! lowest role, and the camera on the gimbal keeping the ball near the centre throughout (the
 //! live line says how far off, in pixels). `--record DIR` keeps every child's output (JSON
 //! events) for later checking.
+//!
+//! `--chain` runs the paper's chain instead (crate::chain): three navigation controllers
+//! (group `nav`) aim, three actuator controllers (the configuration's group) command the
+//! servo, and the kills alternate between the two groups' Primaries.
 
+use crate::chain::ChainLine;
 use crate::procs::{parse_servo_event, Fleet, Line, ServoEvent};
 use crate::sim::shapes::CameraFrame;
 use rl_layer::core::{ControllerId, Phase, Role, Strength};
@@ -41,6 +46,11 @@ pub struct DemoArgs {
     /// Serve the live status page (`rl status --serve`) here; `off` for none.
     #[arg(long, default_value = "127.0.0.1:8053", value_name = "ADDR|off")]
     pub status_page: String,
+    /// The paper's chain: a navigation group (`rl chain nav`, group `nav`) turns the camera's
+    /// ball into aims and an actuator group (`rl chain act`) turns the navigation Primary's
+    /// aims into servo commands; the kills alternate between the two groups' Primaries.
+    #[arg(long)]
+    pub chain: bool,
 }
 
 pub use crate::error::DemoError;
@@ -51,6 +61,47 @@ struct Seen {
     phase: Option<Phase>,
     role: Option<Role>,
     strength: Option<Strength>,
+}
+
+/// One group of three controllers in the demo, and what it knows of them.
+struct Group {
+    /// How its lines and the timeline name it: `""` (the one group), `nav `, `act `.
+    label: &'static str,
+    fleet: Fleet,
+    seen: BTreeMap<ControllerId, Seen>,
+}
+
+impl Group {
+    fn new(label: &'static str, fleet: Fleet) -> Group {
+        Group {
+            label,
+            fleet,
+            seen: BTreeMap::new(),
+        }
+    }
+
+    fn steady(&self) -> usize {
+        self.seen
+            .values()
+            .filter(|s| s.phase == Some(Phase::Steady))
+            .count()
+    }
+
+    fn holder(&self, role: Role) -> Option<ControllerId> {
+        self.seen
+            .iter()
+            .find(|(_, s)| s.role == Some(role))
+            .map(|(id, _)| *id)
+    }
+
+    /// The controller whose lines come from `source`, if it is one of this group's.
+    fn controller_of(&self, source: &str) -> Option<ControllerId> {
+        source
+            .strip_prefix(self.label)?
+            .strip_prefix('C')?
+            .parse()
+            .ok()
+    }
 }
 
 /// The next line printed by a child, or `None` once `until` has passed.
@@ -76,11 +127,24 @@ pub fn run(args: DemoArgs) -> Result<(), crate::Error> {
             .map_err(|e| crate::Error::io(format!("creating {}", dir.display()), e))?;
     }
     let (fleet, lines) = Fleet::new(&exe, args.config.as_deref(), args.domain);
-    println!(
-        "rl demo: 3 controllers, camera and servo on domain {} (Ctrl-C to stop)",
-        args.domain
-    );
-    let mut demo = Demo::new(args, fleet);
+    let groups = if args.chain {
+        println!(
+            "rl demo --chain: 3 navigation and 3 actuator controllers, camera and servo on \
+             domain {} (Ctrl-C to stop)",
+            args.domain
+        );
+        vec![
+            Group::new("nav ", fleet.sharing(&["chain", "nav"], "nav ")),
+            Group::new("act ", fleet.sharing(&["chain", "act"], "act ")),
+        ]
+    } else {
+        println!(
+            "rl demo: 3 controllers, camera and servo on domain {} (Ctrl-C to stop)",
+            args.domain
+        );
+        vec![Group::new("", fleet.sharing(&["controller"], ""))]
+    };
+    let mut demo = Demo::new(args, fleet, groups);
     demo.start_children()?;
     let outcome = loop {
         if stop.load(Ordering::SeqCst) {
@@ -102,6 +166,9 @@ pub fn run(args: DemoArgs) -> Result<(), crate::Error> {
         demo.print_roles_every_2_s(now);
     };
     println!("{} stopping", demo.stamp(Instant::now()));
+    for group in &mut demo.groups {
+        group.fleet.stop_all();
+    }
     demo.fleet.stop_all();
     outcome
 }
@@ -109,35 +176,42 @@ pub fn run(args: DemoArgs) -> Result<(), crate::Error> {
 /// The demo's state: the children, what they reported, and the kill/restart schedule.
 struct Demo {
     args: DemoArgs,
+    /// The camera, the servo and the page.
     fleet: Fleet,
+    /// The controllers: one group, or the chain's navigation and actuator groups (the
+    /// servo's owners are the last group's).
+    groups: Vec<Group>,
     started: Instant,
     recordings: BTreeMap<String, std::fs::File>,
     /// The last stderr line of each child, to say why one exited.
     last_stderr: BTreeMap<String, String>,
-    seen: BTreeMap<ControllerId, Seen>,
     owner: Option<ControllerId>,
+    /// The chain: the navigation controller whose aims each actuator controller applies.
+    aims_from: BTreeMap<ControllerId, Option<ControllerId>>,
     last_pan_tilt: (u16, u16),
     /// The camera's tracking errors (pixels off centre) since the last live line, and the
     /// frames in which it did not see the ball.
     tracking_errors_px: Vec<f64>,
     frames_unseen: u32,
     settled_since: Option<Instant>,
-    killed: Option<(ControllerId, Instant)>,
+    /// The group and id of the controller killed, and when.
+    killed: Option<(usize, ControllerId, Instant)>,
     cycles: u32,
     next_summary: Instant,
 }
 
 impl Demo {
-    fn new(args: DemoArgs, fleet: Fleet) -> Demo {
+    fn new(args: DemoArgs, fleet: Fleet, groups: Vec<Group>) -> Demo {
         let started = Instant::now();
         Demo {
             args,
             fleet,
+            groups,
             started,
             recordings: BTreeMap::new(),
             last_stderr: BTreeMap::new(),
-            seen: BTreeMap::new(),
             owner: None,
+            aims_from: BTreeMap::new(),
             last_pan_tilt: (0, 0),
             tracking_errors_px: Vec::new(),
             frames_unseen: 0,
@@ -151,6 +225,11 @@ impl Demo {
     /// `[  12.3s]`: time since the demo started.
     fn stamp(&self, at: Instant) -> String {
         format!("[{:6.1}s]", at.duration_since(self.started).as_secs_f64())
+    }
+
+    /// The servo's controllers' label (`act ` in the chain).
+    fn servo_group_label(&self) -> &'static str {
+        self.groups.last().map_or("", |group| group.label)
     }
 
     fn start_children(&mut self) -> Result<(), crate::Error> {
@@ -170,14 +249,17 @@ impl Demo {
         self.fleet
             .start_other("servo", &["servo", "--json"])
             .map_err(spawn_error)?;
-        for id in 1..=3 {
-            self.start_controller(id)?;
+        for group in 0..self.groups.len() {
+            for id in 1..=3 {
+                self.start_controller(group, id)?;
+            }
         }
         Ok(())
     }
 
-    fn start_controller(&mut self, id: ControllerId) -> Result<(), crate::Error> {
-        self.fleet
+    fn start_controller(&mut self, group: usize, id: ControllerId) -> Result<(), crate::Error> {
+        self.groups[group]
+            .fleet
             .start_controller_with(id, &["--json-events"])
             .map(|_| ())
             .map_err(spawn_error)
@@ -198,7 +280,24 @@ impl Demo {
                 }
             }
         } else if let Some(event) = EventLine::parse(&line.text) {
-            self.on_controller_event(line.at, &event);
+            let group = self
+                .groups
+                .iter()
+                .position(|g| g.controller_of(&line.source).is_some());
+            if let Some(group) = group {
+                self.on_controller_event(group, line.at, &event);
+            }
+        } else if let Some(ChainLine::AimOwner { id, from, to }) = ChainLine::parse(&line.text) {
+            self.aims_from.insert(id, to);
+            if from.is_some() {
+                let name = |id: Option<u8>| id.map(|i| format!("C{i}")).unwrap_or("-".into());
+                println!(
+                    "{} act C{id}: aims from nav {} now (was {})",
+                    self.stamp(line.at),
+                    name(to),
+                    name(from)
+                );
+            }
         }
         Ok(())
     }
@@ -211,7 +310,8 @@ impl Demo {
         let file = match self.recordings.get_mut(&line.source) {
             Some(file) => file,
             None => {
-                let path = dir.join(format!("{}.log", line.source.replace('!', ".stderr")));
+                let name = line.source.replace('!', ".stderr").replace(' ', "-");
+                let path = dir.join(format!("{name}.log"));
                 let file = std::fs::File::create(&path)
                     .map_err(|e| crate::Error::io(format!("creating {}", path.display()), e))?;
                 self.recordings.entry(line.source.clone()).or_insert(file)
@@ -231,16 +331,18 @@ impl Demo {
                 ..
             }) => {
                 self.owner = to_controller_id;
+                let label = self.servo_group_label();
                 if from_controller_id.is_some() && from_controller_id == to_controller_id {
                     // The same controller with a new writer: its strength changed.
                     println!(
-                        "{} servo: C{} now commands at strength {strength}",
+                        "{} servo: {label}C{} now commands at strength {strength}",
                         self.stamp(line.at),
                         to_controller_id.unwrap_or(0)
                     );
                     return;
                 }
-                let name = |id: Option<u8>| id.map(|i| format!("C{i}")).unwrap_or("-".into());
+                let name =
+                    |id: Option<u8>| id.map(|i| format!("{label}C{i}")).unwrap_or("-".into());
                 let gap = gap_ms
                     .map(|g| format!(" after a {g} ms gap"))
                     .unwrap_or_default();
@@ -256,9 +358,10 @@ impl Demo {
         }
     }
 
-    fn on_controller_event(&mut self, at: Instant, line: &EventLine) {
+    fn on_controller_event(&mut self, group: usize, at: Instant, line: &EventLine) {
         let stamp = self.stamp(at);
-        let entry = self.seen.entry(line.id).or_default();
+        let label = self.groups[group].label;
+        let entry = self.groups[group].seen.entry(line.id).or_default();
         match &line.event {
             Event::Status { status } => {
                 let changed =
@@ -272,7 +375,10 @@ impl Demo {
                         .role
                         .map(|r| format!("{r} ({})", status.report.strength.unwrap_or_default()))
                         .unwrap_or_else(|| "no role".into());
-                    println!("{stamp} C{}: {} {role}", line.id, status.report.phase);
+                    println!(
+                        "{stamp} {label}C{}: {} {role}",
+                        line.id, status.report.phase
+                    );
                 }
             }
             Event::Alarm {
@@ -282,7 +388,7 @@ impl Demo {
             } => {
                 let what = if *raised { "raises" } else { "clears" };
                 println!(
-                    "{stamp} C{}: {what} alarm for C{about} ({reason:?})",
+                    "{stamp} {label}C{}: {what} alarm for {label}C{about} ({reason:?})",
                     line.id
                 );
             }
@@ -293,36 +399,36 @@ impl Demo {
 
     /// A controller the demo did not kill must still run.
     fn check_controllers(&mut self) -> Result<(), DemoError> {
-        let running: Vec<ControllerId> = self.fleet.running().collect();
-        for id in running {
-            if let Ok(Some(status)) = self.fleet.exit_status(id) {
-                return Err(DemoError::ControllerExited {
-                    id,
-                    status,
-                    last_words: self.last_stderr.get(&format!("C{id}")).cloned(),
-                });
+        for group in &mut self.groups {
+            let running: Vec<ControllerId> = group.fleet.running().collect();
+            for id in running {
+                if let Ok(Some(status)) = group.fleet.exit_status(id) {
+                    let controller = group.fleet.source_of(id);
+                    return Err(DemoError::ControllerExited {
+                        last_words: self.last_stderr.get(&controller).cloned(),
+                        controller,
+                        status,
+                    });
+                }
             }
         }
         Ok(())
     }
 
-    /// Kills the Primary once the system has been settled `--kill-every-s`, restarts it after
-    /// `--down-s`; `Ok(false)` when `--cycles` are done.
+    /// Kills a Primary once the system has been settled `--kill-every-s` (the groups' in
+    /// turn), restarts it after `--down-s`; `Ok(false)` when `--cycles` are done.
     fn follow_schedule(&mut self, now: Instant) -> Result<bool, crate::Error> {
-        let steady = self
-            .seen
-            .values()
-            .filter(|s| s.phase == Some(Phase::Steady))
-            .count();
-        if steady == 3 && self.owner.is_some() && self.killed.is_none() {
+        let all_steady = self.groups.iter().all(|group| group.steady() == 3);
+        if all_steady && self.owner.is_some() && self.killed.is_none() {
             self.settled_since.get_or_insert(now);
         } else {
             self.settled_since = None;
         }
-        if let Some((id, at)) = self.killed {
+        if let Some((group, id, at)) = self.killed {
             if now.duration_since(at) >= Duration::from_secs(self.args.down_s) {
-                println!("{} restart C{id}", self.stamp(now));
-                self.start_controller(id)?;
+                let label = self.groups[group].label;
+                println!("{} restart {label}C{id}", self.stamp(now));
+                self.start_controller(group, id)?;
                 self.killed = None;
                 self.cycles += 1;
             }
@@ -337,41 +443,65 @@ impl Demo {
         if self.args.cycles > 0 && self.cycles >= self.args.cycles {
             return Ok(false);
         }
-        let primary = self
-            .seen
-            .iter()
-            .find(|(_, s)| s.role == Some(Role::Primary))
-            .map(|(id, _)| *id);
-        if let Some(id) = primary {
-            println!("{} kill -9 C{id} (the Primary)", self.stamp(now));
-            self.fleet
+        let group_index = self.cycles as usize % self.groups.len();
+        let stamp = self.stamp(now);
+        let group = &mut self.groups[group_index];
+        if let Some(id) = group.holder(Role::Primary) {
+            println!("{stamp} kill -9 {}C{id} (the Primary)", group.label);
+            group
+                .fleet
                 .kill(id)
                 .map_err(|e| crate::Error::io("killing a controller", e))?;
-            self.seen.remove(&id);
-            self.killed = Some((id, now));
+            group.seen.remove(&id);
+            self.killed = Some((group_index, id, now));
         }
         Ok(true)
     }
 
     /// `roles P=C1 S=C2 T=C3 | servo owner C1 | pan .. tilt .. | ball off centre ..`, every
-    /// 2 s: the tracking error is the camera's over those 2 s (median and worst, pixels).
+    /// 2 s (per group in the chain, with whose aims the actuator Primary applies): the
+    /// tracking error is the camera's over those 2 s (median and worst, pixels).
     fn print_roles_every_2_s(&mut self, now: Instant) {
         if now < self.next_summary {
             return;
         }
         self.next_summary = now + Duration::from_secs(2);
         let name = |id: Option<ControllerId>| id.map(|i| format!("C{i}")).unwrap_or("-".into());
-        let roles: Vec<String> = Role::ALL
+        let mut parts: Vec<String> = self
+            .groups
             .iter()
-            .map(|role| {
-                let holder = self
-                    .seen
+            .map(|group| {
+                let roles: Vec<String> = Role::ALL
                     .iter()
-                    .find(|(_, s)| s.role == Some(*role))
-                    .map(|(id, _)| *id);
-                format!("{}={}", &role.name()[..1].to_uppercase(), name(holder))
+                    .map(|role| {
+                        let initial = role.name()[..1].to_uppercase();
+                        format!("{initial}={}", name(group.holder(*role)))
+                    })
+                    .collect();
+                format!("{}roles {}", group.label, roles.join(" "))
             })
             .collect();
+        if self.args.chain {
+            let primary = self.groups.last().and_then(|g| g.holder(Role::Primary));
+            let aims = primary.and_then(|id| self.aims_from.get(&id).copied().flatten());
+            parts.push(format!("aims from nav {}", name(aims)));
+        }
+        let label = self.servo_group_label();
+        let owner = self
+            .owner
+            .map_or("-".to_string(), |id| format!("{label}C{id}"));
+        let tracking = self.tracking_summary();
+        println!(
+            "{} {} | servo owner {owner} | pan {} tilt {} | {tracking}",
+            self.stamp(now),
+            parts.join(" | "),
+            self.last_pan_tilt.0,
+            self.last_pan_tilt.1
+        );
+    }
+
+    /// `ball off centre 4 px (worst 9)`, over the frames since the last call.
+    fn tracking_summary(&mut self) -> String {
         let mut errors = std::mem::take(&mut self.tracking_errors_px);
         errors.sort_by(f64::total_cmp);
         let tracking = match (errors.get(errors.len() / 2), errors.last()) {
@@ -381,18 +511,10 @@ impl Demo {
             _ => "ball not seen".to_string(),
         };
         let unseen = std::mem::take(&mut self.frames_unseen);
-        let unseen = if unseen > 0 && !errors.is_empty() {
-            format!(", out of view in {unseen} frames")
+        if unseen > 0 && !errors.is_empty() {
+            format!("{tracking}, out of view in {unseen} frames")
         } else {
-            String::new()
-        };
-        println!(
-            "{} roles {} | servo owner {} | pan {} tilt {} | {tracking}{unseen}",
-            self.stamp(now),
-            roles.join(" "),
-            name(self.owner),
-            self.last_pan_tilt.0,
-            self.last_pan_tilt.1
-        );
+            tracking
+        }
     }
 }

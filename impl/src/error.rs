@@ -139,9 +139,10 @@ impl BenchError {
 #[derive(Debug, thiserror::Error)]
 pub enum DemoError {
     /// A controller the demo did not kill exited (its last stderr line says why).
-    #[error("C{id} exited ({status}){}", last_words.as_deref().map(|w| format!(": {w}")).unwrap_or_default())]
+    #[error("{controller} exited ({status}){}", last_words.as_deref().map(|w| format!(": {w}")).unwrap_or_default())]
     ControllerExited {
-        id: rl_layer::core::ControllerId,
+        /// `C2`, or with the chain's groups `nav C2`.
+        controller: String,
         status: std::process::ExitStatus,
         last_words: Option<String>,
     },

@@ -5,6 +5,8 @@
 //!
 //! - [`controller`]: `rl controller`, the Pixytracker application made redundant through the
 //!   RL API, with [`tracker`], its control law (pan/tilt from the camera's circle).
+//! - [`chain`]: `rl chain nav|act`, the paper's chain of two redundant applications (a
+//!   navigation group aiming, an actuator group commanding the servo) on the same API.
 //! - [`sim`]: the camera (`rl shapes`) and actuator (`rl servo`) simulators, and the ball and
 //!   gimbal the simulated camera sees.
 //! - [`status`]: `rl status`, the live status table, and its page over HTTP ([`status::page`]).
@@ -20,6 +22,7 @@ pub use rl_layer as layer;
 pub use rl_layer::core;
 
 pub mod bench;
+pub mod chain;
 pub mod cli;
 pub mod controller;
 pub mod demo;

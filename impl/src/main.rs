@@ -37,13 +37,18 @@ enum Command {
     /// docs/architecture.md): {"event":"command",...} per accepted command and
     /// {"event":"owner_changed",...} per ownership change.
     Servo(rl::sim::servo::ServoArgs),
-    /// Live table of the controllers (phase, role, strength) and alarms, read from DDS.
+    /// Live tables of the controllers (phase, role, strength) and alarms of every redundancy
+    /// group on the domain, read from DDS.
     ///
-    /// `rl status --json --once` prints one JSON object and exits.
+    /// `rl status --json --once` prints one JSON object per group and exits.
     Status(rl::status::StatusArgs),
     /// Three controllers, camera and servo on this machine; kills and restarts the Primary
-    /// every few seconds so you can watch switchover, promotion and rejoin.
+    /// every few seconds so you can watch switchover, promotion and rejoin (`--chain`: the
+    /// paper's navigation and actuator groups, each of three).
     Demo(rl::demo::DemoArgs),
+    /// The paper's chain of two redundant groups: navigation (camera ball to aim) and
+    /// actuator (aim to servo commands) controllers; `rl demo --chain` runs it.
+    Chain(rl::chain::ChainArgs),
     /// Failover, promotion, formation and resource benchmarks (docs/performance.md).
     Bench(rl::bench::BenchArgs),
     /// DDS Security keystores: a CA, then one per controller or application (docs/security.md).
@@ -107,6 +112,7 @@ fn main() -> ExitCode {
         Command::Servo(args) => rl::sim::servo::run(args),
         Command::Status(args) => rl::status::run(args),
         Command::Demo(args) => rl::demo::run(args),
+        Command::Chain(args) => rl::chain::run(args),
         Command::Bench(args) => rl::bench::run(args),
         Command::Keys(args) => rl::keys::run(args),
         Command::CheckConfig { path } => rl_layer::config::Config::load(&path)

@@ -82,6 +82,10 @@ pub struct Fleet {
     config: Option<PathBuf>,
     domain: u16,
     extra_env: Vec<(String, String)>,
+    /// The subcommand a controller runs (`controller`, or a chain stage: `chain nav`).
+    controller_command: Vec<String>,
+    /// Before `C<id>` in the lines' source (`nav `: a group's controllers beside another's).
+    source_prefix: String,
     controllers: BTreeMap<ControllerId, Child>,
     others: Vec<Child>,
     lines: mpsc::Sender<Line>,
@@ -98,12 +102,36 @@ impl Fleet {
                 config: config.map(Path::to_path_buf),
                 domain,
                 extra_env: Vec::new(),
+                controller_command: vec!["controller".into()],
+                source_prefix: String::new(),
                 controllers: BTreeMap::new(),
                 others: Vec::new(),
                 lines,
             },
             receiver,
         )
+    }
+
+    /// Another fleet on the same domain, configuration and line channel whose controllers run
+    /// `rl <controller_command> --id N` and whose lines come from `<source_prefix>C<N>`: a
+    /// second group of controllers (the chain demo's navigation and actuator groups).
+    pub fn sharing(&self, controller_command: &[&str], source_prefix: &str) -> Fleet {
+        Fleet {
+            exe: self.exe.clone(),
+            config: self.config.clone(),
+            domain: self.domain,
+            extra_env: self.extra_env.clone(),
+            controller_command: controller_command.iter().map(|s| s.to_string()).collect(),
+            source_prefix: source_prefix.to_string(),
+            controllers: BTreeMap::new(),
+            others: Vec::new(),
+            lines: self.lines.clone(),
+        }
+    }
+
+    /// The source of controller `id`'s lines.
+    pub fn source_of(&self, id: ControllerId) -> String {
+        format!("{}C{id}", self.source_prefix)
     }
 
     /// The configuration file every child gets (unless started with its own).
@@ -149,14 +177,8 @@ impl Fleet {
         id: ControllerId,
         extra: &[&str],
     ) -> std::io::Result<u32> {
-        let id_text = id.to_string();
-        let mut args = vec!["controller", "--id", &id_text];
-        args.extend_from_slice(extra);
-        let mut child = self.command(&args).spawn()?;
-        forward_lines(&mut child, &format!("C{id}"), self.lines.clone());
-        let pid = child.id();
-        self.controllers.insert(id, child);
-        Ok(pid)
+        let config = self.config.clone();
+        self.spawn_controller(id, config.as_deref(), extra)
     }
 
     /// Starts `rl controller --id <id> <extra>` with its own configuration file (each
@@ -167,11 +189,21 @@ impl Fleet {
         config: &Path,
         extra: &[&str],
     ) -> std::io::Result<u32> {
+        self.spawn_controller(id, Some(config), extra)
+    }
+
+    fn spawn_controller(
+        &mut self,
+        id: ControllerId,
+        config: Option<&Path>,
+        extra: &[&str],
+    ) -> std::io::Result<u32> {
         let id_text = id.to_string();
-        let mut args = vec!["controller", "--id", &id_text];
+        let mut args: Vec<&str> = self.controller_command.iter().map(String::as_str).collect();
+        args.extend_from_slice(&["--id", &id_text]);
         args.extend_from_slice(extra);
-        let mut child = self.command_configured(&args, Some(config)).spawn()?;
-        forward_lines(&mut child, &format!("C{id}"), self.lines.clone());
+        let mut child = self.command_configured(&args, config).spawn()?;
+        forward_lines(&mut child, &self.source_of(id), self.lines.clone());
         let pid = child.id();
         self.controllers.insert(id, child);
         Ok(pid)

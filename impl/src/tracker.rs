@@ -95,6 +95,15 @@ impl AxisLoop {
     }
 }
 
+/// The pan and tilt errors of a circle at `(x, y)`: how far the set-point is from it, pan
+/// `111 − x`, tilt `y − 126`.
+pub fn errors_of(x: i32, y: i32) -> (i64, i64) {
+    (
+        i64::from(SET_POINT_X) - i64::from(x),
+        i64::from(y) - i64::from(SET_POINT_Y),
+    )
+}
+
 /// The pan/tilt controller: feed it every circle, publish what it returns.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct PanTiltController {
@@ -117,8 +126,15 @@ impl PanTiltController {
     /// One circle at `(x, y)` in the shapes application's coordinates: moves both axes one PD
     /// step (the first sample only records the errors) and returns the new command.
     pub fn update(&mut self, x: i32, y: i32) -> ServoCommand {
-        self.pan.update(i64::from(SET_POINT_X) - i64::from(x));
-        self.tilt.update(i64::from(y) - i64::from(SET_POINT_Y));
+        let (pan_error, tilt_error) = errors_of(x, y);
+        self.update_errors(pan_error, tilt_error)
+    }
+
+    /// The same step from the errors [`errors_of`] gives: the chain's actuator controllers
+    /// (crate::chain) get them from the navigation controllers instead of a circle.
+    pub fn update_errors(&mut self, pan_error: i64, tilt_error: i64) -> ServoCommand {
+        self.pan.update(pan_error);
+        self.tilt.update(tilt_error);
         self.command()
     }
 

@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 /// `rl <args>`: its exit code and stderr, and how long it took.
 fn run(args: &[&str]) -> (Option<i32>, String, Duration) {
     let started = Instant::now();
-    let output = Command::new(support::RL)
+    let output = Command::new(support::rl())
         .args(args)
         .output()
         .expect("rl runs");

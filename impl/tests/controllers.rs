@@ -351,7 +351,7 @@ fn most_dropped_logged(cluster: &Cluster, source: &str) -> u64 {
 }
 
 fn run_rl(args: &[&str]) -> std::process::Output {
-    std::process::Command::new(support::RL)
+    std::process::Command::new(support::rl())
         .args(args)
         .output()
         .expect("run rl")

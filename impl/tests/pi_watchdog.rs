@@ -45,7 +45,7 @@ impl Service {
         let socket = UnixDatagram::bind(&socket_path).unwrap();
         let config = support::test_config(&dir.0, "");
         let stderr = std::fs::File::create(dir.0.join("stderr.txt")).unwrap();
-        let mut command = Command::new(support::RL);
+        let mut command = Command::new(support::rl());
         if journal_stream {
             use std::os::unix::fs::MetadataExt;
             let file = stderr.metadata().unwrap();

@@ -5,69 +5,25 @@
 //!
 //! The Chromium and Prometheus tests need outside tools (Debian's `chromium`, Python's
 //! `prometheus_client`; `.ci/run` installs both), so they are ignored by default. Chromium's
-//! side (finding it, reading a page, screenshots) is in `status_page/chromium.rs` (beside this file).
+//! side (finding it, reading a page, screenshots) is in `status_page/chromium.rs` (beside this file),
+//! the HTTP client in `status_page/http.rs`; `status_groups.rs` uses both for several groups.
 
 mod support;
 
 mod status_page {
     pub mod chromium;
+    pub mod http;
 }
 
 use rl_layer::core::Role;
 use serde_json::Value;
 use status_page::chromium::{card_field, chromium, dump_dom, led, screenshot, OpenPage};
-use std::io::{Read, Write};
+use status_page::http::{exchange, free_port, get};
+use std::io::Write;
 use std::net::TcpStream;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 use support::Cluster;
-
-/// A port free now on the loopback.
-fn free_port() -> u16 {
-    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
-    listener.local_addr().unwrap().port()
-}
-
-/// Sends `request` as is; returns the status code and the body (`None`: no answer). Reads
-/// `Content-Length` bytes of body, or to the close without one.
-fn exchange(port: u16, request: &[u8]) -> Option<(u16, String)> {
-    let mut stream = TcpStream::connect(("127.0.0.1", port)).ok()?;
-    stream.set_read_timeout(Some(Duration::from_secs(5))).ok()?;
-    // A server may answer and close before it has read everything: a failed write is fine.
-    let _ = stream.write_all(request);
-    let mut answer = Vec::new();
-    let mut chunk = [0u8; 4096];
-    loop {
-        if let Some(end) = answer.windows(4).position(|w| w == b"\r\n\r\n") {
-            let head = String::from_utf8_lossy(&answer[..end]).to_ascii_lowercase();
-            let length = head
-                .lines()
-                .find_map(|l| l.strip_prefix("content-length:"))
-                .and_then(|n| n.trim().parse::<usize>().ok());
-            if length.is_some_and(|n| answer.len() >= end + 4 + n) {
-                break;
-            }
-        }
-        match stream.read(&mut chunk) {
-            Ok(0) | Err(_) => break,
-            Ok(n) => answer.extend_from_slice(&chunk[..n]),
-        }
-    }
-    let text = String::from_utf8_lossy(&answer).into_owned();
-    let status = text.split(' ').nth(1)?.parse().ok()?;
-    let body = text
-        .split_once("\r\n\r\n")
-        .map_or("", |(_, b)| b)
-        .to_string();
-    Some((status, body))
-}
-
-fn get(port: u16, path: &str) -> Option<(u16, String)> {
-    exchange(
-        port,
-        format!("GET {path} HTTP/1.1\r\nHost: localhost\r\n\r\n").as_bytes(),
-    )
-}
 
 /// Three controllers in their roles and `rl status --serve` on a free port.
 fn formation(tag: &str, domain: u16) -> (Cluster, u16) {
@@ -129,7 +85,7 @@ fn status_json_is_the_status_object_and_bad_requests_are_refused() {
     let (cluster, port) = formation("status-page-json", 170);
 
     // The same object `rl status --json --once` prints, field for field.
-    let once = Command::new(support::RL)
+    let once = Command::new(support::rl())
         .args(["status", "--json", "--once", "--domain", "170"])
         .output()
         .expect("rl status --json --once");

@@ -19,8 +19,10 @@ use std::process::ExitCode;
 /// recorded events against the model, and every process alive without a panic. The net
 /// scenarios (net-b-down, c2-transceiver-a-down, c2-both-links-down, both-networks-down; not
 /// in matrix --ci) are also judged on the controllers' network alarms: raised within 1000 ms
-/// of the fault, cleared within 1500 ms of the heal, no other. Controllers get --network-a
-/// and --network-b (their addresses on A and B) when the rl takes them; a judge that cannot
+/// of the fault, cleared within 1500 ms of the heal, no other. two-groups (in neither matrix)
+/// runs two redundancy groups (nav, act) on one LAN, kills both Primaries at once and judges
+/// each group as kill-primary is judged, and for cross-talk between the groups.
+/// Controllers get --network-a and --network-b (their addresses on A and B) when the rl takes them; a judge that cannot
 /// run (an rl without them, no Connext connector) is an error unless --lenient skips it. A run leaves its recording, result.json and
 /// timeline in OUT/NAME-seedN/ and its picture in
 /// OUT/NAME-seedN.svg; a failing run prints the command that replays it.
@@ -34,6 +36,7 @@ use std::process::ExitCode;
 ///   lab run cut-primary
 ///   lab run net-b-down
 ///   lab run random --seed 17
+///   lab run two-groups
 ///   lab run kill-primary --mutation failback   (rl built with --features mutation)
 ///   lab matrix --ci
 ///   lab soak --minutes 30
@@ -112,23 +115,7 @@ fn main() -> ExitCode {
 
 fn execute(cli: &Cli) -> Result<ExitCode, LabError> {
     if let Command::List { random } = cli.command {
-        for s in scenario::named() {
-            let ci = if s.in_ci { " [ci]" } else { "" };
-            println!(
-                "{:<34}{}{ci}\n{:<34}{}",
-                s.name,
-                s.about,
-                "",
-                scenario::describe(&s.steps)
-            );
-        }
-        println!("{:<34}a seeded random schedule (--seed N)", "random");
-        for seed in 1..=random.unwrap_or(0) {
-            println!(
-                "  --seed {seed}: {}",
-                scenario::describe(&scenario::random(seed).steps)
-            );
-        }
+        list(random);
         return Ok(ExitCode::SUCCESS);
     }
     host::require_root()?;
@@ -143,6 +130,11 @@ fn execute(cli: &Cli) -> Result<ExitCode, LabError> {
     let setup = setup(cli)?;
     std::fs::create_dir_all(&cli.out).map_err(|e| LabError::output(&cli.out, e))?;
     let passed = match &cli.command {
+        Command::Run { scenario, seed, .. } if scenario == lab::two_groups::NAME => {
+            let outcome = lab::two_groups::run(*seed, &setup, &cli.out)?;
+            print!("{}", lab::two_groups::summary(&outcome));
+            outcome.passed()
+        }
         Command::Run { scenario, seed, .. } => {
             let found =
                 scenario::find(scenario, *seed).ok_or_else(|| LabError::UnknownScenario {
@@ -189,6 +181,35 @@ fn execute(cli: &Cli) -> Result<ExitCode, LabError> {
     } else {
         ExitCode::FAILURE
     })
+}
+
+/// `lab list`: every named scenario with its schedule, `two-groups`, and what random seeds
+/// 1..=`random` draw.
+fn list(random: Option<u64>) {
+    for s in scenario::named() {
+        let ci = if s.in_ci { " [ci]" } else { "" };
+        println!(
+            "{:<34}{}{ci}\n{:<34}{}",
+            s.name,
+            s.about,
+            "",
+            scenario::describe(&s.steps)
+        );
+    }
+    let two_groups = lab::two_groups::NAME;
+    println!(
+        "{two_groups:<34}{}\n{:<34}{}",
+        lab::two_groups::about(),
+        "",
+        lab::two_groups::describe()
+    );
+    println!("{:<34}a seeded random schedule (--seed N)", "random");
+    for seed in 1..=random.unwrap_or(0) {
+        println!(
+            "  --seed {seed}: {}",
+            scenario::describe(&scenario::random(seed).steps)
+        );
+    }
 }
 
 fn setup(cli: &Cli) -> Result<Setup, LabError> {

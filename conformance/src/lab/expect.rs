@@ -241,6 +241,9 @@ fn from_each(faults: Vec<FaultExpected>) -> Expected {
 pub fn for_scenario(name: &str, faults: &[Fault]) -> Result<Expected, UnknownScenario> {
     match name {
         "random" | "kill-primary" | "pause-primary" => Ok(for_faults(faults)),
+        // Each group's kill of its Primary on its own (`super::two_groups`): a crash's bounds,
+        // the same as `kill-primary`'s, at that group's readers.
+        "two-groups" => Ok(for_faults(faults)),
         "partition-actuator-with-primary"
         | "partition-actuator-with-two"
         | "cut-primary"

@@ -20,9 +20,13 @@
 //!   expects; [`validation`]: the recorded events against the model;
 //! - [`run`]: one run start to verdict and its output; [`plot`]: its picture; [`matrix`]:
 //!   many runs and the table; [`soak`]: long runs with resource sampling; [`mutation`]: runs
-//!   against a deliberately broken `rl`, which must fail.
+//!   against a deliberately broken `rl`, which must fail;
+//! - [`two_groups`]: two redundancy groups on one LAN, each host running a controller of
+//!   each, both Primaries killed at once, each group judged as one run and, by
+//!   [`cross_talk`], against the other.
 
 pub mod clock;
+pub mod cross_talk;
 pub mod error;
 pub mod expect;
 pub mod faults;
@@ -40,6 +44,7 @@ pub mod run;
 pub mod scenario;
 pub mod session;
 pub mod soak;
+pub mod two_groups;
 pub mod validation;
 
 pub use error::LabError;

@@ -12,7 +12,9 @@
 //! alarm at all; the conclusion's verdict holding what it must (the double fault a monitor that
 //! hears nobody cannot rule out; read typed from the `verdict`, never from the words); the controller alarms (RLCHB's `alarm` events) exactly as
 //! expected; and, where voting must be unaffected, no role change and no restart. It measures
-//! each raise and clear latency per controller for the outcome and docs/faults.md.
+//! each raise and clear latency per controller for the outcome and docs/faults.md. The same
+//! judge reads each group's lines of `two-groups` (`super::two_groups`): no network alarm, the
+//! killed Primary reported down, `lost` about it.
 //!
 //! An `rl` without network monitoring (no `--network-a` option) prints no network lines: the
 //! lab refuses such a run unless `--lenient`, and then the network alarm checks are skipped
@@ -183,6 +185,15 @@ pub fn for_scenario(name: &str) -> Option<NapExpected> {
         "both-networks-down" => Some(NapExpected {
             conclusion_allows: Some(Finding::DoubleFault),
             controller_alarms: everyone_loses(&[1, 2, 3]),
+            roles_unchanged: false,
+            ..nothing
+        }),
+        // Each group's own monitor when both groups' Primaries are killed (`two-groups`,
+        // `super::two_groups`): a dead controller is the controller alarm's and never a network
+        // alarm; its peers' monitors report it down, and its peers raise `lost` about it.
+        "two-groups" => Some(NapExpected {
+            conclusion_allows: Some(Finding::ControllerDown(1)),
+            controller_alarms: vec![(2, 1), (3, 1)],
             roles_unchanged: false,
             ..nothing
         }),
@@ -458,7 +469,7 @@ fn conclusions(
 }
 
 /// Whether `verdict` holds `finding`, in every smallest explanation or in one of them.
-fn allows(verdict: &Verdict, finding: Finding) -> bool {
+pub fn allows(verdict: &Verdict, finding: Finding) -> bool {
     match verdict {
         Verdict::Explained {
             certain,

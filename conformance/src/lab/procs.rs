@@ -1,6 +1,7 @@
 //! The processes of a run, each inside its node's namespace: three `rl controller
 //! --json-events` (with `--network-a`/`--network-b`, their addresses on the two nets, when the
-//! `rl` monitors networks), `rl servo --json` and the Connext reader on the actuator side,
+//! `rl` monitors networks, and `--config` when they form a named group, `super::two_groups`),
+//! `rl servo --json` and the Connext reader on the actuator side,
 //! `rl shapes` on the camera. Every line they print comes back on one channel stamped with the
 //! lab clock.
 //!
@@ -117,6 +118,9 @@ pub struct Procs {
     pub mutation: Option<String>,
     /// Whether the `rl` takes `--network-a`/`--network-b` (it runs network alarm participants).
     pub two_networks: bool,
+    /// The configuration file every controller life gets (`--config`): a redundancy group's
+    /// (`super::two_groups`); `None`, the defaults, in every other scenario.
+    pub config: Option<PathBuf>,
 }
 
 /// Whether `rl controller` at `rl` takes `--network-a` (its `--help` says so).
@@ -143,6 +147,7 @@ impl Procs {
             helpers: Vec::new(),
             restarts_due: BTreeMap::new(),
             mutation: None,
+            config: None,
         }
     }
 
@@ -220,6 +225,9 @@ impl Procs {
             "--domain".into(),
             domain,
         ];
+        if let Some(config) = &self.config {
+            args.extend(["--config".to_string(), config.display().to_string()]);
+        }
         if self.two_networks {
             let me = Node::Controller(id);
             for (option, net) in [("--network-a", Net::A), ("--network-b", Net::B)] {
@@ -312,6 +320,11 @@ impl Procs {
     }
 
     /// Starts a helper process on `node`: `rl` with `args`, or another program.
+    /// The DDS domain the processes run on.
+    pub fn domain(&self) -> u16 {
+        self.domain
+    }
+
     pub fn start_helper(
         &mut self,
         name: &'static str,

@@ -71,7 +71,7 @@ pub fn replay_command(name: &str, seed: u64, setup: &Setup) -> String {
 }
 
 /// `NAME-seedN`, or `NAME-seedN-mutation-M`: the name of a run's output.
-fn output_name(name: &str, seed: u64, mutation: Option<&str>) -> String {
+pub fn output_name(name: &str, seed: u64, mutation: Option<&str>) -> String {
     match mutation {
         Some(mutation) => format!("{name}-seed{seed}-mutation-{mutation}"),
         None => format!("{name}-seed{seed}"),
@@ -165,7 +165,7 @@ pub fn run(scenario: &Scenario, seed: u64, setup: &Setup, out: &Path) -> Result<
         replay: replay_command(&scenario.name, seed, setup),
     };
     plot::draw(&picture, &outcome, &session.observed, &lives, end_ms)?;
-    write_outputs(&dir, &outcome, &session)?;
+    write_outputs(&dir, &outcome, &session.observed)?;
     Ok(outcome)
 }
 
@@ -180,7 +180,12 @@ pub fn validate_with_timeout(dir: PathBuf) -> Verdict {
         .unwrap_or(Err(validation::NotAccepted::TimedOut(VALIDATION_TIMEOUT)))
 }
 
-fn write_outputs(dir: &Path, outcome: &Outcome, session: &Session) -> Result<(), LabError> {
+/// `result.json`, `stderr.log`, `actuators.log` and `timeline.txt` of a run in `dir`.
+pub fn write_outputs(
+    dir: &Path,
+    outcome: &Outcome,
+    observed: &super::observe::Observations,
+) -> Result<(), LabError> {
     let write = |name: &str, text: String| {
         let path = dir.join(name);
         std::fs::write(&path, text).map_err(|e| LabError::output(&path, e))
@@ -189,14 +194,13 @@ fn write_outputs(dir: &Path, outcome: &Outcome, session: &Session) -> Result<(),
         "result.json",
         serde_json::to_string_pretty(outcome).unwrap_or_default(),
     )?;
-    let stderr: String = session
-        .observed
+    let stderr: String = observed
         .stderr
         .iter()
         .map(|(source, text)| format!("{source}: {text}\n"))
         .collect();
     write("stderr.log", stderr)?;
-    write("actuators.log", actuator_samples(&session.observed))?;
+    write("actuators.log", actuator_samples(observed))?;
     write("timeline.txt", timeline(outcome))
 }
 

@@ -35,8 +35,32 @@ pub struct Setup {
 
 /// The Connext reader's command deadline: the paper's reader QoS, as the actuator tests use.
 pub const CONNEXT_DEADLINE_MS: u64 = 200;
+/// The Connext reader (Python, RTI Connext): the second actuator judge.
+pub const CONNEXT_READER: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../impl/tests/interop/connext_reader.py"
+);
+/// Starts the Connext reader on the actuator side, reading the configured command topic or
+/// `topic` (a group's).
+pub fn start_connext(procs: &mut Procs, topic: Option<&str>) -> Result<(), LabError> {
+    let domain = procs.domain().to_string();
+    let deadline_ms = CONNEXT_DEADLINE_MS.to_string();
+    let mut args = vec![
+        CONNEXT_READER,
+        &domain,
+        "--duration",
+        "1000000",
+        "--deadline-ms",
+        &deadline_ms,
+    ];
+    if let Some(topic) = topic {
+        args.extend(["--topic", topic]);
+    }
+    procs.start_helper("connext", Node::Actuator, Some("python3"), &args)
+}
+
 /// Formation, including the Connext reader's start (Python, Connext, discovery).
-const FORMATION_TIMEOUT: Duration = Duration::from_secs(60);
+pub const FORMATION_TIMEOUT: Duration = Duration::from_secs(60);
 /// The longest the safety phase waits for the controllers to settle before the next fault: a
 /// restart, its initialization window and a vote take a few seconds.
 const SETTLE_WAIT_LIMIT: Duration = Duration::from_secs(20);
@@ -83,20 +107,7 @@ impl Session {
             procs.start_controller(id)?;
         }
         if setup.connext {
-            let script = concat!(
-                env!("CARGO_MANIFEST_DIR"),
-                "/../impl/tests/interop/connext_reader.py"
-            );
-            let deadline_ms = CONNEXT_DEADLINE_MS.to_string();
-            let args = [
-                script,
-                &domain,
-                "--duration",
-                "1000000",
-                "--deadline-ms",
-                &deadline_ms,
-            ];
-            procs.start_helper("connext", Node::Actuator, Some("python3"), &args)?;
+            start_connext(&mut procs, None)?;
         }
         let mut session = Session {
             procs,
@@ -136,19 +147,7 @@ impl Session {
 
     /// The last status the running life of controller `id` reported.
     pub fn status(&self, id: u8) -> Option<&Status> {
-        let life = self
-            .procs
-            .lives
-            .iter()
-            .rev()
-            .find(|l| l.id == id && l.ended_ms.is_none())?;
-        let label = life.label();
-        self.observed
-            .controller
-            .iter()
-            .rev()
-            .filter(|e| e.life == label)
-            .find_map(|e| e.line.status())
+        status_of(&self.procs, &self.observed, id)
     }
 
     /// Which controller a target names now (the role's holder; C1 if nobody claims it).
@@ -168,31 +167,18 @@ impl Session {
 
     /// Whether every sample of the last second at an actuator came from controller `id`.
     fn actuators_follow(&self, id: u8) -> bool {
-        let now = self.clock.now_ms();
-        let follows = |samples: &[super::observe::ActuatorSample]| {
-            let recent: Vec<_> = samples.iter().filter(|s| s.at_ms >= now - 1000.0).collect();
-            recent.len() >= 5
-                && recent
-                    .iter()
-                    .all(|s| self.observed.participant_ids.get(&s.participant) == Some(&id))
-        };
-        follows(&self.observed.servo_commands) && (!self.connext || follows(&self.observed.connext))
+        actuators_follow(&self.observed, self.clock.now_ms(), id, self.connext)
     }
 
     fn await_formation(&mut self) -> Result<(), LabError> {
         let started = Instant::now();
-        let roles = [
-            (1, Role::Primary),
-            (2, Role::Secondary),
-            (3, Role::Tertiary),
-        ];
         loop {
-            let formed = roles.iter().all(|(id, role)| {
-                self.status(*id).is_some_and(|s| {
-                    s.report.phase == Phase::Steady && s.report.role == Some(*role)
-                })
-            });
-            let formed = formed && self.actuators_follow(1);
+            let formed = formed(
+                &self.procs,
+                &self.observed,
+                self.clock.now_ms(),
+                self.connext,
+            );
             if let Some(refused) = self.mutation_refused(formed) {
                 return Err(refused);
             }
@@ -350,6 +336,51 @@ impl Session {
     pub fn prefix(&self) -> &str {
         &self.lan.prefix
     }
+}
+
+/// The last status the running life of controller `id` among `procs` reported.
+pub fn status_of<'a>(procs: &Procs, observed: &'a Observations, id: u8) -> Option<&'a Status> {
+    let life = procs
+        .lives
+        .iter()
+        .rev()
+        .find(|l| l.id == id && l.ended_ms.is_none())?;
+    let label = life.label();
+    observed
+        .controller
+        .iter()
+        .rev()
+        .filter(|e| e.life == label)
+        .find_map(|e| e.line.status())
+}
+
+/// Whether every sample of the second before `now_ms` at `rl servo` (and at the Connext reader,
+/// when it runs) came from controller `id`, at least five at each.
+pub fn actuators_follow(observed: &Observations, now_ms: f64, id: u8, connext: bool) -> bool {
+    let follows = |samples: &[super::observe::ActuatorSample]| {
+        let recent: Vec<_> = samples
+            .iter()
+            .filter(|s| s.at_ms >= now_ms - 1000.0)
+            .collect();
+        recent.len() >= 5
+            && recent
+                .iter()
+                .all(|s| observed.participant_ids.get(&s.participant) == Some(&id))
+    };
+    follows(&observed.servo_commands) && (!connext || follows(&observed.connext))
+}
+
+/// The formation judging waits for: P=C1 S=C2 T=C3 steady, the actuators following C1.
+pub fn formed(procs: &Procs, observed: &Observations, now_ms: f64, connext: bool) -> bool {
+    let roles = [
+        (1, Role::Primary),
+        (2, Role::Secondary),
+        (3, Role::Tertiary),
+    ];
+    roles.iter().all(|(id, role)| {
+        status_of(procs, observed, *id)
+            .is_some_and(|s| s.report.phase == Phase::Steady && s.report.role == Some(*role))
+    }) && actuators_follow(observed, now_ms, 1, connext)
 }
 
 /// Orders the safety phase's events by time, a heal before an apply at the same time.

@@ -39,6 +39,7 @@ use crate::event::EventLine;
 pub use crate::owner_feed::OwnerFeed;
 pub use crate::runtime::Options;
 use crate::runtime::{self, Shared};
+use crate::trust::CommandTrust;
 pub use crate::wire::Plain;
 use crate::wire::ServoControl;
 use std::sync::atomic::Ordering;
@@ -172,13 +173,46 @@ impl Redundancy {
     where
         T: Clone + serde::de::DeserializeOwned + Send + 'static,
     {
+        let heartbeats = self.session.heartbeat_reader()?;
+        self.owner_feed_by(heartbeats, topic, type_name)
+    }
+
+    /// The samples of the writer that owns group `group`'s topic `topic` now: an application
+    /// of this group reading another redundant group's output (the paper's chain: the
+    /// actuator controllers steered by the navigation controllers' Primary). Writers are
+    /// trusted as that group's live controllers' (from its heartbeats), and the owner is the
+    /// strongest of them, as an actuator arbitrates.
+    pub fn owner_feed_of_group<T>(
+        &self,
+        group: &str,
+        topic: &str,
+        type_name: &str,
+    ) -> Result<OwnerFeed<Plain<T>>, crate::Error>
+    where
+        T: Clone + serde::de::DeserializeOwned + Send + 'static,
+    {
+        let heartbeats = self.session.group_heartbeat_reader(group)?;
+        self.owner_feed_by(heartbeats, topic, type_name)
+    }
+
+    /// The owner feed of `topic` whose controllers are those `heartbeats` announce.
+    fn owner_feed_by<T>(
+        &self,
+        heartbeats: crate::dds::Reader<crate::wire::HeartbeatSample>,
+        topic: &str,
+        type_name: &str,
+    ) -> Result<OwnerFeed<Plain<T>>, crate::Error>
+    where
+        T: Clone + serde::de::DeserializeOwned + Send + 'static,
+    {
         let reader = self.session.plain_reader(topic, type_name)?;
-        Ok(OwnerFeed::open(
-            &self.session,
+        let trust = CommandTrust::new(self.config.timing.peer_deadline_ms, false);
+        Ok(OwnerFeed::open_following(
+            heartbeats,
             reader,
             self.config.timing.command_deadline_ms,
-            self.config.timing.peer_deadline_ms,
-        )?)
+            trust,
+        ))
     }
 
     /// What the layer does, pushed as it happens: every event line `--json-events` prints

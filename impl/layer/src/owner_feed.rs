@@ -94,15 +94,32 @@ impl<S: WireSample + 'static> OwnerFeed<S> {
         deadline_ms: u64,
         trust: CommandTrust,
     ) -> Result<OwnerFeed<S>, DdsError> {
-        Ok(OwnerFeed {
+        let heartbeats = session.heartbeat_reader()?;
+        Ok(Self::open_following(
+            heartbeats,
             samples,
-            heartbeats: session.heartbeat_reader()?,
+            deadline_ms,
+            trust,
+        ))
+    }
+
+    /// As [`OwnerFeed::open_trusting`], with the controllers known from `heartbeats`: another
+    /// group's ([`Session::group_heartbeat_reader`]) when the topic is that group's output.
+    pub fn open_following(
+        heartbeats: Reader<HeartbeatSample>,
+        samples: Reader<S>,
+        deadline_ms: u64,
+        trust: CommandTrust,
+    ) -> OwnerFeed<S> {
+        OwnerFeed {
+            samples,
+            heartbeats,
             arbiter: Arbiter::new(deadline_ms),
             trust,
             directory: ControllerDirectory::new(),
             strengths: BTreeMap::new(),
             last_refresh_ms: None,
-        })
+        }
     }
 
     /// The sample reader and the heartbeat reader, to register with a poll.

@@ -12,7 +12,7 @@ use crate::adversary::forged::{
 };
 use crate::adversary::fragments::{c1_survives, four_gb_attack, warned_once_per_writer};
 use crate::support::keys::{keys, keystores};
-use crate::support::{tempdir, Cluster, RL};
+use crate::support::{rl, tempdir, Cluster};
 use rl::procs::{parse_servo_event, ServoEvent};
 use rl_layer::core::{Phase, Role};
 use std::path::{Path, PathBuf};
@@ -184,7 +184,7 @@ fn an_unsecured_participant_cannot_forge_heartbeats_or_commands() {
     }
     // A secured `rl status` sees the three (after authenticating with each).
     let status_config = secured_config(&dir.0, "status", &keys_dir.join("status"));
-    let output = Command::new(RL)
+    let output = Command::new(rl())
         .args([
             "status",
             "--json",
@@ -351,7 +351,7 @@ fn last_command(cluster: &Cluster) -> Option<(Option<u8>, rl_layer::core::Streng
 
 /// Runs `rl <args> --config <config> --domain 141` and returns its exit code and stderr.
 fn run_rl(args: &[&str], config: &Path) -> (Option<i32>, String) {
-    let output = Command::new(RL)
+    let output = Command::new(rl())
         .args(args)
         .arg("--config")
         .arg(config)
@@ -459,16 +459,7 @@ fn a_missing_expired_or_mismatched_keystore_file_exits_2_naming_it() {
         (
             "an altered governance document",
             broken("altered-governance", "c1", &|k| {
-                let path = k.join("governance.p7s");
-                let text = std::fs::read_to_string(&path).unwrap();
-                std::fs::write(
-                    &path,
-                    text.replace(
-                        "<enable_join_access_control>true",
-                        "<enable_join_access_control>false",
-                    ),
-                )
-                .unwrap();
+                crate::support::keys::alter_governance(k);
             }),
             "governance.p7s",
             "altered",

@@ -1,9 +1,13 @@
 //! Headless Chromium for the status page tests: finding it, a page's DOM after its script ran,
-//! the LEDs and card facts in a dumped DOM, a Chromium kept open on a page (read through the
-//! DevTools protocol) and screenshots for the documentation.
+//! the LEDs and card facts in a dumped DOM (of any group, or of one group's section), a
+//! Chromium kept open on a page (read through the DevTools protocol) and screenshots for the
+//! documentation.
 
+// Shared by two test files (status_page.rs, status_groups.rs), each using part of it.
+#![allow(dead_code)]
+
+use super::http::{free_port, get};
 use crate::support;
-use crate::{free_port, get};
 use serde_json::Value;
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
@@ -54,6 +58,15 @@ pub fn led(dom: &str, controller: u8, led: u8) -> Option<String> {
     dom[at..].split('"').next().map(str::to_string)
 }
 
+/// The colour an LED of group `group`'s controller shows in a dumped DOM (`None`: no such LED).
+pub fn group_led(dom: &str, group: &str, controller: u8, led: u8) -> Option<String> {
+    let tag_start = format!(
+        "data-group=\"{group}\" data-controller=\"{controller}\" data-led=\"{led}\" data-colour=\""
+    );
+    let at = dom.find(&tag_start)? + tag_start.len();
+    dom[at..].split('"').next().map(str::to_string)
+}
+
 /// A fact the page shows on a controller's card in a dumped DOM (`None`: no such card or fact).
 pub fn card_field(dom: &str, controller: u8, field: &str) -> Option<String> {
     let card = format!("data-controller=\"{controller}\" data-alive=");
@@ -93,7 +106,35 @@ impl OpenPage {
 
     /// The LED colours the open page shows now, read from its live DOM through the DevTools
     /// protocol (`Runtime.evaluate` over the tab's WebSocket): (controller, LED) -> colour.
+    /// One group's page only: with several, see [`OpenPage::group_leds`].
     pub fn leds(&self) -> Option<std::collections::BTreeMap<(u8, u8), String>> {
+        let leds = self.group_leds()?;
+        Some(
+            leds.into_iter()
+                .map(|((_, controller, led), colour)| ((controller, led), colour))
+                .collect(),
+        )
+    }
+
+    /// The LED colours the open page shows now, by group: (group, controller, LED) -> colour.
+    pub fn group_leds(&self) -> Option<std::collections::BTreeMap<(String, u8, u8), String>> {
+        let expression = "JSON.stringify([...document.querySelectorAll('[data-led]')].map(\
+            e => [e.dataset.group, e.dataset.controller, e.dataset.led, e.dataset.colour]))";
+        let value = self.evaluate(expression)?;
+        let list: Vec<(String, String, String, String)> =
+            serde_json::from_str(value.as_str()?).ok()?;
+        Some(
+            list.into_iter()
+                .filter_map(|(group, c, n, colour)| {
+                    Some(((group, c.parse().ok()?, n.parse().ok()?), colour))
+                })
+                .collect(),
+        )
+    }
+
+    /// The value of a JavaScript `expression` in the open page (`Runtime.evaluate` over the
+    /// tab's DevTools WebSocket).
+    fn evaluate(&self, expression: &str) -> Option<Value> {
         let (_, body) = get(self.debug_port, "/json/list")?;
         let tabs: Value = serde_json::from_str(&body).ok()?;
         let socket_url = tabs.as_array()?.iter().find(|t| t["type"] == "page")?
@@ -110,8 +151,6 @@ impl OpenPage {
                 return None;
             }
         };
-        let expression = "JSON.stringify([...document.querySelectorAll('[data-led]')].map(\
-            e => [e.dataset.controller, e.dataset.led, e.dataset.colour]))";
         let request = serde_json::json!({
             "id": 1,
             "method": "Runtime.evaluate",
@@ -127,14 +166,8 @@ impl OpenPage {
             if reply["id"] != 1 {
                 continue;
             }
-            let list: Vec<(String, String, String)> =
-                serde_json::from_str(reply["result"]["result"]["value"].as_str()?).ok()?;
             let _ = socket.close(None);
-            return Some(
-                list.into_iter()
-                    .filter_map(|(c, n, colour)| Some(((c.parse().ok()?, n.parse().ok()?), colour)))
-                    .collect(),
-            );
+            return Some(reply["result"]["result"]["value"].clone());
         }
     }
 

@@ -84,6 +84,34 @@ impl Dds {
         }
     }
 
+    /// This configuration with group `group` ([`Dds::grouped`] of it): the names another
+    /// group on the same domain uses, for a view of every group or an application that follows
+    /// another group's owner. `self` is the configuration as written (not already grouped).
+    pub fn of_group(&self, group: &str) -> Dds {
+        Dds {
+            group: group.to_string(),
+            ..self.clone()
+        }
+        .grouped()
+    }
+
+    /// The group whose heartbeat topic is `topic` under this configuration's names (as written,
+    /// not already grouped): `""` for the name as configured, `nav` for the name
+    /// [`Dds::grouped`] gives group `nav`; `None` for any other topic (or a group name that
+    /// `dds.group` would refuse).
+    pub fn group_of_heartbeat_topic(&self, topic: &str) -> Option<String> {
+        if topic == self.heartbeat_topic {
+            return Some(String::new());
+        }
+        let (prefix, suffix) = match self.heartbeat_topic.split_once('/') {
+            Some((first, rest)) => (format!("{first}/"), format!("/{rest}")),
+            None => (String::new(), format!("/{}", self.heartbeat_topic)),
+        };
+        let group = topic.strip_prefix(&prefix)?.strip_suffix(&suffix)?;
+        let valid = is_group_name(group) && self.of_group(group).heartbeat_topic == topic;
+        valid.then(|| group.to_string())
+    }
+
     /// The topic fields with their dotted paths, in file order.
     fn topics(&self) -> [(&'static str, &str); 7] {
         [
@@ -124,7 +152,7 @@ impl Dds {
             }
         }
         check(
-            self.group.is_empty() || is_ros_name(&self.group) && self.group.len() <= 32,
+            self.group.is_empty() || is_group_name(&self.group),
             "dds.group",
             quoted(&self.group),
             || {
@@ -152,6 +180,12 @@ fn is_ros_namespace(namespace: &str) -> bool {
         return false;
     };
     rest.is_empty() || rest.split('/').all(is_ros_name)
+}
+
+/// A non-empty `dds.group`: one ROS 2 name token of at most 32 characters (it becomes a topic
+/// path segment and a ROS 2 namespace segment).
+fn is_group_name(group: &str) -> bool {
+    is_ros_name(group) && group.len() <= 32
 }
 
 /// One ROS 2 name token: letters, digits and `_`, not starting with a digit.

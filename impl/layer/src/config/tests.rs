@@ -524,3 +524,38 @@ fn a_group_names_rls_topics_and_the_ros_namespace_and_nothing_else() {
     assert_eq!(flat.ros_namespace, "/g2");
     assert!(flat.validate().is_ok(), "grouped names are valid names");
 }
+
+#[test]
+fn a_heartbeat_topic_names_its_group_and_nothing_else_does() {
+    let plain = crate::config::Dds::default();
+    for group in ["", "nav", "act_2", "_x"] {
+        let topic = plain.of_group(group).heartbeat_topic;
+        assert_eq!(
+            plain.group_of_heartbeat_topic(&topic).as_deref(),
+            Some(group),
+            "{topic}"
+        );
+    }
+    for topic in [
+        "rl/vote",
+        "rl/nav/vote",
+        "rl/a/b/controller_heartbeat",
+        "rl/1nav/controller_heartbeat",
+        "rl//controller_heartbeat",
+        "other/nav/controller_heartbeat",
+        "rl/nav/controller_heartbeat/x",
+    ] {
+        assert_eq!(plain.group_of_heartbeat_topic(topic), None, "{topic}");
+    }
+    // A heartbeat topic without a path: the group goes in front.
+    let flat = parse("[dds]\nheartbeat_topic = \"beats\"")
+        .expect("valid")
+        .dds;
+    assert_eq!(flat.of_group("g").heartbeat_topic, "g/beats");
+    assert_eq!(
+        flat.group_of_heartbeat_topic("g/beats").as_deref(),
+        Some("g")
+    );
+    assert_eq!(flat.group_of_heartbeat_topic("beats").as_deref(), Some(""));
+    assert_eq!(flat.group_of_heartbeat_topic("g/h/beats"), None);
+}

@@ -29,6 +29,7 @@
 
 mod app_topics;
 mod endpoint;
+mod groups;
 mod network;
 mod participants;
 pub mod qos;
@@ -187,7 +188,10 @@ pub struct Session {
     subscriber: Subscriber,
     device: Option<DeviceParticipant>,
     topics: Topics,
+    /// The names of this session's group.
     config: Dds,
+    /// The names as configured, before the group ([`Session::group_names`]).
+    written: Dds,
     timing: Timing,
 }
 
@@ -299,6 +303,7 @@ impl Session {
         keystore: Option<&crate::security::Keystore>,
     ) -> Result<Session, DdsError> {
         // The group's names, once: the topics, the ROS 2 namespace and the strengths' lookup.
+        let written = dds.clone();
         let grouped = dds.grouped();
         let dds = &grouped;
         let participant_error = |reason: String| DdsError::Participant {
@@ -345,6 +350,7 @@ impl Session {
             device,
             topics,
             config: dds.clone(),
+            written,
             timing: timing.clone(),
         })
     }

@@ -1,16 +1,18 @@
-//! `rl status --serve`: the operator's live view over HTTP. The status process keeps its
-//! [`Board`] as always; this module adds what the page shows beyond `rl status --json` (each
-//! controller's four LEDs, computed here with the same pure functions the controllers drive
-//! their LEDs with, the actuator's commander and its changes, heartbeat counts) and serves it:
+//! `rl status --serve`: the operator's live view over HTTP. The status process keeps a
+//! [`Board`] per redundancy group as always; this module adds what the page shows beyond
+//! `rl status --json` (each controller's four LEDs, computed here with the same pure functions
+//! the controllers drive their LEDs with, each group's actuator commander and its changes,
+//! heartbeat counts: a [`Watch`] per group) and serves it:
 //!
-//! - `/` the live page (HTML, CSS and JS inline, polling `/live.json`);
-//! - `/live.json` what the page draws ([`LiveView`]);
-//! - `/status.json` exactly the `rl status --json` object;
-//! - `/metrics` the Prometheus text exposition ([`metrics`]).
+//! - `/` the live page (HTML, CSS and JS inline, polling `/live.json`), a section per group;
+//! - `/live.json` what the page draws ([`PageView`]: a [`LiveView`] per group);
+//! - `/status.json` exactly the `rl status --json` object of one group, the configuration's
+//!   (as before there were several groups: [`Snapshot::of`]);
+//! - `/groups.json` that object for every group shown, an array sorted by group;
+//! - `/metrics` the Prometheus text exposition of every group ([`metrics`]).
 //!
-//! The voting loop of the status process builds a [`Snapshot`] (every answer rendered) a few
-//! times a second; connection threads only copy it out, so a slow client never holds the
-//! board.
+//! The status process builds a [`Snapshot`] (every answer rendered) a few times a second;
+//! connection threads only copy it out, so a slow client never holds the boards.
 
 pub mod http;
 pub mod metrics;
@@ -198,25 +200,58 @@ impl Watch {
     }
 }
 
+/// What `/live.json` holds: what the page draws of every group shown, by group name.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PageView {
+    pub groups: Vec<LiveView>,
+    /// Unix milliseconds of this view.
+    pub now_ms: u64,
+}
+
 /// Every answer, rendered: what connection threads copy out.
 #[derive(Clone, Debug, Default)]
 pub struct Snapshot {
     pub status_json: String,
+    pub groups_json: String,
     pub live_json: String,
     pub metrics: String,
 }
 
 impl Snapshot {
-    pub fn of(view: &StatusView, watch: &Watch, unix_ms: u64) -> Snapshot {
-        let status_json = serde_json::to_string(view).unwrap_or_else(|e| error_json(&e));
-        let live_json =
-            serde_json::to_string(&watch.live(view, unix_ms)).unwrap_or_else(|e| error_json(&e));
+    /// The answers for `groups` (each group's view and watch, by group name); `/status.json`
+    /// shows group `status_group` (an empty view of it if it is not among them).
+    pub fn of(groups: &[(&StatusView, &Watch)], status_group: &str, unix_ms: u64) -> Snapshot {
+        let views: Vec<&StatusView> = groups.iter().map(|(view, _)| *view).collect();
+        let empty = StatusView {
+            group: status_group.to_string(),
+            controllers: Vec::new(),
+            alarms: Vec::new(),
+            network_alarms: Vec::new(),
+        };
+        let status = views
+            .iter()
+            .find(|view| view.group == status_group)
+            .copied()
+            .unwrap_or(&empty);
+        let page = PageView {
+            groups: groups
+                .iter()
+                .map(|(view, watch)| watch.live(view, unix_ms))
+                .collect(),
+            now_ms: unix_ms,
+        };
         Snapshot {
-            status_json,
-            live_json,
-            metrics: metrics::render(view, watch),
+            status_json: json(status),
+            groups_json: json(&views),
+            live_json: json(&page),
+            metrics: metrics::render(groups),
         }
     }
+}
+
+/// `value` as JSON, or an object naming why not.
+fn json(value: &impl Serialize) -> String {
+    serde_json::to_string(value).unwrap_or_else(|e| error_json(&e))
 }
 
 fn error_json(error: &serde_json::Error) -> String {
@@ -232,6 +267,7 @@ pub fn answer(request: &http::Request, snapshot: &Snapshot) -> http::Response {
     match request.path.as_str() {
         "/" | "/index.html" => http::Response::ok("text/html; charset=utf-8", PAGE_HTML),
         "/status.json" => http::Response::ok(JSON, snapshot.status_json.clone()),
+        "/groups.json" => http::Response::ok(JSON, snapshot.groups_json.clone()),
         "/live.json" => http::Response::ok(JSON, snapshot.live_json.clone()),
         "/metrics" => http::Response::ok(metrics::CONTENT_TYPE, snapshot.metrics.clone()),
         _ => http::Response::error(404),
@@ -253,7 +289,9 @@ pub fn start(addr: &str) -> Result<Arc<Mutex<Snapshot>>, crate::Error> {
     });
     http::serve(listener, handler)
         .map_err(|e| crate::Error::runtime(format!("starting the HTTP server: {e}")))?;
-    eprintln!("rl status: serving http://{bound}/ (/status.json, /live.json, /metrics)");
+    eprintln!(
+        "rl status: serving http://{bound}/ (/status.json, /groups.json, /live.json, /metrics)"
+    );
     Ok(snapshot)
 }
 

@@ -124,7 +124,7 @@ fn metrics_are_the_text_format() {
     three_steady(&mut board, 0);
     watch.heartbeats([1, 1, 2]);
     board.alarm(&lost(2, 3), None);
-    let text = metrics::render(&board.view(10, 500), &watch);
+    let text = metrics::render(&[(&board.view(10, 500), &watch)]);
     for line in [
         "# TYPE rl_strength gauge",
         "rl_strength{group=\"nav\",controller=\"1\"} 30",
@@ -153,7 +153,7 @@ fn a_silent_controller_exports_no_role_and_no_strength() {
         board.heartbeat(hb(2, Some(Role::Primary), &[2, 3]), now);
         board.heartbeat(hb(3, Some(Role::Secondary), &[2, 3]), now);
     }
-    let text = metrics::render(&board.view(601, 500), &Watch::default());
+    let text = metrics::render(&[(&board.view(601, 500), &Watch::default())]);
     let lines: Vec<&str> = text.lines().collect();
     assert!(
         lines.contains(&"rl_alive{group=\"\",controller=\"1\"} 0"),
@@ -178,7 +178,12 @@ fn a_silent_controller_exports_no_role_and_no_strength() {
 
 #[test]
 fn answers_by_path() {
-    let snapshot = Snapshot::of(&Board::default().view(0, 500), &Watch::default(), 0);
+    let idle = Watch::default();
+    let unnamed = Board::default().view(0, 500);
+    let mut nav = Board::for_group("nav");
+    three_steady(&mut nav, 0);
+    let nav = nav.view(10, 500);
+    let snapshot = Snapshot::of(&[(&unnamed, &idle), (&nav, &idle)], "", 0);
     let get = |path: &str| {
         answer(
             &http::Request {
@@ -191,11 +196,94 @@ fn answers_by_path() {
     assert_eq!(get("/").status, 200);
     assert_eq!(
         get("/status.json").body,
-        br#"{"group":"","controllers":[],"alarms":[],"network_alarms":[]}"#
+        br#"{"group":"","controllers":[],"alarms":[],"network_alarms":[]}"#,
+        "the configuration's group, as before there were several"
     );
+    let groups: serde_json::Value =
+        serde_json::from_slice(&get("/groups.json").body).expect("/groups.json is JSON");
+    assert_eq!(groups[0], serde_json::to_value(&unnamed).unwrap());
+    assert_eq!(groups[1], serde_json::to_value(&nav).unwrap());
+    assert_eq!(groups.as_array().map(Vec::len), Some(2));
+    let live: serde_json::Value =
+        serde_json::from_slice(&get("/live.json").body).expect("/live.json is JSON");
+    assert_eq!(live["groups"][1]["status"]["group"], "nav");
+    assert_eq!(live["groups"][1]["leds"][0]["leds"][0], "green");
     assert_eq!(get("/metrics").content_type, metrics::CONTENT_TYPE);
     assert_eq!(get("/nope").status, 404);
     assert_eq!(get("/../etc/passwd").status, 404);
+}
+
+#[test]
+fn metrics_of_several_groups_describe_each_family_once() {
+    let mut nav = Board::for_group("nav");
+    let mut act = Board::for_group("act");
+    three_steady(&mut nav, 0);
+    three_steady(&mut act, 0);
+    // act's C1 is lost: C2 raised the alarm and commands.
+    act.alarm(&lost(2, 1), None);
+    act.heartbeat(hb(2, Some(Role::Primary), &[2, 3]), 700);
+    act.heartbeat(hb(3, Some(Role::Secondary), &[2, 3]), 700);
+    nav.heartbeat(hb(1, Some(Role::Primary), &[1, 2, 3]), 700);
+    let (mut nav_watch, mut act_watch) = (Watch::default(), Watch::default());
+    nav_watch.heartbeats([1, 1, 2]);
+    act_watch.heartbeats([2]);
+    nav_watch.follow(&nav, 700, 500, 0, true);
+    act_watch.follow(&act, 700, 500, 0, true);
+    let (nav_view, act_view) = (nav.view(700, 500), act.view(700, 500));
+    let text = metrics::render(&[(&act_view, &act_watch), (&nav_view, &nav_watch)]);
+
+    let families: Vec<&str> = text
+        .lines()
+        .filter_map(|l| l.strip_prefix("# TYPE "))
+        .filter_map(|l| l.split(' ').next())
+        .collect();
+    let unique: std::collections::BTreeSet<&str> = families.iter().copied().collect();
+    assert_eq!(
+        families.len(),
+        unique.len(),
+        "a TYPE line repeated:\n{text}"
+    );
+    assert_eq!(families.len(), 12, "{text}");
+    for family in &families {
+        let helps = text
+            .lines()
+            .filter(|l| l.starts_with(&format!("# HELP {family} ")))
+            .count();
+        assert_eq!(helps, 1, "{family}'s HELP\n{text}");
+        // A family's samples follow its TYPE line, before the next family's HELP.
+        let type_at = text.find(&format!("# TYPE {family} ")).unwrap_or(0);
+        let block_end = text[type_at..]
+            .find("\n# HELP ")
+            .map_or(text.len(), |end| type_at + end);
+        let outside = text[..type_at]
+            .lines()
+            .chain(text[block_end..].lines())
+            .filter(|l| l.starts_with(&format!("{family}{{")))
+            .count();
+        assert_eq!(
+            outside, 0,
+            "{family}'s samples are not all under its TYPE\n{text}"
+        );
+    }
+    for line in [
+        "rl_role{group=\"nav\",controller=\"1\",role=\"primary\"} 1",
+        "rl_role{group=\"act\",controller=\"2\",role=\"primary\"} 1",
+        "rl_alive{group=\"act\",controller=\"1\"} 0",
+        "rl_alive{group=\"nav\",controller=\"1\"} 1",
+        "rl_heartbeats_seen_total{group=\"nav\",controller=\"1\"} 2",
+        "rl_heartbeats_seen_total{group=\"act\",controller=\"2\"} 1",
+        "rl_controller_alarm{group=\"act\",about=\"1\",reason=\"lost\"} 1",
+        "rl_commander{group=\"nav\"} 1",
+        "rl_commander{group=\"act\"} 2",
+        "rl_commander_changes_total{group=\"act\"} 0",
+        "rl_commander_changes_total{group=\"nav\"} 0",
+    ] {
+        assert!(text.lines().any(|l| l == line), "no {line:?} in\n{text}");
+    }
+    assert!(
+        !text.contains("rl_controller_alarm{group=\"nav\""),
+        "nav raised no alarm\n{text}"
+    );
 }
 
 #[test]

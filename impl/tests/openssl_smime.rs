@@ -7,30 +7,15 @@
 //! Needs Debian's `openssl` command (`.ci/run` installs it); fails without it.
 #![cfg(feature = "security")]
 
+mod support;
+
 use rl_layer::config::Dds;
 use rl_layer::security::documents::Grantee;
 use rl_layer::security::keys::{self, Validity};
 use rl_layer::security::Keystore;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-
-/// A fresh directory under the system's temporary directory, removed when dropped.
-struct TempDir(PathBuf);
-
-impl TempDir {
-    fn new(name: &str) -> TempDir {
-        let path = std::env::temp_dir().join(format!("rl-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&path);
-        std::fs::create_dir_all(&path).expect("a temporary directory");
-        TempDir(path)
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
+use support::tempdir::Dir;
 
 fn openssl(args: &[&str]) -> Output {
     Command::new("openssl")
@@ -43,9 +28,21 @@ fn text(path: &Path) -> &str {
     path.to_str().expect("a UTF-8 path")
 }
 
-/// `openssl smime -verify` of `signed` against `ca`; the verified document on success, the
-/// error output otherwise.
-fn openssl_verify(signed: &Path, ca: &Path, out: &Path) -> Result<String, String> {
+/// OpenSSL refused a document; what it said.
+#[derive(Debug)]
+struct Refused {
+    stderr: String,
+}
+
+impl std::fmt::Display for Refused {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "openssl: {}", self.stderr.trim())
+    }
+}
+
+/// `openssl smime -verify` of `signed` against `ca`; the verified document on success, what
+/// OpenSSL said otherwise.
+fn openssl_verify(signed: &Path, ca: &Path, out: &Path) -> Result<String, Refused> {
     let output = openssl(&[
         "smime",
         "-verify",
@@ -59,7 +56,9 @@ fn openssl_verify(signed: &Path, ca: &Path, out: &Path) -> Result<String, String
     if output.status.success() {
         Ok(std::fs::read_to_string(out).expect("openssl wrote the document"))
     } else {
-        Err(String::from_utf8_lossy(&output.stderr).into_owned())
+        Err(Refused {
+            stderr: String::from_utf8_lossy(&output.stderr).into_owned(),
+        })
     }
 }
 
@@ -97,7 +96,7 @@ fn keystore(dir: &Path) -> PathBuf {
 
 #[test]
 fn documents_rl_signs_verify_with_openssl() {
-    let dir = TempDir::new("smime-rl-signs");
+    let dir = Dir::new("smime-rl-signs");
     let c1 = keystore(&dir.0);
     let ca = dir.0.join("ca.cert.pem");
     let out = dir.0.join("verified.xml");
@@ -122,7 +121,7 @@ fn documents_rl_signs_verify_with_openssl() {
 
 #[test]
 fn documents_openssl_signs_verify_in_rl() {
-    let dir = TempDir::new("smime-openssl-signs");
+    let dir = Dir::new("smime-openssl-signs");
     let c1 = keystore(&dir.0);
     let ca = dir.0.join("ca.cert.pem");
     let ca_key = dir.0.join("ca.key.pem");
@@ -140,16 +139,7 @@ fn documents_openssl_signs_verify_in_rl() {
     Keystore::open(&c1, false).expect("RL accepts the documents OpenSSL signed");
 
     // Altered after OpenSSL signed it: refused, naming the file.
-    let governance = c1.join("governance.p7s");
-    let signed = std::fs::read_to_string(&governance).unwrap();
-    std::fs::write(
-        &governance,
-        signed.replace(
-            "<enable_join_access_control>true",
-            "<enable_join_access_control>false",
-        ),
-    )
-    .unwrap();
+    let governance = support::keys::alter_governance(&c1);
     let error = Keystore::open(&c1, false).expect_err("an altered document is refused");
     assert!(
         error.file == governance && error.problem.contains("altered"),
