@@ -219,8 +219,9 @@ impl ConnextReader {
         liveliness_check_ms: u64,
         started: Instant,
     ) -> ConnextReader {
+        // The reader lives with the interop tests, beside the test kit (impl/tests/interop).
         let script = format!(
-            "{}/tests/interop/connext_reader.py",
+            "{}/../tests/interop/connext_reader.py",
             env!("CARGO_MANIFEST_DIR")
         );
         let mut child = Command::new("python3")
