@@ -23,6 +23,7 @@ pub mod stats;
 mod watch;
 
 use crate::procs::Fleet;
+use rl_layer::config::ControlLaw;
 use rl_layer::core::ControllerId;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -74,6 +75,33 @@ pub struct BenchArgs {
         value_parser = clap::value_parser!(u32).range(1..=16)
     )]
     pub groups: Vec<u32>,
+    /// The control law of C1, C2 and C3 (`tracker.law`, comma-separated, C1 first): `integer`
+    /// (the original's arithmetic, the default) or `float` (the second implementation);
+    /// `integer,float,integer` runs diverse implementations (docs/performance.md, "Diverse
+    /// control laws").
+    #[arg(long, value_delimiter = ',', value_name = "LAW", value_parser = parse_law)]
+    pub laws: Vec<ControlLaw>,
+}
+
+/// A `--laws` entry that names no control law.
+#[derive(Debug, thiserror::Error)]
+#[error("{0:?} is not a control law: integer or float")]
+pub struct UnknownLaw(String);
+
+fn parse_law(text: &str) -> Result<ControlLaw, UnknownLaw> {
+    match text {
+        "integer" => Ok(ControlLaw::Integer),
+        "float" => Ok(ControlLaw::Float),
+        _ => Err(UnknownLaw(text.to_string())),
+    }
+}
+
+/// `tracker.law`'s name of `law`.
+fn law_name(law: ControlLaw) -> &'static str {
+    match law {
+        ControlLaw::Integer => "integer",
+        ControlLaw::Float => "float",
+    }
 }
 
 /// What `rl bench --groups` measured: the JSON document of `--groups ... --json`.
@@ -117,6 +145,8 @@ pub struct Setup {
     heartbeat_period_ms: u64,
     /// With DDS Security: the directory of `rl keys` (`c<id>`, `servo`, `camera`).
     keystores: Option<PathBuf>,
+    /// `--laws`: each controller's control law, C1 first (empty: the default for all).
+    laws: Vec<ControlLaw>,
 }
 
 impl Setup {
@@ -133,23 +163,34 @@ impl Setup {
         (fleet, watch::Watch::new(lines))
     }
 
-    /// The fleet's configuration, or with keystores a copy naming `who`'s keystore.
+    /// The fleet's configuration, or a copy with what is `who`'s own: its keystore (with
+    /// DDS Security) and its control law (with `--laws`).
     fn configured(&self, fleet: &Fleet, who: &str) -> Result<Option<PathBuf>, BenchError> {
-        let (Some(keys), Some(base)) = (&self.keystores, fleet.config()) else {
+        let Some(base) = fleet.config() else {
             return Ok(None);
         };
+        let mut own = String::new();
+        if let Some(keys) = &self.keystores {
+            let keystore = keys.join(who).display().to_string();
+            own.push_str(&format!("\n[security]\nkeystore = {keystore:?}\n"));
+        }
+        let law = who
+            .strip_prefix('c')
+            .and_then(|id| id.parse::<usize>().ok())
+            .and_then(|id| self.laws.get(id.wrapping_sub(1)));
+        if let Some(law) = law {
+            own.push_str(&format!("\n[tracker]\nlaw = {:?}\n", law_name(*law)));
+        }
+        if own.is_empty() {
+            return Ok(None);
+        }
         let text = std::fs::read_to_string(base)
             .map_err(|e| BenchError::io(format!("reading {}", base.display()), e))?;
         let name = format!(
             "{}-{who}.toml",
             base.file_stem().unwrap_or_default().to_string_lossy()
         );
-        let keystore = keys.join(who).display().to_string();
-        self.write_config(
-            &name,
-            &format!("{text}\n[security]\nkeystore = {keystore:?}\n"),
-        )
-        .map(Some)
+        self.write_config(&name, &format!("{text}{own}")).map(Some)
     }
 
     fn start_controller(&self, fleet: &mut Fleet, id: ControllerId) -> Result<(), BenchError> {
@@ -205,12 +246,24 @@ fn command_line(args: &BenchArgs, seed: u64) -> String {
         args.domain,
         if args.json { " --json" } else { "" },
     ) + if args.security { " --security" } else { "" }
+        + &if args.laws.is_empty() {
+            String::new()
+        } else {
+            let laws: Vec<&str> = args.laws.iter().map(|law| law_name(*law)).collect();
+            format!(" --laws {}", laws.join(","))
+        }
 }
 
 /// Runs the benchmarks, prints the report (and the JSON document), and fails when a kill or
 /// a formation failed.
 pub fn run(args: BenchArgs) -> Result<(), crate::Error> {
     crate::cli::check_domain_with_networks(args.domain)?;
+    if !(args.laws.is_empty() || args.laws.len() == 3) {
+        return Err(crate::Error::Usage(format!(
+            "--laws: one control law per controller, C1 first: three, not {}",
+            args.laws.len()
+        )));
+    }
     Ok(run_bench(args)?)
 }
 
@@ -227,6 +280,7 @@ fn run_bench(args: BenchArgs) -> Result<(), BenchError> {
         domain: args.domain,
         heartbeat_period_ms: rl_layer::config::Timing::default().heartbeat_period_ms,
         keystores: None,
+        laws: args.laws.clone(),
     };
     if !args.groups.is_empty() {
         let measured = groups::groups(&setup, &args.groups, args.resources_s);

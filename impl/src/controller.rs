@@ -2,21 +2,25 @@
 //! Pixytracker): it reads the camera's `Circle` samples of the configured colour, computes
 //! pan/tilt with the original PD law, and writes `pixy/servo_control` through the RL API,
 //! which lets the commands out only while the controller holds a role, at its role's strength.
-//! It also reads the commanding controller's commands and, while another controller commands,
-//! takes the gimbal's position from them, so that a takeover is bumpless.
+//! Each command also goes out on the voted command topic as this controller's own answer,
+//! tagged with the camera frame it answers, for a receiver that votes (`rl servo --vote`,
+//! rl_layer::vote_reader). It also reads the commanding controller's commands and, while
+//! another controller commands, takes the gimbal's position from them, so that a takeover is
+//! bumpless; while the voted topic has a majority it takes it from the voted commands instead.
 //!
 //! Under systemd it reports readiness once DDS is joined and the voting thread runs, and its
 //! loop pings the watchdog while the voting loop also goes round (rl_layer::service).
 
 use crate::cli::{load_config, stop_on_signals};
-use crate::tracker::PanTiltController;
-use rl_layer::api::{Options, Redundancy};
+use crate::tracker::{control_law, ControlLaw};
+use rl_layer::api::{Options, Redundancy, RoleWriter, VoteFeed, VotedWriter};
 use rl_layer::config::Config;
 use rl_layer::core::types::ControllerId;
 use rl_layer::network_monitor::{MonitorOptions, NetworkMonitor};
 use rl_layer::owner_feed::OwnerFeed;
 use rl_layer::service::{LoopProgress, Notifier};
-use rl_layer::wire::ServoControl;
+use rl_layer::vote_reader::{ServoRule, VoteEvent, VoteSettings};
+use rl_layer::wire::{ServoControl, VOTED_SERVO_CONTROL_TYPE_NAME};
 use rustdds::mio::{Events, Poll, PollOpt, Ready, Token};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -132,27 +136,24 @@ fn track(
 ) -> Result<(), crate::Error> {
     let dds = |e: rl_layer::dds::DdsError| crate::Error::dds(e);
     let mut camera = rl.session().camera_reader().map_err(dds)?;
-    // The commanding controller's commands, to follow while standing by.
-    let mut owner_commands = OwnerFeed::open(
-        rl.session(),
-        rl.session().command_follower_reader().map_err(dds)?,
-        config.timing.command_deadline_ms,
-        config.timing.peer_deadline_ms,
-    )
-    .map_err(dds)?;
-    let own_participant = rl.session().participant_key();
-    let mut commands = rl.command_writer()?;
+    let mut alignment = Alignment::open(rl, config)?;
+    let mut outputs = Outputs {
+        commands: rl.command_writer()?,
+        voted: without_voting_if_refused("writer", rl.voted_command_writer()),
+        write_errors: 0,
+    };
     let poll = Poll::new().map_err(|e| crate::Error::io("creating the event poll", e))?;
     poll.register(&camera, CAMERA, Ready::readable(), PollOpt::edge())
         .map_err(|e| crate::Error::io("registering the camera reader", e))?;
     let mut events = Events::with_capacity(8);
-    let mut pan_tilt = PanTiltController::new(config.tracker.servo_frequency_hz);
+    let mut pan_tilt = control_law(config.tracker.law, config.tracker.servo_frequency_hz);
     let republish = Duration::from_millis(config.timing.command_republish_ms);
     let started = Instant::now();
     // The gimbal starts centred; the command is held (re-published before the deadline) so
     // the actuator never falls to a weaker writer while this one lives.
     let mut last_written = started - republish;
-    let mut write_errors = 0u64;
+    // The camera frame the commands answer (its source timestamp), for the voted topic.
+    let mut frame: u64 = 0;
     notifier.ready();
     loop {
         if stop.load(Ordering::SeqCst) || rl.is_finished() {
@@ -163,37 +164,18 @@ fn track(
         if duration_ms.is_some_and(|limit| started.elapsed() >= Duration::from_millis(limit)) {
             return Ok(());
         }
-        // Bumpless transfer: while another controller commands, take the gimbal's position
-        // from its commands, so a takeover continues from there (crate::tracker, `align`).
         let now_ms = u64::try_from(started.elapsed().as_millis()).unwrap_or(u64::MAX);
-        if let Some((command, writer)) = owner_commands.take(rl.session(), now_ms) {
-            if rl_layer::dds::participant_key(writer) != own_participant {
-                pan_tilt.align(command.pan, command.tilt);
-            }
-        }
+        alignment.align(rl, pan_tilt.as_mut(), frame, now_ms);
         let mut fresh = None;
         for shape in camera.take() {
             if shape.value.color == config.tracker.color {
                 fresh = Some(pan_tilt.update(shape.value.x, shape.value.y));
+                frame = shape.source_timestamp.map_or(0, |t| t.to_ticks());
             }
         }
-        let due = last_written.elapsed() >= republish;
-        if fresh.is_some() || due {
+        if fresh.is_some() || last_written.elapsed() >= republish {
             let command = fresh.unwrap_or_else(|| pan_tilt.command());
-            let sample = ServoControl {
-                pan: command.pan,
-                tilt: command.tilt,
-                frequency: command.frequency,
-            };
-            match commands.write(sample) {
-                Ok(_) => {}
-                Err(error) => {
-                    write_errors += 1;
-                    if write_errors.is_power_of_two() {
-                        warn!(write_errors, "command not written: {error}");
-                    }
-                }
-            }
+            outputs.write(rl, frame, command);
             last_written = Instant::now();
         }
         let wait = republish.saturating_sub(last_written.elapsed());
@@ -203,4 +185,133 @@ fn track(
             Err(e) => return Err(crate::Error::io("waiting for camera samples", e)),
         }
     }
+}
+
+/// Bumpless transfer: where the tracker takes the gimbal's position from. While the voted
+/// topic has a majority, from its accepted commands (every controller, the commanding one
+/// too), so that a controller computing wrong commands does not pull the others' state after
+/// it; otherwise, while another controller commands, from the owner's commands
+/// (crate::tracker, `align`).
+struct Alignment {
+    owner_commands: OwnerFeed<ServoControl>,
+    own_participant: rl_layer::dds::ParticipantKey,
+    votes: Option<VoteFeed<ServoControl, ServoRule>>,
+}
+
+impl Alignment {
+    fn open(rl: &Redundancy, config: &Config) -> Result<Alignment, crate::Error> {
+        let dds = |e: rl_layer::dds::DdsError| crate::Error::dds(e);
+        // The commanding controller's commands, to follow while standing by.
+        let owner_commands = OwnerFeed::open(
+            rl.session(),
+            rl.session().command_follower_reader().map_err(dds)?,
+            config.timing.command_deadline_ms,
+            config.timing.peer_deadline_ms,
+        )
+        .map_err(dds)?;
+        let votes = rl.vote_feed(
+            &config.dds.voted_topic_name(),
+            VOTED_SERVO_CONTROL_TYPE_NAME,
+            ServoRule::default(),
+            VoteSettings::holding(config.timing.command_deadline_ms),
+        );
+        let votes = without_voting_if_refused("reader", votes);
+        Ok(Alignment {
+            owner_commands,
+            own_participant: rl.session().participant_key(),
+            votes,
+        })
+    }
+
+    /// Aligns `pan_tilt` to what arrived: a voted command for the frame it last answered
+    /// (`frame`; one for an older frame would set it back), else the owner's command.
+    fn align(&mut self, rl: &Redundancy, pan_tilt: &mut dyn ControlLaw, frame: u64, now_ms: u64) {
+        let owner = self.owner_commands.take(rl.session(), now_ms);
+        let (mut voted, mut majority) = (None, false);
+        if let Some(votes) = self.votes.as_mut() {
+            for event in votes.take(now_ms) {
+                if let VoteEvent::Accepted { input, value, .. } = event {
+                    voted = (input >= frame).then_some(value).or(voted);
+                }
+            }
+            majority = votes.votes().accepted().is_some() && !votes.votes().without_majority();
+        }
+        match (voted, owner) {
+            (Some(command), _) => pan_tilt.align(command.pan, command.tilt),
+            (None, Some((command, writer)))
+                if !majority && rl_layer::dds::participant_key(writer) != self.own_participant =>
+            {
+                pan_tilt.align(command.pan, command.tilt);
+            }
+            _ => {}
+        }
+    }
+}
+
+/// The command writers: the exclusive command topic and this controller's instance of the
+/// voted one.
+struct Outputs {
+    commands: RoleWriter<ServoControl>,
+    voted: Option<VotedWriter<ServoControl>>,
+    write_errors: u64,
+}
+
+impl Outputs {
+    /// Writes `command`, the answer to camera frame `frame`, on both topics (each only while
+    /// this controller may command; on the voted one each new frame's answer, and the same
+    /// again only every half deadline); failures are counted and logged sparingly.
+    fn write(&mut self, rl: &Redundancy, frame: u64, command: crate::tracker::ServoCommand) {
+        let sample = injected_fault(
+            rl,
+            ServoControl {
+                pan: command.pan,
+                tilt: command.tilt,
+                frequency: command.frequency,
+            },
+        );
+        let exclusive = self.commands.write(sample);
+        let voted = match self.voted.as_mut() {
+            Some(voted) => voted.write_when_due(frame, sample),
+            None => Ok(false),
+        };
+        for written in [exclusive, voted] {
+            if let Err(error) = written {
+                self.write_errors += 1;
+                if self.write_errors.is_power_of_two() {
+                    warn!(
+                        write_errors = self.write_errors,
+                        "command not written: {error}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// The voted topic's endpoint `made`, or none, with a warning, when it cannot be made (a
+/// keystore whose permissions predate the voted topic refuses it: `rl keys add` again): the
+/// controller then commands on the exclusive topic alone, as before the voted topic.
+fn without_voting_if_refused<T>(what: &str, made: Result<T, rl_layer::Error>) -> Option<T> {
+    made.inspect_err(|error| {
+        warn!("no voted command {what}, commanding on the exclusive topic alone: {error}");
+    })
+    .ok()
+}
+
+/// `sample` wrong on pan by the offset the fault-injection control asked for
+/// (`skew-commands`: a controller that heartbeats on but computes wrong commands), within the
+/// servo's range.
+#[cfg(feature = "fault-injection")]
+fn injected_fault(rl: &Redundancy, sample: ServoControl) -> ServoControl {
+    let pan = (i32::from(sample.pan) + rl.injected_command_skew()).clamp(0, 1000);
+    ServoControl {
+        pan: u16::try_from(pan).unwrap_or(sample.pan),
+        ..sample
+    }
+}
+
+/// Without the fault-injection control: `sample` as it is.
+#[cfg(not(feature = "fault-injection"))]
+fn injected_fault(_: &Redundancy, sample: ServoControl) -> ServoControl {
+    sample
 }

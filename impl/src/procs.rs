@@ -9,6 +9,7 @@ use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::mpsc::{self, Receiver};
 use std::time::Instant;
 
+pub use crate::sim::servo::vote::VotedServoEvent;
 pub use crate::sim::servo::ServoEvent;
 
 /// A line a child printed, with the time it was read.
@@ -300,6 +301,11 @@ impl Drop for Fleet {
 
 /// Parses a servo JSON line; `None` for anything else (human lines, partial output).
 pub fn parse_servo_event(text: &str) -> Option<ServoEvent> {
+    serde_json::from_str(text).ok()
+}
+
+/// Parses a line of `rl servo --vote --json`; `None` for anything else.
+pub fn parse_voted_servo_event(text: &str) -> Option<VotedServoEvent> {
     serde_json::from_str(text).ok()
 }
 

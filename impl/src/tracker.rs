@@ -16,6 +16,35 @@
 //! original ran on: negative velocities round toward −∞ (−500 >> 10 = −1, not 0). The first
 //! sample only records the error: there is no previous error to differentiate.
 
+#[cfg(test)]
+mod diverse_tests;
+mod float;
+
+pub use float::FloatPanTilt;
+
+/// A control law as a controller uses it: feed it every circle (or the errors of one), publish
+/// what it returns. [`PanTiltController`] is the original's; [`FloatPanTilt`] the same law
+/// written apart from it, for diverse implementations (`tracker.law`).
+pub trait ControlLaw: Send {
+    /// One circle at `(x, y)`: one step of both axes (the first only records the errors).
+    fn update(&mut self, x: i32, y: i32) -> ServoCommand;
+    /// The same step from the errors [`errors_of`] gives.
+    fn update_errors(&mut self, pan_error: i64, tilt_error: i64) -> ServoCommand;
+    /// Takes the actuator's position as its own (bumpless transfer; see
+    /// [`PanTiltController::align`]).
+    fn align(&mut self, pan: u16, tilt: u16);
+    /// The current command without a new sample.
+    fn command(&self) -> ServoCommand;
+}
+
+/// The implementation `tracker.law` names, centred, with `frequency_hz` in every command.
+pub fn control_law(law: rl_layer::config::ControlLaw, frequency_hz: u16) -> Box<dyn ControlLaw> {
+    match law {
+        rl_layer::config::ControlLaw::Integer => Box::new(PanTiltController::new(frequency_hz)),
+        rl_layer::config::ControlLaw::Float => Box::new(FloatPanTilt::new(frequency_hz)),
+    }
+}
+
 /// The set-point: the centre of the camera frame as the shapes application scales it.
 pub const SET_POINT_X: i32 = 111;
 pub const SET_POINT_Y: i32 = 126;
@@ -161,6 +190,24 @@ impl PanTiltController {
     /// Back to the centre with no previous sample, as at start.
     pub fn reset(&mut self) {
         *self = PanTiltController::new(self.frequency_hz);
+    }
+}
+
+impl ControlLaw for PanTiltController {
+    fn update(&mut self, x: i32, y: i32) -> ServoCommand {
+        PanTiltController::update(self, x, y)
+    }
+
+    fn update_errors(&mut self, pan_error: i64, tilt_error: i64) -> ServoCommand {
+        PanTiltController::update_errors(self, pan_error, tilt_error)
+    }
+
+    fn align(&mut self, pan: u16, tilt: u16) {
+        PanTiltController::align(self, pan, tilt)
+    }
+
+    fn command(&self) -> ServoCommand {
+        PanTiltController::command(self)
     }
 }
 

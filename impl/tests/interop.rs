@@ -187,8 +187,9 @@ fn cyclone_exclusive_reader_follows_the_primary() {
 }
 
 /// RL's own topics read by an independent implementation through types written from
-/// `docs/rl.idl` (`tests/interop/rl_topics_reader.py`, Cyclone DDS): the heartbeats, votes and
-/// controller alarms of a real formation and a kill decode to what the controllers reported.
+/// `docs/rl.idl` (`tests/interop/rl_topics_reader.py`, Cyclone DDS): the heartbeats, votes,
+/// controller alarms and voted commands of a real formation and a kill decode to what the
+/// controllers reported.
 /// A field the IDL misplaces shifts every field after it, so the ids, incarnations, roles,
 /// strengths and agreed holders would not match. Domain 216.
 #[test]
@@ -224,11 +225,27 @@ fn cyclone_decodes_rls_own_topics_with_types_from_the_idl() {
         "no alarm of C1 about C3 lost decoded: {:?}",
         of("alarm").collect::<Vec<_>>()
     );
+    // Without a camera every controller answers frame 0 with the centred command.
+    for id in 1..=3u8 {
+        let centred = of("voted").any(|v| {
+            v["from_id"] == id
+                && v["input"] == 0
+                && v["pan"] == 500
+                && v["tilt"] == 500
+                && v["frequency"] == 60
+        });
+        assert!(
+            centred,
+            "no voted command of C{id} decoded as frame 0, 500, 500, 60: {:?}",
+            of("voted").rfind(|v| v["from_id"] == id)
+        );
+    }
     eprintln!(
-        "Cyclone decoded {} heartbeats, {} votes and {} alarms",
+        "Cyclone decoded {} heartbeats, {} votes, {} alarms and {} voted commands",
         of("heartbeat").count(),
         of("vote").count(),
-        of("alarm").count()
+        of("alarm").count(),
+        of("voted").count()
     );
 }
 

@@ -10,6 +10,8 @@
 
 use crate::{render, RlModel};
 use stateright::Model;
+use std::fmt::Debug;
+use std::hash::Hash;
 use std::io::{Read, Write};
 use std::net::{Ipv4Addr, SocketAddr, TcpListener, TcpStream};
 use std::sync::Arc;
@@ -39,6 +41,17 @@ impl Front {
     /// Listens on `addr`, then starts stateright's explorer of `model` on a free loopback port
     /// and waits until it answers.
     pub fn start(model: &RlModel, addr: &str) -> Result<Front, ExploreError> {
+        Front::start_named(model, initial_state_names(model), addr)
+    }
+
+    /// The same for any model (the output model, `crate::outputs`), its initial states named
+    /// by `names` in stateright's order.
+    pub fn start_named<M>(model: &M, names: Vec<String>, addr: &str) -> Result<Front, ExploreError>
+    where
+        M: Model + Clone + Send + Sync + 'static,
+        M::State: Debug + Hash + Send + Sync + Clone + PartialEq,
+        M::Action: Debug + Send + Sync + Clone + PartialEq,
+    {
         let server = Server::http(addr).map_err(|error| ExploreError::Bind {
             addr: addr.to_string(),
             reason: error.to_string(),
@@ -46,7 +59,7 @@ impl Front {
         Ok(Front {
             server,
             explorer: start_explorer(model)?,
-            names: Arc::new(initial_state_names(model)),
+            names: Arc::new(names),
         })
     }
 
@@ -76,7 +89,12 @@ pub fn initial_state_names(model: &RlModel) -> Vec<String> {
 
 /// Runs stateright's explorer on a free loopback port; three attempts, since another process
 /// may take the port between our pick and stateright's bind.
-fn start_explorer(model: &RlModel) -> Result<SocketAddr, ExploreError> {
+fn start_explorer<M>(model: &M) -> Result<SocketAddr, ExploreError>
+where
+    M: Model + Clone + Send + Sync + 'static,
+    M::State: Debug + Hash + Send + Sync + Clone + PartialEq,
+    M::Action: Debug + Send + Sync + Clone + PartialEq,
+{
     let mut failures = Vec::new();
     for _ in 0..3 {
         let addr = TcpListener::bind((Ipv4Addr::LOCALHOST, 0))

@@ -13,13 +13,17 @@
 //! - [`simulate`]: seeded random walks, one seed reproducing one walk on any machine;
 //! - [`traces`]: the committed trace set the conformance suite replays;
 //! - [`render`]: readable states, steps and sequence diagrams;
-//! - [`explore`]: the front of stateright's explorer UI that names the initial states.
+//! - [`explore`]: the front of stateright's explorer UI that names the initial states;
+//! - [`outputs`]: a second model beside the role model, sharing its vocabulary: output
+//!   voting, where a controller's commands can go wrong while its heartbeats stay correct
+//!   (`check --outputs`, docs/protocol.md "Output voting").
 //!
 //! Time is counted in rounds of one heartbeat period (docs/model.md explains why).
 
 pub mod config;
 pub mod explore;
 pub mod fixes;
+pub mod outputs;
 pub mod properties;
 pub mod protocol;
 pub mod render;

@@ -3,6 +3,9 @@
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use model::config::ConfigError;
 use model::explore::{ExploreError, Front};
+use model::outputs::check::OutputReport;
+use model::outputs::OutputMutation;
+use model::outputs::{self, CrossCheck, OutputConfig, OutputConfigError, OutputModel};
 use model::properties::{catalogue, PropertyInfo};
 use model::traces::TraceFileError;
 use model::{search, simulate, traces, Config, Fix, Mutation, RlModel, Variant};
@@ -27,6 +30,12 @@ enum CliError {
     /// The explorer's address cannot be listened on, or the explorer did not start.
     #[error(transparent)]
     Explore(#[from] ExploreError),
+    /// The output model's flags describe a configuration outside its bounds.
+    #[error(transparent)]
+    Outputs(#[from] OutputConfigError),
+    /// `--depth` or `--order dfs` with `--outputs`, whose check is always exhaustive BFS.
+    #[error("{0}: the output model's check is an exhaustive breadth-first search")]
+    OutputsSearch(&'static str),
 }
 
 /// RL's voting protocol, as a checkable specification.
@@ -48,6 +57,8 @@ enum Command {
     /// and total state counts, states/s and wall time. A violated `always` property (or a
     /// `sometimes` property never witnessed) prints the shortest path as numbered steps and
     /// exits 1.
+    ///
+    /// With `--outputs`, the output-voting model instead (docs/protocol.md, "Output voting").
     Check(CheckArgs),
     /// Serve stateright's explorer UI: walk the protocol step by step in a browser.
     ///
@@ -56,6 +67,8 @@ enum Command {
     Explore {
         #[command(flatten)]
         scope: Scope,
+        #[command(flatten)]
+        outputs: OutputScope,
         /// Address to listen on.
         #[arg(long, default_value = "127.0.0.1:3000")]
         addr: String,
@@ -166,10 +179,57 @@ impl Scope {
     }
 }
 
+/// The output-voting model (docs/protocol.md, "Output voting"), with `--outputs`.
+#[derive(Args, Clone)]
+struct OutputScope {
+    /// Check or explore the output-voting model instead of the role model: controllers whose
+    /// commands go wrong while their heartbeats stay correct, a voting receiver, an
+    /// exclusive-ownership receiver and the controllers' cross-check.
+    #[arg(long, conflicts_with_all = [
+        "controllers", "late_joiners", "crashes", "restarts", "lost_heartbeats", "pauses",
+        "cuts", "starvations", "returns", "variant", "revert", "full", "mutation",
+    ])]
+    outputs: bool,
+    /// Output model: faults that may begin over a run, 0 to 2 (2: finding O1, two wrong
+    /// controllers that agree).
+    #[arg(long, requires = "outputs", default_value_t = 1)]
+    wrong: u8,
+    /// Output model: two wrong controllers never send the same wrong value (the fail-safe
+    /// hold).
+    #[arg(long, requires = "outputs")]
+    disagreeing: bool,
+    /// Output model: how a controller counts the inputs at which it was the odd one out
+    /// (consecutive: finding O2).
+    #[arg(long, requires = "outputs", value_enum, default_value_t = CrossCheck::Cumulative)]
+    cross_check: CrossCheck,
+    /// Output model: N, the odd-one-out inputs after which a controller leaves (K = N).
+    #[arg(long, requires = "outputs", default_value_t = 2)]
+    odd_limit: u8,
+    /// Output model: a deliberately broken rule, to see the checker catch it.
+    #[arg(long, requires = "outputs", value_enum, hide = true)]
+    output_mutation: Option<OutputMutation>,
+}
+
+impl OutputScope {
+    fn config(&self) -> Result<OutputConfig, OutputConfigError> {
+        let config = OutputConfig {
+            max_wrong: self.wrong,
+            wrong_values_differ: self.disagreeing,
+            cross_check: self.cross_check,
+            odd_limit: self.odd_limit,
+            mutation: self.output_mutation,
+        };
+        config.validate()?;
+        Ok(config)
+    }
+}
+
 #[derive(Args)]
 struct CheckArgs {
     #[command(flatten)]
     scope: Scope,
+    #[command(flatten)]
+    outputs: OutputScope,
     /// Search order.
     #[arg(long, value_enum, default_value_t = Order::Bfs)]
     order: Order,
@@ -191,7 +251,11 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Check(args) => check(args),
-        Command::Explore { scope, addr } => explore(&scope, &addr),
+        Command::Explore {
+            scope,
+            outputs,
+            addr,
+        } => explore(&scope, &outputs, &addr),
         Command::Traces { scope, out, check } => write_traces(&scope, &out, check),
         Command::Simulate { scope, seed, steps } => walk(&scope, seed, steps),
     };
@@ -207,6 +271,9 @@ fn main() -> ExitCode {
 type DynChecker = Box<dyn Checker<RlModel> + Send + Sync>;
 
 fn check(args: CheckArgs) -> Result<ExitCode, CliError> {
+    if args.outputs.outputs {
+        return check_outputs(&args);
+    }
     let config = args.scope.config()?;
     if args.threads == 0 {
         return Err(CliError::ZeroThreads);
@@ -356,8 +423,47 @@ fn join(checker: DynChecker) -> DynChecker {
     checker
 }
 
+/// `check --outputs`: the output-voting model, exhaustively; the shortest counterexample of
+/// every failure.
+fn check_outputs(args: &CheckArgs) -> Result<ExitCode, CliError> {
+    let config = args.outputs.config()?;
+    if args.threads == 0 {
+        return Err(CliError::ZeroThreads);
+    }
+    if args.depth.is_some() {
+        return Err(CliError::OutputsSearch("--depth"));
+    }
+    if let Order::Dfs = args.order {
+        return Err(CliError::OutputsSearch("--order dfs"));
+    }
+    println!("checking: {}", config.summary());
+    let report: OutputReport = outputs::check::check(&config, args.threads);
+    println!();
+    print!("{}", report.render());
+    let failures = report.failures().len();
+    if failures == 0 {
+        println!(
+            "result: all {} properties as expected",
+            report.verdicts.len()
+        );
+        return Ok(ExitCode::SUCCESS);
+    }
+    print!("{}", outputs::check::render_failures(&report));
+    println!("result: {failures} properties failed");
+    Ok(ExitCode::from(1))
+}
+
 /// stateright's explorer behind a front that names the initial states (model::explore).
-fn explore(scope: &Scope, addr: &str) -> Result<ExitCode, CliError> {
+fn explore(scope: &Scope, outputs: &OutputScope, addr: &str) -> Result<ExitCode, CliError> {
+    if outputs.outputs {
+        let config = outputs.config()?;
+        let model = OutputModel::new(config.clone());
+        let front = Front::start_named(&model, model.initial_state_names(), addr)?;
+        println!("explorer for {} at http://{addr}/", config.summary());
+        println!("initial states: {}", front.names().join(" | "));
+        front.run();
+        return Ok(ExitCode::SUCCESS);
+    }
     let config = scope.config()?;
     let front = Front::start(&RlModel::new(config.clone()), addr)?;
     println!("explorer for {} at http://{addr}/", config.summary());

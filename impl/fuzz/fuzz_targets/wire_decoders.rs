@@ -1,5 +1,5 @@
 //! Fuzzes the decoders of every DDS sample type RL reads, the way a reader meets them: the
-//! first byte picks the type (low three bits) and the byte order (top bit), the rest is the
+//! first byte picks the type (low four bits) and the byte order (top bit), the rest is the
 //! serialized payload. The CDR reader may reject it; a sample it yields must decode without
 //! panicking, a rejection must name a field, and an accepted sample must be exactly the
 //! encoding of its value, which decodes again to the same value.
@@ -11,7 +11,7 @@
 use libfuzzer_sys::fuzz_target;
 use rl_layer::wire::{
     AlarmSample, HeartbeatSample, NetworkAlarmKey, NetworkAlarmSample, NetworkHeartbeatSample,
-    ServoControl, ShapeTypeExtended, VoteSample, WireSample,
+    ServoControl, ShapeTypeExtended, VoteSample, VotedServoControl, WireSample,
 };
 use rustdds::serialization::{deserialize_from_cdr_with_rep_id, to_writer_with_rep_id};
 use rustdds::RepresentationIdentifier;
@@ -28,7 +28,7 @@ fuzz_target!(|data: &[u8]| {
     } else {
         RepresentationIdentifier::CDR_BE
     };
-    match tag & 0x07 {
+    match tag & 0x0f {
         0 => check::<HeartbeatSample>(payload, representation),
         1 => check::<VoteSample>(payload, representation),
         2 => check::<AlarmSample>(payload, representation),
@@ -36,6 +36,7 @@ fuzz_target!(|data: &[u8]| {
         4 => check::<NetworkAlarmSample>(payload, representation),
         5 => check::<ServoControl>(payload, representation),
         6 => check::<ShapeTypeExtended>(payload, representation),
+        7 => check::<VotedServoControl>(payload, representation),
         // A keyed topic's key arrives alone with a dispose: reading it must not panic.
         _ => {
             let _ = deserialize_from_cdr_with_rep_id::<u8>(payload, representation);

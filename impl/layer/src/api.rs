@@ -22,7 +22,9 @@
 //! its own faults ([`Redundancy::report_fault`]), and writes commands through a
 //! [`RoleWriter`] whose ownership strength always follows the role, of the command topic or
 //! of any topic of its own ([`Redundancy::role_writer`]); what the layer does is pushed to it
-//! ([`Redundancy::events`]). docs/api.md is the guide.
+//! ([`Redundancy::events`]). For a receiver that votes on the controllers' outputs, each
+//! controller also writes its own answer to every input ([`Redundancy::voted_writer`], read
+//! with [`Redundancy::vote_feed`]). docs/api.md is the guide.
 //!
 //! A controller that votes itself FAILED stays FAILED for the rest of its life, so the layer
 //! stops by itself `timing.failed_exit_delay_ms` after it failed ([`Redundancy::is_finished`]
@@ -40,8 +42,10 @@ pub use crate::owner_feed::OwnerFeed;
 pub use crate::runtime::Options;
 use crate::runtime::{self, Shared};
 use crate::trust::CommandTrust;
+pub use crate::vote_feed::VoteFeed;
+use crate::vote_reader::{VoteRule, VoteSettings};
 pub use crate::wire::Plain;
-use crate::wire::ServoControl;
+use crate::wire::{ServoControl, Voted, VotedSample, VOTED_SERVO_CONTROL_TYPE_NAME};
 use std::sync::atomic::Ordering;
 use std::sync::mpsc::Receiver;
 use std::sync::Arc;
@@ -195,6 +199,68 @@ impl Redundancy {
         self.owner_feed_by(heartbeats, topic, type_name)
     }
 
+    /// This controller's writer of the voted topic `topic` (DDS type name `type_name`): its
+    /// own instance, keyed by its id, shared ownership (docs/protocol.md, "Output voting at the
+    /// receiver"). Each write carries the input it answers; it writes only while this
+    /// controller holds a role, never while role-less or FAILED (nor before its role's
+    /// strength is granted is it silent, unlike a [`RoleWriter`]: nobody owns a voted topic,
+    /// the receiver weighs every answer alike). A voting receiver
+    /// ([`Redundancy::vote_feed`], crate::vote_feed) takes a value only when two controllers
+    /// agree on it and alarms a dissenting one.
+    pub fn voted_writer<T>(
+        &self,
+        topic: &str,
+        type_name: &str,
+    ) -> Result<VotedWriter<T>, crate::Error>
+    where
+        T: Clone + serde::Serialize + Send + 'static,
+    {
+        let writer = self.session.voted_writer(topic, type_name)?;
+        Ok(VotedWriter {
+            shared: Arc::clone(&self.shared),
+            writer,
+            republish: Duration::from_millis(self.config.timing.command_deadline_ms / 2),
+            last: None,
+        })
+    }
+
+    /// The voted writer of the servo commands: `dds.voted_command_topic`, type
+    /// `rl::VotedServoControl` (docs/rl.idl).
+    pub fn voted_command_writer(&self) -> Result<VotedWriter<ServoControl>, crate::Error> {
+        let topic = self.session.config().voted_topic_name();
+        self.voted_writer(&topic, VOTED_SERVO_CONTROL_TYPE_NAME)
+    }
+
+    /// The vote on this group's voted topic `topic` (DDS type name `type_name`) with `rule`,
+    /// read best effort: what a controller that aligns its state to the voted value reads
+    /// (a receiver that is no controller opens [`VoteFeed::open`] on its session, reliable).
+    pub fn vote_feed<T, R>(
+        &self,
+        topic: &str,
+        type_name: &str,
+        rule: R,
+        settings: VoteSettings<T>,
+    ) -> Result<VoteFeed<T, R>, crate::Error>
+    where
+        T: Clone + serde::de::DeserializeOwned + Send + 'static,
+        R: VoteRule<T>,
+    {
+        Ok(VoteFeed::following(
+            &self.session,
+            topic,
+            type_name,
+            rule,
+            settings,
+        )?)
+    }
+
+    /// With the `fault-injection` feature: the pan offset the test control asked this
+    /// controller's commands to be wrong by (`skew-commands <offset>` on stdin; 0: none).
+    #[cfg(feature = "fault-injection")]
+    pub fn injected_command_skew(&self) -> i32 {
+        runtime::injected_command_skew()
+    }
+
     /// The owner feed of `topic` whose controllers are those `heartbeats` announce.
     fn owner_feed_by<T>(
         &self,
@@ -340,6 +406,65 @@ impl<T: Clone, K: Keying<T>> RoleWriter<T, K> {
 
     /// The name of the topic it writes.
     pub fn topic_name(&self) -> String {
+        self.writer.topic_name()
+    }
+}
+
+/// This controller's writer of a voted topic (see [`Redundancy::voted_writer`]): each sample is
+/// its own answer to one input, keyed by its id, written only while it holds a role.
+pub struct VotedWriter<T: Clone> {
+    shared: Arc<Shared>,
+    writer: crate::dds::Writer<VotedSample<T>>,
+    /// How long [`VotedWriter::write_when_due`] lets pass without a write: half the command
+    /// deadline.
+    republish: Duration,
+    /// The input last written, and when.
+    last: Option<(u64, Instant)>,
+}
+
+impl<T: Clone + 'static> VotedWriter<T> {
+    /// Writes `value` as this controller's answer to `input` (the application's tag of the
+    /// input it computed from: the tracker's is the camera sample's source timestamp) if this
+    /// controller holds a role now (and is not FAILED); returns whether it was written. Write at least once per
+    /// command deadline (again with the same input while no new input comes), so a receiver
+    /// keeps counting this controller.
+    pub fn write(&mut self, input: u64, value: T) -> Result<bool, DdsError> {
+        let (id, role_held) = {
+            let report = &self.shared.status().report;
+            let failed = report.phase == crate::core::Phase::Failed;
+            (report.id, report.role.is_some() && !failed)
+        };
+        // Back from a stop before the voting loop has noticed, the role is stale: silent.
+        if !role_held || self.shared.loop_clock.stalled() {
+            return Ok(false);
+        }
+        let answer = Voted {
+            from: id,
+            input,
+            value,
+        };
+        self.writer.write(&answer)?;
+        self.last = Some((input, Instant::now()));
+        Ok(true)
+    }
+
+    /// As [`VotedWriter::write`], but only when `input` is not the one last written or half
+    /// a command deadline has passed since the last write: for an application that offers its
+    /// output more often than its inputs change (the tracker re-publishes every
+    /// `command_republish_ms` on the exclusive topic), so that a receiver hears each new answer
+    /// at once and a live controller at least twice per deadline, without the re-publications.
+    pub fn write_when_due(&mut self, input: u64, value: T) -> Result<bool, DdsError> {
+        let due = self
+            .last
+            .is_none_or(|(last, at)| last != input || at.elapsed() >= self.republish);
+        if !due {
+            return Ok(false);
+        }
+        self.write(input, value)
+    }
+
+    /// The name of the topic it writes.
+    pub fn topic_name(&self) -> &str {
         self.writer.topic_name()
     }
 }

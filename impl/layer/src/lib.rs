@@ -20,6 +20,9 @@
 //!   do not enforce it); [`trust`]: which writers an actuator obeys (a controller's, at most
 //!   at the takeover strength); [`owner_feed`]: a topic's owner's samples through both, for an
 //!   actuator and for a standby that continues from where the owner was.
+//! - [`vote_reader`]: output voting at the receiver, pure: every controller's answer to each
+//!   input on a voted topic, a value taken only when two fresh controllers agree, a dissenting
+//!   one alarmed; [`vote_feed`] reads a voted topic over DDS into it.
 //! - [`identity`] (the core's): each controller id bound to the DDS participant it speaks
 //!   from, so a forged heartbeat is not believed and a duplicate id is alarmed.
 //! - [`round_clock`]: the voting loop's clock, moved as the core says to follow the Primary's
@@ -64,6 +67,8 @@ pub mod security;
 pub mod service;
 pub mod stall;
 pub mod trust;
+pub mod vote_feed;
+pub mod vote_reader;
 pub mod wire;
 
 pub use error::Error;

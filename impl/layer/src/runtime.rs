@@ -558,6 +558,13 @@ mod arrival;
 mod commands_in;
 #[cfg(feature = "fault-injection")]
 mod fault_injection;
+
+/// With the `fault-injection` feature: the pan offset the test control asked the application's
+/// commands to be wrong by (`skew-commands <offset>` on stdin; 0: none).
+#[cfg(feature = "fault-injection")]
+pub fn injected_command_skew() -> i32 {
+    fault_injection::command_skew()
+}
 mod heartbeat_delay;
 mod impostors;
 mod output;

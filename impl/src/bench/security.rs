@@ -75,6 +75,7 @@ pub fn compare(
         domain: setup.domain,
         heartbeat_period_ms: setup.heartbeat_period_ms,
         keystores: Some(keystores),
+        laws: setup.laws.clone(),
     };
     eprintln!("rl bench: the same runs with DDS Security");
     let failover =

@@ -9,7 +9,7 @@ use super::{
     aim_topic, elapsed_ms, note_write, run_stage, stage_config, wait, Aim, ChainLine, StageArgs,
     AIM_TYPE, NAV_GROUP,
 };
-use crate::tracker::PanTiltController;
+use crate::tracker::{control_law, ControlLaw};
 use rl_layer::api::Redundancy;
 use rl_layer::core::ControllerId;
 use rl_layer::owner_feed::{Delivery, OwnerFeed};
@@ -45,7 +45,7 @@ pub fn run(args: ActArgs) -> Result<(), crate::Error> {
     let mut stage = ActStage {
         id: args.stage.id,
         json_events: args.stage.json_events,
-        pan_tilt: PanTiltController::new(config.tracker.servo_frequency_hz),
+        pan_tilt: control_law(config.tracker.law, config.tracker.servo_frequency_hz),
         last_frame: None,
         aim_owner: None,
         write_errors: 0,
@@ -59,7 +59,7 @@ pub fn run(args: ActArgs) -> Result<(), crate::Error> {
 struct ActStage {
     id: ControllerId,
     json_events: bool,
-    pan_tilt: PanTiltController,
+    pan_tilt: Box<dyn ControlLaw>,
     /// The frame of the last aim applied: each frame moves the gimbal once.
     last_frame: Option<u64>,
     /// The navigation controller whose aims it applies (`Some(None)`: a writer not matched to

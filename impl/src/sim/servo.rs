@@ -18,6 +18,9 @@
 //! `controller_id` is `null` while the writer's controller is unknown (no heartbeat heard
 //! from its participant yet). At the first owner `from_*` and `gap_ms` are `null`; otherwise
 //! `gap_ms` is the time since the previous owner's last accepted command.
+//!
+//! `--vote` follows the voted command topic instead, as a voting receiver (`vote.rs`: its lines
+//! are `voted_command`, `dissent` and `no_majority`).
 
 use crate::Error;
 use rl_layer::core::types::{ControllerId, Strength};
@@ -31,6 +34,8 @@ use std::io::{self, Write};
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
+
+pub mod vote;
 
 /// The actuator simulator: an exclusive-ownership reader of the command topic.
 #[derive(Clone, Debug, clap::Args)]
@@ -54,6 +59,24 @@ pub struct ServoArgs {
     /// Exit after this many milliseconds (default: run until SIGINT/SIGTERM).
     #[arg(long, value_name = "MS")]
     pub duration_ms: Option<u64>,
+    /// Follow the voted command topic (`dds.voted_command_topic`) instead: a command is taken
+    /// only when two controllers agree on it, a dissenting controller is alarmed, and without
+    /// a majority the servo holds (or goes to `--vote-safe`). With `--json` the lines are
+    /// `voted_command`, `dissent` and `no_majority` (docs/architecture.md).
+    #[arg(long)]
+    pub vote: bool,
+    /// With `--vote`: the largest difference per axis (servo units, 0..=1000) at which two
+    /// controllers' commands agree.
+    #[arg(long, value_name = "N", default_value_t = rl_layer::vote_reader::SERVO_TOLERANCE_DEFAULT, requires = "vote")]
+    pub vote_tolerance: u16,
+    /// With `--vote`: a controller's dissents (camera frames, in a row or not) that raise its
+    /// dissent alarm, and its agreements in a row that clear it.
+    #[arg(long, value_name = "N", default_value_t = rl_layer::vote_reader::DISSENT_AFTER_DEFAULT, requires = "vote")]
+    pub dissent_after: u32,
+    /// With `--vote`: without a majority go to this command (`PAN,TILT`) instead of holding the
+    /// last accepted one.
+    #[arg(long, value_name = "PAN,TILT", value_parser = vote::parse_safe_position, requires = "vote")]
+    pub vote_safe: Option<(u16, u16)>,
 }
 
 /// One line of `--json` output (the documented interface; tools parse it with this type).
@@ -126,6 +149,18 @@ pub fn run(args: ServoArgs) -> Result<(), Error> {
     let session = Session::with_keystore(&config.dds, &config.timing, false, keystore.as_ref())
         .map_err(dds_error)?;
     let output = Output { json: args.json };
+    if args.vote {
+        let options = vote::VoteOptions {
+            tolerance: args.vote_tolerance,
+            dissent_after: args.dissent_after,
+            safe: args.vote_safe.map(|(pan, tilt)| ServoControl {
+                pan,
+                tilt,
+                frequency: config.tracker.servo_frequency_hz,
+            }),
+        };
+        return vote::run(&session, options, &output, &stop, args.duration_ms);
+    }
     let deadline_ms = config.timing.command_deadline_ms;
     if !output.json {
         output.line(&format!(

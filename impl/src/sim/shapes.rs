@@ -9,7 +9,9 @@
 //! the trackers close the loop and keep the ball near the centre, through failovers. With
 //! `--json` it prints one line per frame: where it saw the ball and how far off centre
 //! ([`CameraFrame`]), the tracking error `rl demo` and `rl bench` report. `--open-loop` moves
-//! the YELLOW circle on a fixed path in the frame instead, whatever the gimbal does.
+//! the YELLOW circle on a fixed path in the frame instead, whatever the gimbal does; `--vote`
+//! makes the gimbal follow the vote on the voted command topic (rl_layer::vote_feed: a command
+//! two controllers agree on) instead of the exclusive topic's owner.
 //!
 //! Positions stay inside the shapes application's range, x 0..222 and y 0..252, and every
 //! path is a pure function of time, so runs are reproducible.
@@ -18,7 +20,9 @@ use crate::sim::gimbal::{ball, error_px, Gimbal};
 use crate::Error;
 use rl_layer::dds::Session;
 use rl_layer::owner_feed::OwnerFeed;
-use rl_layer::wire::{ShapeFillKind, ShapeTypeExtended};
+use rl_layer::vote_feed::VoteFeed;
+use rl_layer::vote_reader::{ServoRule, VoteEvent, VoteSettings};
+use rl_layer::wire::{ServoControl, ShapeFillKind, ShapeTypeExtended};
 use std::f64::consts::TAU;
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
@@ -42,6 +46,11 @@ pub struct ShapesArgs {
     /// Move the YELLOW circle on a fixed path in the frame, ignoring the gimbal's commands.
     #[arg(long)]
     pub open_loop: bool,
+    /// The gimbal follows the vote on the voted command topic (a command two controllers
+    /// agree on, rl_layer::vote_reader, holding without a majority) instead of the exclusive
+    /// command topic's owner.
+    #[arg(long, conflicts_with = "open_loop")]
+    pub vote: bool,
     /// Print one JSON line per frame (`{"event":"frame",...}`: where the ball was seen, how far
     /// off centre, where the gimbal points) instead of the start and stop lines.
     #[arg(long)]
@@ -126,19 +135,7 @@ pub fn run(args: ShapesArgs) -> Result<(), Error> {
     let session = Session::with_keystore(&config.dds, &config.timing, false, keystore.as_ref())
         .map_err(Error::dds)?;
     let writer = session.camera_writer().map_err(Error::dds)?;
-    let mut feed = if args.open_loop {
-        None
-    } else {
-        Some(
-            OwnerFeed::open(
-                &session,
-                session.command_reader().map_err(Error::dds)?,
-                config.timing.command_deadline_ms,
-                config.timing.peer_deadline_ms,
-            )
-            .map_err(Error::dds)?,
-        )
-    };
+    let mut feed = GimbalCommands::open(&args, &session)?;
     let mut gimbal = Gimbal::default();
     if !args.json {
         println!(
@@ -147,10 +144,10 @@ pub fn run(args: ShapesArgs) -> Result<(), Error> {
             config.dds.camera_topic,
             config.dds.domain,
             args.rate_hz,
-            if args.open_loop {
-                "YELLOW on a fixed path"
-            } else {
-                "seen from the gimbal (closed loop)"
+            match (args.open_loop, args.vote) {
+                (true, _) => "YELLOW on a fixed path",
+                (false, false) => "seen from the gimbal (closed loop)",
+                (false, true) => "seen from the gimbal following the voted commands (closed loop)",
             }
         );
     }
@@ -202,10 +199,61 @@ pub fn run(args: ShapesArgs) -> Result<(), Error> {
     Ok(())
 }
 
+/// What the gimbal follows.
+enum GimbalCommands {
+    /// The exclusive command topic's owner, as the camera application's pan-tilt does.
+    Owner(OwnerFeed<ServoControl>),
+    /// The vote on the voted command topic (`--vote`).
+    Vote(VoteFeed<ServoControl, ServoRule>),
+}
+
+impl GimbalCommands {
+    /// What `args` ask the gimbal to follow: nothing with `--open-loop`.
+    fn open(args: &ShapesArgs, session: &Session) -> Result<Option<GimbalCommands>, Error> {
+        let deadline_ms = session.timing().command_deadline_ms;
+        Ok(match (args.open_loop, args.vote) {
+            (true, _) => None,
+            (false, false) => Some(GimbalCommands::Owner(
+                OwnerFeed::open(
+                    session,
+                    session.command_reader().map_err(Error::dds)?,
+                    deadline_ms,
+                    session.timing().peer_deadline_ms,
+                )
+                .map_err(Error::dds)?,
+            )),
+            (false, true) => Some(GimbalCommands::Vote(
+                VoteFeed::servo_commands(
+                    session,
+                    ServoRule::default(),
+                    VoteSettings::holding(deadline_ms),
+                )
+                .map_err(Error::dds)?,
+            )),
+        })
+    }
+
+    /// The newest command to move to, if one came since the last call.
+    fn newest(&mut self, session: &Session, t_ms: u64) -> Option<ServoControl> {
+        match self {
+            GimbalCommands::Owner(feed) => feed.take(session, t_ms).map(|(command, _)| command),
+            GimbalCommands::Vote(feed) => {
+                let mut decided = feed.take(t_ms).into_iter().filter_map(|event| match event {
+                    VoteEvent::Accepted { value, .. } => Some(value),
+                    // Holding keeps the last accepted command; a safe one is gone to.
+                    VoteEvent::NoMajority { value, .. } => value,
+                    VoteEvent::Dissent { .. } => None,
+                });
+                decided.next_back()
+            }
+        }
+    }
+}
+
 /// Where the camera sees the YELLOW ball this frame: on its fixed path (open loop), or from
-/// the gimbal after `period` of servo motion toward the owner's newest command.
+/// the gimbal after `period` of servo motion toward the newest command it follows.
 fn see_yellow(
-    feed: &mut Option<OwnerFeed<rl_layer::wire::ServoControl>>,
+    feed: &mut Option<GimbalCommands>,
     gimbal: &mut Gimbal,
     session: &Session,
     t_s: f64,
@@ -215,7 +263,7 @@ fn see_yellow(
     let Some(feed) = feed else {
         return Some(position("YELLOW", t_s));
     };
-    if let Some((command, _)) = feed.take(session, t_ms) {
+    if let Some(command) = feed.newest(session, t_ms) {
         gimbal.command(command.pan, command.tilt);
     }
     gimbal.advance(period.as_secs_f64());

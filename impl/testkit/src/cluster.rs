@@ -3,7 +3,9 @@
 //! and bounded waits that report everything seen when they give up.
 
 use crate::tempdir;
-use rl::procs::{parse_servo_event, Fleet, Line, ServoEvent};
+use rl::procs::{
+    parse_servo_event, parse_voted_servo_event, Fleet, Line, ServoEvent, VotedServoEvent,
+};
 use rl_layer::core::{Phase, Role, Status};
 use rl_layer::event::EventLine;
 use std::collections::BTreeMap;
@@ -19,6 +21,9 @@ pub fn test_config(dir: &std::path::Path, extra: &str) -> PathBuf {
     path
 }
 
+/// The source of the voting servo's lines.
+pub const VOTING_SERVO: &str = "vote";
+
 /// The processes of one test, what they said, and when.
 pub struct Cluster {
     pub fleet: Fleet,
@@ -28,6 +33,9 @@ pub struct Cluster {
     pub status: BTreeMap<u8, Status>,
     /// Every servo event, with when it was read.
     pub servo: Vec<(Instant, ServoEvent)>,
+    /// Every event of the voting servo (`rl servo --vote`, [`Cluster::start_voting_servo`]),
+    /// with when it was read.
+    pub voted: Vec<(Instant, VotedServoEvent)>,
     /// Every controller event line, in arrival order.
     pub events: Vec<(Instant, EventLine)>,
     /// Everything the children printed, for failure reports.
@@ -50,6 +58,7 @@ impl Cluster {
             started: Instant::now(),
             status: BTreeMap::new(),
             servo: Vec::new(),
+            voted: Vec::new(),
             events: Vec::new(),
             transcript: Vec::new(),
             lines_seen: Vec::new(),
@@ -67,6 +76,15 @@ impl Cluster {
         self.fleet
             .start_other("servo", &["servo", "--json"])
             .expect("start rl servo");
+    }
+
+    /// Starts `rl servo --vote --json <extra>`, its lines from source `vote`.
+    pub fn start_voting_servo(&mut self, extra: &[&str]) {
+        let mut args = vec!["servo", "--vote", "--json"];
+        args.extend_from_slice(extra);
+        self.fleet
+            .start_other(VOTING_SERVO, &args)
+            .expect("start rl servo --vote");
     }
 
     /// Takes in every line printed so far (waiting up to `wait`).
@@ -96,6 +114,10 @@ impl Cluster {
         if line.source == "servo" {
             if let Some(event) = parse_servo_event(&line.text) {
                 self.servo.push((line.at, event));
+            }
+        } else if line.source == VOTING_SERVO {
+            if let Some(event) = parse_voted_servo_event(&line.text) {
+                self.voted.push((line.at, event));
             }
         } else if let Some(event) = EventLine::parse(&line.text) {
             if let Some(status) = event.status() {

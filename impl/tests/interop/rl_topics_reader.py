@@ -1,16 +1,18 @@
 #!/usr/bin/env python3
 """Reads RL's own topics with Eclipse Cyclone DDS, through types written from docs/rl.idl.
 
-An independent implementation decoding RL's heartbeats, votes and controller alarms: each
-type below is docs/rl.idl's struct of the same name, member for member (IDL `octet` is
-uint8, `unsigned long` uint32, `unsigned long long` uint64, `boolean` bool, `T x[3]`
-array[T, 3]; every struct @final, which Cyclone's IdlStruct is by default).
+An independent implementation decoding RL's heartbeats, votes, controller alarms and voted
+commands: each type below is docs/rl.idl's struct of the same name, member for member (IDL
+`octet` is uint8, `unsigned short` uint16, `unsigned long` uint32, `unsigned long long`
+uint64, `boolean` bool, `T x[3]` array[T, 3]; every struct @final, which Cyclone's IdlStruct
+is by default).
 
 Contract
     usage: rl_topics_reader.py DOMAIN [--duration SECONDS] [--idl PATH]
 
     Joins DDS domain DOMAIN and reads `rl/controller_heartbeat` (best effort),
-    `rl/vote` and `rl/controller_alarm` (reliable, transient local) for SECONDS (default 10).
+    `rl/vote` and `rl/controller_alarm` (reliable, transient local) and
+    `pixy/servo_control_voted` (best effort) for SECONDS (default 10).
     Prints one JSON object per received sample on stdout, one line each, flushed at once:
         {"topic": "heartbeat", "from_id": 1, "incarnation": 7, "phase": 3, "role": 1,
          "strength": 30, "agreed": [[1, 7], [2, 9], [3, 4]], "vote": [[1, 7], [2, 9], [3, 4]],
@@ -19,6 +21,7 @@ Contract
         {"topic": "vote", "from_id": 1, "incarnation": 7, "vote": [[1, 7], [2, 9], [3, 4]]}
         {"topic": "alarm", "reporter_id": 1, "reporter_incarnation": 7, "about_id": 3,
          "about_incarnation": null, "reason": 1, "raised": true}
+        {"topic": "voted", "from_id": 1, "input": 0, "pan": 500, "tilt": 500, "frequency": 60}
     An assignment is null when its `valid` flag is false. Prints nothing else on stdout.
     Before joining DDS it checks that the types below are PATH's (default: docs/rl.idl of this
     repository), member for member: same names, order, IDL types and keys.
@@ -41,7 +44,7 @@ from cyclonedds.core import DDSException, ReadCondition, SampleState, ViewState,
 from cyclonedds.domain import DomainParticipant
 from cyclonedds.idl import IdlStruct
 from cyclonedds.idl.annotations import key
-from cyclonedds.idl.types import array, uint8, uint32, uint64
+from cyclonedds.idl.types import array, uint8, uint16, uint32, uint64
 from cyclonedds.qos import Policy, Qos
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
@@ -103,8 +106,29 @@ class AlarmSample(IdlStruct, typename="rl::AlarmSample"):
     raised: bool
 
 
+@dataclass
+class ServoControl(IdlStruct, typename="ServoControl"):
+    pan: uint16
+    tilt: uint16
+    frequency: uint16
+
+
+@dataclass
+class VotedServoControl(IdlStruct, typename="rl::VotedServoControl"):
+    from_id: uint8
+    key("from_id")
+    input: uint64
+    value: ServoControl
+
+
 # What each IDL member type is written as here.
-IDL_TYPES = {"octet": uint8, "unsigned long": uint32, "unsigned long long": uint64, "boolean": bool}
+IDL_TYPES = {
+    "octet": uint8,
+    "unsigned short": uint16,
+    "unsigned long": uint32,
+    "unsigned long long": uint64,
+    "boolean": bool,
+}
 CHECKED = None  # filled below, once the classes exist
 MEMBER = re.compile(r"^\s*(@key\s+)?([A-Za-z_][\w ]*?)\s+(\w+)(\[(\d+)\])?\s*;")
 
@@ -150,7 +174,15 @@ def differences_from_idl(path):
     return found
 
 
-CHECKED = [HolderSlot, WireAssignment, HeartbeatSample, VoteSample, AlarmSample]
+CHECKED = [
+    HolderSlot,
+    WireAssignment,
+    HeartbeatSample,
+    VoteSample,
+    AlarmSample,
+    ServoControl,
+    VotedServoControl,
+]
 
 
 def assignment(valid, wire):
@@ -198,9 +230,20 @@ def alarm_line(s):
     }
 
 
+def voted_line(s):
+    return {
+        "topic": "voted",
+        "from_id": s.from_id,
+        "input": s.input,
+        "pan": s.value.pan,
+        "tilt": s.value.tilt,
+        "frequency": s.value.frequency,
+    }
+
+
 def parse_args(argv):
     parser = argparse.ArgumentParser(
-        description="Print RL's heartbeats, votes and controller alarms as JSON lines (Cyclone DDS)."
+        description="Print RL's heartbeats, votes, controller alarms and voted commands as JSON lines (Cyclone DDS)."
     )
     parser.add_argument("domain", type=int, help="DDS domain id (0-232)")
     parser.add_argument("--duration", type=float, default=10.0, help="seconds to read (default 10)")
@@ -241,6 +284,7 @@ def main(argv):
             (DataReader(participant, Topic(participant, "rl/controller_heartbeat", HeartbeatSample), qos=best_effort), heartbeat_line),
             (DataReader(participant, Topic(participant, "rl/vote", VoteSample), qos=durable), vote_line),
             (DataReader(participant, Topic(participant, "rl/controller_alarm", AlarmSample), qos=durable), alarm_line),
+            (DataReader(participant, Topic(participant, "pixy/servo_control_voted", VotedServoControl), qos=best_effort), voted_line),
         ]
     except DDSException as error:
         print(f"rl_topics_reader: cannot start DDS: {error}", file=sys.stderr)

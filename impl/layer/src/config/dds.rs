@@ -24,14 +24,22 @@ pub struct Dds {
     /// The actuator's commands (ServoControl), shared with PixyShapes; exclusive ownership by
     /// role strength.
     pub command_topic: String,
+    /// The voted command topic: every controller with a role publishes its own instance of
+    /// each command (keyed by its id, shared ownership, tagged with the input it answers) for a
+    /// receiver that votes on them (crate::vote_reader), beside the exclusive `command_topic`.
+    /// Empty (the default): `command_topic` with `_voted` appended
+    /// ([`Dds::voted_topic_name`]), so a group that names its own command topic has its own
+    /// voted topic too. Like the command topic it is the application's: a group does not rename
+    /// it.
+    pub voted_command_topic: String,
     /// The camera's circles the tracker reads, shared with PixyShapes.
     pub camera_topic: String,
     /// ROS 2 node namespace; each controller's node is `rl_controller_<id>` in it.
     pub ros_namespace: String,
     /// The redundancy group these controllers form ("": the one group of the domain). Groups
     /// on one domain and one LAN do not hear each other: RL's topics and the ROS 2 namespace
-    /// carry the name ([`Dds::grouped`]), so ids are per group. The command and camera topics
-    /// are the application's and keep their names.
+    /// carry the name ([`Dds::grouped`]), so ids are per group. The command, voted command and
+    /// camera topics are the application's and keep their names.
     pub group: String,
 }
 
@@ -45,6 +53,7 @@ impl Default for Dds {
             network_alarm_topic: "rl/network_alarm".into(),
             network_heartbeat_topic: "rl/network_heartbeat".into(),
             command_topic: "pixy/servo_control".into(),
+            voted_command_topic: String::new(),
             camera_topic: "Circle".into(),
             ros_namespace: "/rl".into(),
             group: String::new(),
@@ -112,16 +121,34 @@ impl Dds {
         valid.then(|| group.to_string())
     }
 
-    /// The topic fields with their dotted paths, in file order.
-    fn topics(&self) -> [(&'static str, &str); 7] {
+    /// The voted command topic's name: `voted_command_topic`, or when it is empty
+    /// `command_topic` with `_voted` appended (`pixy/servo_control_voted` by default).
+    pub fn voted_topic_name(&self) -> String {
+        if self.voted_command_topic.is_empty() {
+            format!("{}_voted", self.command_topic)
+        } else {
+            self.voted_command_topic.clone()
+        }
+    }
+
+    /// The topic fields with their dotted paths, in file order (the voted command topic by
+    /// the name it takes, [`Dds::voted_topic_name`]).
+    fn topics(&self) -> [(&'static str, String); 8] {
         [
-            ("dds.heartbeat_topic", &self.heartbeat_topic),
-            ("dds.vote_topic", &self.vote_topic),
-            ("dds.controller_alarm_topic", &self.controller_alarm_topic),
-            ("dds.network_alarm_topic", &self.network_alarm_topic),
-            ("dds.network_heartbeat_topic", &self.network_heartbeat_topic),
-            ("dds.command_topic", &self.command_topic),
-            ("dds.camera_topic", &self.camera_topic),
+            ("dds.heartbeat_topic", self.heartbeat_topic.clone()),
+            ("dds.vote_topic", self.vote_topic.clone()),
+            (
+                "dds.controller_alarm_topic",
+                self.controller_alarm_topic.clone(),
+            ),
+            ("dds.network_alarm_topic", self.network_alarm_topic.clone()),
+            (
+                "dds.network_heartbeat_topic",
+                self.network_heartbeat_topic.clone(),
+            ),
+            ("dds.command_topic", self.command_topic.clone()),
+            ("dds.voted_command_topic", self.voted_topic_name()),
+            ("dds.camera_topic", self.camera_topic.clone()),
         ]
     }
 
@@ -132,7 +159,7 @@ impl Dds {
             format!("must be at most {DOMAIN_MAX} (higher domains' RTPS ports pass 65535)")
         })?;
         let topics = self.topics();
-        for (field, name) in topics {
+        for (field, name) in &topics {
             check(
                 !name.is_empty() && !name.chars().any(char::is_whitespace),
                 field,

@@ -38,7 +38,7 @@ pub use self::leds::{LedBackend, Leds};
 pub use self::networks::{NetworkName, Networks};
 pub use self::security::Security;
 pub use self::timing::{Timing, DURATION_MS_MAX, HEARTBEAT_PERIOD_MS_RANGE};
-pub use self::tracker::{AperiodicPolicy, Tracker, SERVO_FREQUENCY_HZ_RANGE};
+pub use self::tracker::{AperiodicPolicy, ControlLaw, Tracker, SERVO_FREQUENCY_HZ_RANGE};
 
 use serde::{Deserialize, Serialize};
 use std::path::Path;

@@ -515,6 +515,7 @@ fn a_group_names_rls_topics_and_the_ros_namespace_and_nothing_else() {
     assert_eq!(nav.ros_namespace, "/rl/nav");
     // The application's topics are its own.
     assert_eq!(nav.command_topic, plain.command_topic);
+    assert_eq!(nav.voted_command_topic, plain.voted_command_topic);
     assert_eq!(nav.camera_topic, plain.camera_topic);
     let flat = parse("[dds]\ngroup = \"g2\"\nvote_topic = \"votes\"\nros_namespace = \"/\"")
         .expect("valid")
@@ -558,4 +559,18 @@ fn a_heartbeat_topic_names_its_group_and_nothing_else_does() {
     );
     assert_eq!(flat.group_of_heartbeat_topic("beats").as_deref(), Some(""));
     assert_eq!(flat.group_of_heartbeat_topic("g/h/beats"), None);
+}
+
+#[test]
+fn the_voted_command_topic_follows_the_command_topic_unless_named() {
+    assert_eq!(
+        Config::default().dds.voted_topic_name(),
+        "pixy/servo_control_voted"
+    );
+    let act = parse("[dds]\ngroup = \"act\"\ncommand_topic = \"act/servo\"").unwrap();
+    assert_eq!(act.dds.grouped().voted_topic_name(), "act/servo_voted");
+    let named = parse("[dds]\nvoted_command_topic = \"votes/servo\"").unwrap();
+    assert_eq!(named.dds.voted_topic_name(), "votes/servo");
+    let clash = parse("[dds]\nvoted_command_topic = \"Circle\"").unwrap_err();
+    assert!(clash.to_string().contains("dds.camera_topic"), "{clash}");
 }

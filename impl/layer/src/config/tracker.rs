@@ -18,6 +18,19 @@ pub enum AperiodicPolicy {
     Periodic,
 }
 
+/// Which implementation of the tracker's control law a controller runs. Both compute the
+/// original Pixytracker's law; running different ones on different controllers is the paper's
+/// "diverse implementations": a bug in one is outvoted by the others' outputs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ControlLaw {
+    /// The original's fixed-point integer arithmetic (the default).
+    #[default]
+    Integer,
+    /// A second implementation in binary floating point, written apart from the first.
+    Float,
+}
+
 /// The tracker application.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -28,6 +41,8 @@ pub struct Tracker {
     pub aperiodic: AperiodicPolicy,
     /// Servo frequency written in every command (Hz).
     pub servo_frequency_hz: u16,
+    /// The implementation of the control law this controller runs.
+    pub law: ControlLaw,
 }
 
 impl Default for Tracker {
@@ -36,6 +51,7 @@ impl Default for Tracker {
             color: "YELLOW".into(),
             aperiodic: AperiodicPolicy::Republish,
             servo_frequency_hz: 60,
+            law: ControlLaw::Integer,
         }
     }
 }

@@ -14,6 +14,7 @@
 //! | network alarm reader/writer | `network_alarm_topic` | reporter, network, controller | reliable, transient local, keep last 1 |
 //! | [`StrengthWriter`], command reader | `command_topic` | - | reliable, EXCLUSIVE, strength by role, deadline = command deadline |
 //! | [`StrengthWriter`] of an application's topic | its name | the application's | as the command topic |
+//! | voted reader/writer ([`Session::voted_reader`]) | `voted_command_topic` or an application's | controller id | reliable, SHARED, deadline = command deadline, writer keep last 1 |
 //! | camera reader/writer | `camera_topic` | colour | best effort reader, reliable writer, keep last 1 |
 //!
 //! Readers are non-blocking ([`Reader::take`]) and mio 0.6 `Evented` (use `rustdds::mio`,

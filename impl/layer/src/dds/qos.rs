@@ -145,6 +145,62 @@ fn command_reader_with(timing: &Timing, reliability: Reliability) -> QosPolicies
         .build()
 }
 
+/// Voted command samples a reader keeps per instance (controller id) between takes: the
+/// writer keeps 1, but a reader's instance is shared by every participant writing that id, so
+/// a forger's samples must not push the controller's own out before the trust check sees them
+/// (crate::vote_feed).
+pub const VOTED_READER_HISTORY_DEPTH: i32 = 4;
+
+/// Voted command writer (`pixy/servo_control_voted`, every controller's own instance, keyed
+/// by its id): reliable, SHARED ownership (every instance has one writer; the receiver votes
+/// among them, nobody owns the topic), keep last 1, deadline = the command deadline, and as
+/// the command writer a short liveliness lease and a lifespan of one deadline (a command
+/// written before a stall never goes out late). Reliable rather than best effort: the vote
+/// needs two controllers' answers to the same input, and a lost answer that a repair would
+/// have brought (keep last 1: never a superseded one) leaves the receiver holding when one
+/// other controller is down or dissents.
+pub fn voted_command_writer(timing: &Timing) -> QosPolicies {
+    QosPolicyBuilder::new()
+        .reliability(reliable())
+        .durability(Durability::Volatile)
+        .history(History::KeepLast { depth: 1 })
+        .ownership(Ownership::Shared)
+        .deadline(Deadline(duration_ms(timing.command_deadline_ms)))
+        .liveliness(Liveliness::Automatic {
+            lease_duration: duration_ms(command_liveliness_lease_ms(timing)),
+        })
+        .lifespan(Lifespan {
+            duration: duration_ms(timing.command_deadline_ms),
+        })
+        .build()
+}
+
+/// Voted command reader: reliable, SHARED (matches only shared writers), the same deadline,
+/// keep last [`VOTED_READER_HISTORY_DEPTH`] per instance.
+pub fn voted_command_reader(timing: &Timing) -> QosPolicies {
+    voted_reader_with(timing, reliable())
+}
+
+/// A controller's reader of the voted topic, which it follows to align its own state: as
+/// [`voted_command_reader`] but best effort, as [`command_follower_reader`] is and for the same
+/// reason (only the latest answers matter to it, and a reliable reader acknowledges every
+/// sample of every writer).
+pub fn voted_follower_reader(timing: &Timing) -> QosPolicies {
+    voted_reader_with(timing, Reliability::BestEffort)
+}
+
+fn voted_reader_with(timing: &Timing, reliability: Reliability) -> QosPolicies {
+    QosPolicyBuilder::new()
+        .reliability(reliability)
+        .durability(Durability::Volatile)
+        .history(History::KeepLast {
+            depth: VOTED_READER_HISTORY_DEPTH,
+        })
+        .ownership(Ownership::Shared)
+        .deadline(Deadline(duration_ms(timing.command_deadline_ms)))
+        .build()
+}
+
 /// Camera reader (`Circle`): best effort, keep last 1 per colour. A best-effort reader
 /// matches both best-effort and reliable shapes writers (RTI Shapes Demo, PixyShapes).
 pub fn camera_reader() -> QosPolicies {

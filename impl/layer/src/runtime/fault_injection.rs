@@ -4,15 +4,24 @@
 //! blocks the voting loop once for that long, as a hung loop would (the watchdog test);
 //! `break-dds-event-loop` makes RustDDS's event loop fail its poll and exit, as it does on a
 //! poll error: the process's every participant then sends and receives nothing while writes
-//! still succeed (the watchdog test).
+//! still succeed (the watchdog test); `skew-commands <offset>` asks the application to make
+//! its commands wrong by `offset` on pan (crate::api::Redundancy::injected_command_skew: the
+//! voted output test, a controller that heartbeats on but computes wrong commands).
 
 use std::collections::BTreeSet;
 use std::io::BufRead;
+use std::sync::atomic::{AtomicI32, Ordering};
 use std::sync::Mutex;
 use std::time::Duration;
 
 static DROPPED: Mutex<BTreeSet<u8>> = Mutex::new(BTreeSet::new());
 static STALL: Mutex<Option<Duration>> = Mutex::new(None);
+static COMMAND_SKEW: AtomicI32 = AtomicI32::new(0);
+
+/// The pan offset asked for with `skew-commands`.
+pub fn command_skew() -> i32 {
+    COMMAND_SKEW.load(Ordering::Relaxed)
+}
 
 /// Blocks the calling (voting) thread if a stall was asked for.
 pub fn stall() {
@@ -84,7 +93,7 @@ fn break_dds_event_loops() {
 }
 
 /// Reads `drop-heartbeats-from <id>`, `accept-heartbeats-from <id>`,
-/// `stall-voting-loop <ms>` and `break-dds-event-loop` lines.
+/// `stall-voting-loop <ms>`, `skew-commands <offset>` and `break-dds-event-loop` lines.
 pub fn listen_on_stdin() {
     let _ = std::thread::Builder::new()
         .name("rl-fault-injection".into())
@@ -98,6 +107,16 @@ pub fn listen_on_stdin() {
                 let (Some(verb), Some(id)) = (words.next(), words.next()) else {
                     continue;
                 };
+                if verb == "skew-commands" {
+                    match id.parse::<i32>() {
+                        Ok(offset) => {
+                            COMMAND_SKEW.store(offset, Ordering::Relaxed);
+                            tracing::warn!("fault injection: commands skewed by {offset} on pan");
+                        }
+                        Err(_) => tracing::warn!("fault injection: bad offset in {line:?}"),
+                    }
+                    continue;
+                }
                 if verb == "stall-voting-loop" {
                     match id.parse::<u64>() {
                         Ok(ms) => {

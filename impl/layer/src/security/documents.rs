@@ -8,11 +8,11 @@
 //! forged or altered sample is dropped. The payload is not protected separately
 //! (`data_protection_kind` NONE): RustDDS 0.15.1 fails to decode every sample whose payload
 //! is signed or encrypted (ring "Unspecified"; measured: no formation), and the submessage's
-//! MAC covers the payload anyway. The device topics (command, camera) are the same; left
-//! open for devices without DDS Security (`open_device_topics`), they are not on the secured
-//! participant at all but on a second, unsecured one (crate::dds::Session): RustDDS 0.15.1
-//! sends protected submessages to unauthenticated participants even for unprotected topics
-//! (measured: an unsecured servo received no command). Any other topic (the ROS 2 graph:
+//! MAC covers the payload anyway. The device topics (command, voted command, camera) are the
+//! same; left open for devices without DDS Security (`open_device_topics`), they are not on
+//! the secured participant at all but on a second, unsecured one (crate::dds::Session):
+//! RustDDS 0.15.1 sends protected submessages to unauthenticated participants even for
+//! unprotected topics (measured: an unsecured servo received no command). Any other topic (the ROS 2 graph:
 //! `rt/rosout`, `ros_discovery_info`) is unprotected.
 
 use crate::config::{Dds, DOMAIN_MAX};
@@ -99,7 +99,8 @@ pub fn governance(dds: &Dds) -> String {
     for topic in controller_topics(dds) {
         rules.push_str(&protected_rule(topic));
     }
-    for topic in [&dds.command_topic, &dds.camera_topic] {
+    let voted = dds.voted_topic_name();
+    for topic in [&dds.command_topic, &voted, &dds.camera_topic] {
         rules.push_str(&protected_rule(topic));
     }
     // The first matching rule applies: everything else (the ROS 2 graph) is open.
@@ -137,11 +138,13 @@ fn topic_list(topics: &[&str]) -> String {
 /// (`YYYY-MM-DDTHH:MM:SS`, UTC: the certificate's validity).
 pub fn permissions(dds: &Dds, grantee: &Grantee, not_before: &str, not_after: &str) -> String {
     let dds = &dds.grouped();
+    let voted = dds.voted_topic_name();
     let mut publish: Vec<&str> = ROS_TOPICS.to_vec();
     match grantee {
         Grantee::Controller(_) => {
             publish.extend(controller_topics(dds));
             publish.push(&dds.command_topic);
+            publish.push(&voted);
         }
         Grantee::Application(_) => publish.push(&dds.camera_topic),
     }

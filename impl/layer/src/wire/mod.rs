@@ -13,8 +13,9 @@
 //! infallible, and [`crate::dds`] re-checks every encoded sample with the decoder before
 //! writing, so RL never publishes what it would reject.
 //!
-//! One file per sample family (`camera`, `heartbeat`, `vote`, `alarm`, `network`), with `codes` (the
-//! enumerations' wire codes) and `assignment` (role slots) shared between them.
+//! One file per sample family (`camera`, `heartbeat`, `vote`, `alarm`, `network`, `voted`: one
+//! controller's answer on a voted topic, [`VotedSample`]), with `codes` (the enumerations' wire
+//! codes) and `assignment` (role slots) shared between them.
 //!
 //! The IDL of every topic type, with the codes and the topics' QoS, is `docs/rl.idl`: what a
 //! second implementation compiles against. `impl/tests/interop.rs` reads RL's heartbeats,
@@ -34,6 +35,7 @@ mod proptests;
 #[cfg(test)]
 mod tests;
 mod vote;
+mod voted;
 
 pub use self::alarm::{AlarmSample, ControllerAlarm, ALARM_TYPE_NAME};
 pub use self::assignment::{HolderSlot, WireAssignment};
@@ -53,6 +55,7 @@ pub use self::network::{
 };
 pub use self::plain::Plain;
 pub use self::vote::{VoteSample, VOTE_TYPE_NAME};
+pub use self::voted::{Voted, VotedSample, VotedServoControl, VOTED_SERVO_CONTROL_TYPE_NAME};
 
 use serde::{Deserialize, Serialize};
 

@@ -109,6 +109,10 @@ impl Checked for ServoControl {
     const FIELDS: &'static [&'static str] = &[];
 }
 
+impl Checked for VotedServoControl {
+    const FIELDS: &'static [&'static str] = &["voted.from_id"];
+}
+
 /// Decoded without a check: any value is acceptable.
 impl Checked for ShapeTypeExtended {
     const FIELDS: &'static [&'static str] = &[];
@@ -274,6 +278,12 @@ wire_properties!(
     samples: servo_control()
 );
 wire_properties!(shape, ShapeTypeExtended, values: shape(), samples: shape());
+wire_properties!(
+    voted_servo_control,
+    VotedServoControl,
+    values: voted_servo_control(),
+    samples: voted_servo_control_sample()
+);
 
 proptest! {
     /// The keys of keyed topics arrive on their own (dispose, unregister): reading them never

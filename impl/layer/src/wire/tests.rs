@@ -544,3 +544,4 @@ fn a_long_cause_is_cut_to_fit_the_wire_at_a_character_boundary() {
 }
 
 mod takeover;
+mod voted;

@@ -11,7 +11,7 @@ use crate::core::Heartbeat;
 use crate::wire::{
     AlarmSample, Certainty, ControllerAlarm, HeartbeatSample, HolderSlot, NetworkAlarm,
     NetworkAlarmSample, NetworkHeartbeatSample, ServoControl, ShapeFillKind, ShapeTypeExtended,
-    VoteSample, WireAssignment, WireSample, CAUSE_MAX_BYTES,
+    VoteSample, Voted, VotedServoControl, WireAssignment, WireSample, CAUSE_MAX_BYTES,
 };
 use proptest::collection::vec;
 use proptest::prelude::*;
@@ -273,6 +273,27 @@ pub fn servo_control() -> impl Strategy<Value = ServoControl> {
         tilt,
         frequency,
     })
+}
+
+/// Any valid voted servo command: a controller id, any input tag, any command.
+pub fn voted_servo_control() -> impl Strategy<Value = Voted<ServoControl>> {
+    (controller_id(), any::<u64>(), servo_control()).prop_map(|(from, input, value)| Voted {
+        from,
+        input,
+        value,
+    })
+}
+
+/// Voted servo command samples with any field values (id 0 among them).
+pub fn voted_servo_control_sample() -> BoxedStrategy<VotedServoControl> {
+    let any_fields = (code(), any::<u64>(), servo_control()).prop_map(|(from_id, input, value)| {
+        VotedServoControl {
+            from_id,
+            input,
+            value,
+        }
+    });
+    sample_of(voted_servo_control(), any_fields)
 }
 
 /// Any shape: any colour text, coordinates, fill and angle (every f32 bit pattern, NaNs

@@ -1,0 +1,76 @@
+//! The voted sample: one controller's answer to one input, on a topic where every controller
+//! with a role publishes its own instance (shared ownership) and the receiver votes
+//! (crate::vote_reader; docs/protocol.md, "Output voting at the receiver"). The paper's
+//! hyper-critical extension: "each command sample could be sent from each controller as an
+//! instance where the receiving application selects the best two or three command instances
+//! and alarms any dissenting command source".
+
+use super::codes::controller_id;
+use super::{ServoControl, WireError, WireSample};
+use crate::core::types::ControllerId;
+use rustdds::Keyed;
+use serde::{Deserialize, Serialize};
+
+/// DDS type name of the voted command topic (`dds.voted_command_topic`): a [`VotedSample`] of
+/// [`ServoControl`].
+pub const VOTED_SERVO_CONTROL_TYPE_NAME: &str = "rl::VotedServoControl";
+
+/// One controller's answer to one input, as the receiver votes on it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Voted<T> {
+    /// The controller that computed it.
+    pub from: ControllerId,
+    /// The input it answers, as the application tags it (the tracker: the camera sample's
+    /// DDS source timestamp, `rustdds::Timestamp::to_ticks`); answers are compared only when
+    /// they answer the same input.
+    pub input: u64,
+    /// The application's value (a servo command).
+    pub value: T,
+}
+
+/// The voted sample on the wire, keyed by the controller id, so each controller writes its own
+/// instance. Its DDS type name is given with the topic, as the value type is the
+/// application's ([`VOTED_SERVO_CONTROL_TYPE_NAME`] for servo commands; docs/rl.idl).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct VotedSample<T> {
+    /// The writing controller's id (0 is refused): the key.
+    pub from_id: u8,
+    /// The input it answers ([`Voted::input`]).
+    pub input: u64,
+    /// The application's value, taken as it is: the rule that votes on it decides what
+    /// agrees (crate::vote_reader::VoteRule).
+    pub value: T,
+}
+
+/// The voted sample of servo commands, as docs/rl.idl declares it.
+pub type VotedServoControl = VotedSample<ServoControl>;
+
+impl<T> Keyed for VotedSample<T> {
+    type K = u8;
+    fn key(&self) -> u8 {
+        self.from_id
+    }
+}
+
+impl<T: Clone> WireSample for VotedSample<T> {
+    type Value = Voted<T>;
+    /// Empty: the topic is created with the type name the application gives
+    /// (crate::dds::Session::voted_reader).
+    const TYPE_NAME: &'static str = "";
+
+    fn decode(self) -> Result<Voted<T>, WireError> {
+        Ok(Voted {
+            from: controller_id("voted.from_id", self.from_id)?,
+            input: self.input,
+            value: self.value,
+        })
+    }
+
+    fn encode(voted: &Voted<T>) -> VotedSample<T> {
+        VotedSample {
+            from_id: voted.from,
+            input: voted.input,
+            value: voted.value.clone(),
+        }
+    }
+}

@@ -1,0 +1,265 @@
+//! Output voting at the receiver over real DDS: three `rl controller`s publish every command on
+//! the voted command topic too, `rl servo --vote --json` votes on them, `rl shapes --vote`
+//! moves the gimbal by the vote, and a plain `rl servo --json` reads the exclusive topic beside
+//! them (docs/protocol.md, "Output voting at the receiver").
+//!
+//! Domain 156: every controller agrees, the voted commands are the commanding controller's, no
+//! dissent; the Primary killed, the two left keep the vote going. Domain 158 (`fault-injection`
+//! build): the Primary's commands made wrong by 300 on pan (it keeps heartbeating and keeps its
+//! role): the voting servo names it, never takes its value, and clears the alarm when its
+//! commands are right again.
+
+mod support;
+
+use rl::procs::ServoEvent;
+use rl::procs::VotedServoEvent;
+use rl_layer::core::Role;
+use std::collections::BTreeSet;
+use std::time::{Duration, Instant};
+use support::Cluster;
+
+const FORM: Duration = Duration::from_secs(30);
+/// The voting servo's tolerance per axis (its default).
+const TOLERANCE: u16 = rl_layer::vote_reader::SERVO_TOLERANCE_DEFAULT;
+
+/// Three controllers, the exclusive servo, the voting servo and the camera on the vote.
+fn start(cluster: &mut Cluster) {
+    cluster.start_servo();
+    cluster.start_voting_servo(&[]);
+    cluster
+        .fleet
+        .start_other("camera", &["shapes", "--vote"])
+        .expect("start rl shapes --vote");
+}
+
+fn formed(cluster: &Cluster) -> bool {
+    cluster.steady_with(1, Some(Role::Primary))
+        && cluster.steady_with(2, Some(Role::Secondary))
+        && cluster.steady_with(3, Some(Role::Tertiary))
+}
+
+/// The voted commands read at or after `from`: when, agreeing ids, pan, tilt.
+fn voted_since(cluster: &Cluster, from: Instant) -> Vec<(Instant, Vec<u8>, u16, u16)> {
+    let voted = cluster.voted.iter().filter(|(at, _)| *at >= from);
+    let voted = voted.filter_map(|(at, event)| match event {
+        VotedServoEvent::VotedCommand {
+            agreeing,
+            pan,
+            tilt,
+            ..
+        } => Some((*at, agreeing.clone(), *pan, *tilt)),
+        _ => None,
+    });
+    voted.collect()
+}
+
+/// The exclusive servo's commands from controller `id` read at or after `from`.
+fn commands_of(cluster: &Cluster, id: u8, from: Instant) -> Vec<(Instant, u16, u16)> {
+    let commands = cluster.servo.iter().filter(|(at, _)| *at >= from);
+    let commands = commands.filter_map(|(at, event)| match event {
+        ServoEvent::Command {
+            controller_id: Some(from),
+            pan,
+            tilt,
+            ..
+        } if *from == id => Some((*at, *pan, *tilt)),
+        _ => None,
+    });
+    commands.collect()
+}
+
+/// The command of `commands` read nearest to `at`.
+fn nearest(commands: &[(Instant, u16, u16)], at: Instant) -> (Instant, u16, u16) {
+    let distance = |(when, _, _): &&(Instant, u16, u16)| {
+        if *when > at {
+            when.duration_since(at)
+        } else {
+            at.duration_since(*when)
+        }
+    };
+    *commands
+        .iter()
+        .min_by_key(distance)
+        .expect("commands to compare with")
+}
+
+fn dissents(cluster: &Cluster) -> Vec<&VotedServoEvent> {
+    let events = cluster.voted.iter().map(|(_, event)| event);
+    events
+        .filter(|event| matches!(event, VotedServoEvent::Dissent { .. }))
+        .collect()
+}
+
+fn no_majorities_since(cluster: &Cluster, from: Instant) -> Vec<&VotedServoEvent> {
+    let events = cluster.voted.iter().filter(|(at, _)| *at >= from);
+    let events = events.map(|(_, event)| event);
+    events
+        .filter(|event| matches!(event, VotedServoEvent::NoMajority { .. }))
+        .collect()
+}
+
+/// Formation, then the vote of all three on the camera's frames.
+fn voting_with_all_three(cluster: &mut Cluster) -> Instant {
+    cluster.wait_for("C1, C2, C3 formed", FORM, formed);
+    cluster.wait_for("a command all three agree on", FORM, |c| {
+        voted_since(c, c.started)
+            .iter()
+            .any(|(_, agreeing, _, _)| agreeing == &[1, 2, 3])
+    });
+    Instant::now()
+}
+
+#[test]
+fn the_vote_takes_the_controllers_commands_and_goes_on_with_two() {
+    let mut cluster = Cluster::new("vote", 156, "");
+    for id in 1..=3 {
+        cluster.start(id);
+    }
+    start(&mut cluster);
+    let settled = voting_with_all_three(&mut cluster);
+    cluster.pump(Duration::from_secs(3));
+    let voted = voted_since(&cluster, settled);
+    let positions: BTreeSet<(u16, u16)> = voted.iter().map(|(_, _, p, t)| (*p, *t)).collect();
+    assert!(
+        positions.len() >= 10,
+        "the gimbal tracks: {} voted positions in 3 s",
+        positions.len()
+    );
+    // Every controller computes the same command from the same frame: the voted commands are
+    // the ones the commanding controller (C1) sent on the exclusive topic, each within the
+    // tolerance of C1's command of that moment, nearly all exactly one C1 sent.
+    let commanded = commands_of(&cluster, 1, settled);
+    let sent: BTreeSet<(u16, u16)> = commanded.iter().map(|(_, p, t)| (*p, *t)).collect();
+    for (at, _, pan, tilt) in &voted {
+        let (_, c1_pan, c1_tilt) = nearest(&commanded, *at);
+        assert!(
+            c1_pan.abs_diff(*pan) <= TOLERANCE && c1_tilt.abs_diff(*tilt) <= TOLERANCE,
+            "voted {pan},{tilt} against C1's {c1_pan},{c1_tilt}"
+        );
+    }
+    let exact = positions.iter().filter(|p| sent.contains(p)).count();
+    assert!(
+        exact * 10 >= positions.len() * 9,
+        "{exact} of {} voted positions are C1's own",
+        positions.len()
+    );
+    // Each frame is accepted when two agree and again when the third joins them.
+    let all_three = voted.iter().filter(|(_, a, _, _)| a == &[1, 2, 3]).count();
+    assert!(
+        all_three * 5 >= voted.len() * 2,
+        "the third joins on nearly every frame: {all_three} of {} acceptances",
+        voted.len()
+    );
+    assert_eq!(dissents(&cluster), Vec::<&VotedServoEvent>::new());
+
+    let killed = Instant::now();
+    cluster.fleet.kill(1).expect("kill C1");
+    cluster.pump(Duration::from_secs(3));
+    let after: Vec<_> = voted_since(&cluster, killed + Duration::from_millis(500));
+    assert!(
+        after.len() >= 30,
+        "the vote goes on with two: {} voted commands",
+        after.len()
+    );
+    assert!(
+        after.iter().all(|(_, agreeing, _, _)| agreeing == &[2, 3]),
+        "C2 and C3 agree: {:?}",
+        after.iter().map(|(_, a, _, _)| a).collect::<BTreeSet<_>>()
+    );
+    let gaps = after.windows(2).map(|w| w[1].0.duration_since(w[0].0));
+    let longest = gaps.max().unwrap_or_default();
+    assert!(
+        longest < Duration::from_millis(400),
+        "a voted command at least every few camera frames: {longest:?}"
+    );
+    assert_eq!(
+        no_majorities_since(&cluster, killed),
+        Vec::<&VotedServoEvent>::new()
+    );
+    assert_eq!(dissents(&cluster), Vec::<&VotedServoEvent>::new());
+}
+
+/// Writes one fault-injection line to controller 1.
+#[cfg(feature = "fault-injection")]
+fn inject(stdin: &mut std::process::ChildStdin, line: &str) {
+    use std::io::Write;
+    writeln!(stdin, "{line}").expect("write to C1's fault-injection control");
+    stdin.flush().expect("flush C1's fault-injection control");
+}
+
+#[cfg(feature = "fault-injection")]
+#[test]
+fn a_primary_with_wrong_commands_is_named_and_never_followed_by_the_vote() {
+    const SKEW: u16 = 300;
+    let mut cluster = Cluster::new("vote-dissent", 158, "");
+    let (_, mut c1) = cluster
+        .fleet
+        .start_controller_piped(1, "C1", &["--json-events"])
+        .expect("start C1");
+    for id in 2..=3 {
+        cluster.start(id);
+    }
+    start(&mut cluster);
+    voting_with_all_three(&mut cluster);
+    inject(&mut c1, &format!("skew-commands {SKEW}"));
+    let skewed = Instant::now();
+    cluster.wait_for("dissent raised about C1", Duration::from_secs(10), |c| {
+        dissents(c).iter().any(|e| {
+            matches!(
+                e,
+                VotedServoEvent::Dissent {
+                    controller_id: 1,
+                    raised: true,
+                    ..
+                }
+            )
+        })
+    });
+    let raised = Instant::now();
+    cluster.pump(Duration::from_secs(3));
+    // C1 keeps its role: the role vote alone never compares commands.
+    assert!(
+        cluster.steady_with(1, Some(Role::Primary)),
+        "{}",
+        cluster.describe()
+    );
+    let voted = voted_since(&cluster, raised);
+    assert!(voted.len() >= 30, "voted commands go on: {}", voted.len());
+    assert!(
+        voted.iter().all(|(_, agreeing, _, _)| agreeing == &[2, 3]),
+        "C1 is never among the agreeing, and C2 and C3 always are: {:?}",
+        voted.iter().map(|(_, a, _, _)| a).collect::<BTreeSet<_>>()
+    );
+    // C1's wrong commands, as the exclusive servo follows them: the vote never took one.
+    let wrong = commands_of(&cluster, 1, raised);
+    assert!(!wrong.is_empty(), "the exclusive servo follows C1");
+    for (at, _, pan, tilt) in &voted {
+        let (_, c1_pan, c1_tilt) = nearest(&wrong, *at);
+        assert!(
+            c1_pan.abs_diff(*pan) > SKEW / 2,
+            "voted pan {pan} tilt {tilt} is C1's wrong pan {c1_pan} tilt {c1_tilt}"
+        );
+    }
+    assert_eq!(
+        no_majorities_since(&cluster, skewed),
+        Vec::<&VotedServoEvent>::new()
+    );
+    inject(&mut c1, "skew-commands 0");
+    cluster.wait_for("dissent about C1 cleared", Duration::from_secs(10), |c| {
+        dissents(c).iter().any(|e| {
+            matches!(
+                e,
+                VotedServoEvent::Dissent {
+                    controller_id: 1,
+                    raised: false,
+                    ..
+                }
+            )
+        })
+    });
+    cluster.wait_for("C1 agrees again", Duration::from_secs(5), |c| {
+        voted_since(c, c.started)
+            .last()
+            .is_some_and(|(_, agreeing, _, _)| agreeing == &[1, 2, 3])
+    });
+}
