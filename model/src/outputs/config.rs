@@ -25,7 +25,7 @@ use serde::{Deserialize, Serialize};
 pub enum CrossCheck {
     /// N odd-one-out inputs in one life, in a row or not: the rule the properties hold for.
     Cumulative,
-    /// N odd-one-out inputs in a row (issue 25's first wording): an input at which it is not
+    /// N odd-one-out inputs in a row (the rule as first worded): an input at which it is not
     /// the odd one out starts the count again. A controller wrong at every other input is
     /// never caught (finding O2 in docs/findings.md).
     Consecutive,

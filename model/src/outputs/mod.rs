@@ -1,4 +1,4 @@
-//! # Output voting: a second model beside the role model (issue 25)
+//! # Output voting: a second model beside the role model
 //!
 //! The role model ([`crate::protocol`]) votes on *roles*: a Primary that keeps heartbeating
 //! but computes wrong commands drives an exclusive-ownership actuator for as long as it lives.
