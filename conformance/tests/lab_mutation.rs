@@ -20,6 +20,13 @@
 //! reverted). Certain at every round phase, unlike a seed of `flap-primary`, whose outages of
 //! 0.5 s and more may outlast the peers' decision.
 //!
+//! The third is the voting reader's rule: `wrong-primary` with `rl servo --vote` taking a
+//! value from one source (`--vote-mutation accept-single-source`). The first answer to a
+//! camera frame decides it, and the wrong Primary's answers come first at some frames, so the
+//! voting reader takes wrong commands, which it never does with the rule whole (every run of
+//! `wrong-primary` measured 0); nothing else in the run depends on that reader, so every other
+//! judge passes and the failure is the mutation's, in one run.
+//!
 //! The lab runs need root (namespaces, links, nftables) and nft and libfaketime installed, as
 //! `lab` itself does: they are ignored by default and CI runs them (as root, the tools
 //! installed) with the other ignored tests. Each run takes about 30 s; the `rl` with the
@@ -40,6 +47,8 @@ const SCENARIO: &str = "kill-primary";
 const MUTATION: &str = "failback";
 const UNPLUG_SCENARIO: &str = "unplug-primary";
 const UNPLUG_MUTATION: &str = "stay-when-unplugged";
+const VOTE_SCENARIO: &str = "wrong-primary";
+const VOTE_MUTATION: &str = "accept-single-source";
 
 fn out_dir() -> PathBuf {
     Path::new(env!("CARGO_TARGET_TMPDIR")).join("lab-mutation")
@@ -52,6 +61,17 @@ fn lab_run(mutation: Option<&str>) -> (Output, Value) {
 
 /// `lab run SCENARIO --seed SEED --rl <mutation build> [--mutation NAME]`.
 fn lab_run_of(scenario: &str, seed: &str, mutation: Option<&str>) -> (Output, Value) {
+    let mut result_dir = format!("{scenario}-seed{seed}");
+    let mut args = Vec::new();
+    if let Some(name) = mutation {
+        args.extend(["--mutation", name]);
+        result_dir.push_str(&format!("-mutation-{name}"));
+    }
+    lab_run_with(scenario, seed, &args, &result_dir)
+}
+
+/// `lab run SCENARIO --seed SEED --rl <mutation build> ARGS`, whose output is `result_dir`.
+fn lab_run_with(scenario: &str, seed: &str, args: &[&str], result_dir: &str) -> (Output, Value) {
     let _one = ONE_RUN_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let rl = fault_injection_rl().unwrap_or_else(|e| panic!("{e}"));
     let mut command = Command::new(env!("CARGO_BIN_EXE_lab"));
@@ -59,15 +79,11 @@ fn lab_run_of(scenario: &str, seed: &str, mutation: Option<&str>) -> (Output, Va
         .args(["run", scenario, "--seed", seed, "--rl"])
         .arg(&rl)
         .arg("--out")
-        .arg(out_dir());
-    let mut result_dir = format!("{scenario}-seed{seed}");
-    if let Some(name) = mutation {
-        command.args(["--mutation", name]);
-        result_dir.push_str(&format!("-mutation-{name}"));
-    }
+        .arg(out_dir())
+        .args(args);
     let output = command.output().expect("lab starts");
     println!(
-        "lab run {scenario} --seed {seed} (mutation {mutation:?}): {}\n{}{}",
+        "lab run {scenario} --seed {seed} {args:?}: {}\n{}{}",
         output.status,
         String::from_utf8_lossy(&output.stdout),
         String::from_utf8_lossy(&output.stderr)
@@ -195,6 +211,33 @@ fn the_same_build_without_a_mutation_passes_unplug_primary() {
         servo_changes(&result),
         vec![1],
         "one owner change for the pulled cables"
+    );
+}
+
+#[test]
+#[ignore = "needs root, nft and faketime (the fault lab's namespaces and firewall rules); CI runs it"]
+fn a_voting_reader_that_takes_one_source_fails_wrong_primary_on_wrong_commands_accepted() {
+    let (output, result) = lab_run_with(
+        VOTE_SCENARIO,
+        "1",
+        &["--vote-mutation", VOTE_MUTATION],
+        &format!("{VOTE_SCENARIO}-seed1-mutation-vote-{VOTE_MUTATION}"),
+    );
+    assert_eq!(output.status.code(), Some(1), "lab's exit status");
+    assert_eq!(result["mutation"], format!("vote-{VOTE_MUTATION}"));
+    let failures = failures(&result);
+    let lines = first_lines(&failures);
+    assert!(
+        lines
+            .iter()
+            .any(|f| f.starts_with("the voting reader accepted") && f.contains("wrong commands")),
+        "the voting reader is caught taking the wrong Primary's commands: {lines:#?}"
+    );
+    // Everything else held: the controllers, the exclusive readers and the model are
+    // untouched by the voting reader's rule, so the failure is the mutation's.
+    assert!(
+        lines.iter().all(|f| f.starts_with("the voting reader")),
+        "only the voting reader fails: {lines:#?}"
     );
 }
 

@@ -96,6 +96,7 @@ fn sample_run(picture: &Path) -> (Outcome, Observations, Vec<Life>) {
         validation: Ok(conformance::validate::Accepted::default()),
         network: None,
         network_alarm_changes: Vec::new(),
+        output: None,
         failures: Vec::new(),
         dir: PathBuf::new(),
         picture: picture.to_path_buf(),

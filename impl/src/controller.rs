@@ -4,9 +4,11 @@
 //! which lets the commands out only while the controller holds a role, at its role's strength.
 //! Each command also goes out on the voted command topic as this controller's own answer,
 //! tagged with the camera frame it answers, for a receiver that votes (`rl servo --vote`,
-//! rl_layer::vote_reader). It also reads the commanding controller's commands and, while
-//! another controller commands, takes the gimbal's position from them, so that a takeover is
-//! bumpless; while the voted topic has a majority it takes it from the voted commands instead.
+//! rl_layer::vote_reader). It takes the gimbal's position from the voted commands, so that a
+//! takeover is bumpless; until the vote has accepted one in this life (or without a voted
+//! topic), from the commanding controller's commands.
+//! It cross-checks its own answers with the two others' (rl_layer::cross_check): the odd one
+//! out of three at `tracker.odd_limit` frames of one life reports a local fault and leaves.
 //!
 //! Under systemd it reports readiness once DDS is joined and the voting thread runs, and its
 //! loop pings the watchdog while the voting loop also goes round (rl_layer::service).
@@ -16,6 +18,8 @@ use crate::tracker::{control_law, ControlLaw};
 use rl_layer::api::{Options, Redundancy, RoleWriter, VoteFeed, VotedWriter};
 use rl_layer::config::Config;
 use rl_layer::core::types::ControllerId;
+use rl_layer::core::Incarnation;
+use rl_layer::cross_check::{CrossCheck, Judgement};
 use rl_layer::network_monitor::{MonitorOptions, NetworkMonitor};
 use rl_layer::owner_feed::OwnerFeed;
 use rl_layer::service::{LoopProgress, Notifier};
@@ -141,6 +145,14 @@ fn track(
         commands: rl.command_writer()?,
         voted: without_voting_if_refused("writer", rl.voted_command_writer()),
         write_errors: 0,
+        cross_check: CrossCheck::new(
+            rl.status().report.id,
+            ServoRule::default(),
+            config.tracker.odd_limit,
+        ),
+        life: rl.status().report.incarnation,
+        left: false,
+        wrong: WrongOutput::default(),
     };
     let poll = Poll::new().map_err(|e| crate::Error::io("creating the event poll", e))?;
     poll.register(&camera, CAMERA, Ready::readable(), PollOpt::edge())
@@ -165,7 +177,16 @@ fn track(
             return Ok(());
         }
         let now_ms = u64::try_from(started.elapsed().as_millis()).unwrap_or(u64::MAX);
-        alignment.align(rl, pan_tilt.as_mut(), frame, now_ms);
+        if outputs.follow_life(rl) {
+            alignment.voted_in_life = false;
+        }
+        alignment.align(
+            rl,
+            pan_tilt.as_mut(),
+            frame,
+            now_ms,
+            &mut outputs.cross_check,
+        );
         let mut fresh = None;
         for shape in camera.take() {
             if shape.value.color == config.tracker.color {
@@ -187,15 +208,21 @@ fn track(
     }
 }
 
-/// Bumpless transfer: where the tracker takes the gimbal's position from. While the voted
-/// topic has a majority, from its accepted commands (every controller, the commanding one
-/// too), so that a controller computing wrong commands does not pull the others' state after
-/// it; otherwise, while another controller commands, from the owner's commands
-/// (crate::tracker, `align`).
+/// Bumpless transfer: where the tracker takes the gimbal's position from. From the voted
+/// topic's accepted commands (every controller, the commanding one too), so that a controller
+/// computing wrong commands does not pull the others' state after it; until the vote has
+/// accepted a command in this life (formation, a new life, no voted topic), from the owner's
+/// commands while another controller commands (crate::tracker, `align`). Once the vote has
+/// worked, never from the owner again in this life: without a majority (two wrong that
+/// disagree) the owner may be a wrong Primary, and a correct controller aligned to it would
+/// agree with it at the next frame, making a wrong majority and the other wrong one the odd
+/// one out. It keeps its own state then, which is the group's while all compute alike.
 struct Alignment {
     owner_commands: OwnerFeed<ServoControl>,
     own_participant: rl_layer::dds::ParticipantKey,
     votes: Option<VoteFeed<ServoControl, ServoRule>>,
+    /// The vote accepted a command in this life.
+    voted_in_life: bool,
 }
 
 impl Alignment {
@@ -220,27 +247,46 @@ impl Alignment {
             owner_commands,
             own_participant: rl.session().participant_key(),
             votes,
+            voted_in_life: false,
         })
     }
 
     /// Aligns `pan_tilt` to what arrived: a voted command for the frame it last answered
-    /// (`frame`; one for an older frame would set it back), else the owner's command.
-    fn align(&mut self, rl: &Redundancy, pan_tilt: &mut dyn ControlLaw, frame: u64, now_ms: u64) {
+    /// (`frame`; one for an older frame would set it back), else, until the vote has worked in
+    /// this life, the owner's command. The answers that arrived go to `cross_check`, and so
+    /// does the alignment.
+    fn align(
+        &mut self,
+        rl: &Redundancy,
+        pan_tilt: &mut dyn ControlLaw,
+        frame: u64,
+        now_ms: u64,
+        cross_check: &mut CrossCheck<ServoControl, ServoRule>,
+    ) {
         let owner = self.owner_commands.take(rl.session(), now_ms);
-        let (mut voted, mut majority) = (None, false);
+        let mut voted = None;
         if let Some(votes) = self.votes.as_mut() {
-            for event in votes.take(now_ms) {
+            let events = votes.take_seeing(now_ms, |answer| {
+                cross_check.peer_answer(answer.from, answer.input, answer.value);
+            });
+            for event in events {
                 if let VoteEvent::Accepted { input, value, .. } = event {
-                    voted = (input >= frame).then_some(value).or(voted);
+                    voted = (input >= frame).then_some((input, value)).or(voted);
                 }
             }
-            majority = votes.votes().accepted().is_some() && !votes.votes().without_majority();
         }
         match (voted, owner) {
-            (Some(command), _) => pan_tilt.align(command.pan, command.tilt),
+            (Some((input, command)), _) => {
+                pan_tilt.align(command.pan, command.tilt);
+                cross_check.aligned(input);
+                self.voted_in_life = true;
+            }
             (None, Some((command, writer)))
-                if !majority && rl_layer::dds::participant_key(writer) != self.own_participant =>
+                if !self.voted_in_life
+                    && rl_layer::dds::participant_key(writer) != self.own_participant =>
             {
+                // Not in step for the cross-check: the exclusive topic does not say which
+                // frame the owner's command answers, so it may be a frame behind.
                 pan_tilt.align(command.pan, command.tilt);
             }
             _ => {}
@@ -249,26 +295,56 @@ impl Alignment {
 }
 
 /// The command writers: the exclusive command topic and this controller's instance of the
-/// voted one.
+/// voted one, behind the cross-check of its answers.
 struct Outputs {
     commands: RoleWriter<ServoControl>,
     voted: Option<VotedWriter<ServoControl>>,
     write_errors: u64,
+    cross_check: CrossCheck<ServoControl, ServoRule>,
+    /// The life the cross-check counts in.
+    life: Incarnation,
+    /// The cross-check found it the odd one out: nothing more is written in this life.
+    left: bool,
+    /// The wrong output the fault-injection control asked for, as it goes.
+    wrong: WrongOutput,
 }
 
 impl Outputs {
+    /// A new life (the layer started it again: resumed, detached, deposed) counts its odd
+    /// inputs from zero; returns whether one began.
+    fn follow_life(&mut self, rl: &Redundancy) -> bool {
+        let life = rl.status().report.incarnation;
+        if life == self.life {
+            return false;
+        }
+        self.life = life;
+        self.cross_check.new_life();
+        self.left = false;
+        true
+    }
+
     /// Writes `command`, the answer to camera frame `frame`, on both topics (each only while
     /// this controller may command; on the voted one each new frame's answer, and the same
-    /// again only every half deadline); failures are counted and logged sparingly.
+    /// again only every half deadline) unless the cross-check says leave; failures are
+    /// counted and logged sparingly.
     fn write(&mut self, rl: &Redundancy, frame: u64, command: crate::tracker::ServoCommand) {
-        let sample = injected_fault(
+        let sample = self.wrong.apply(
             rl,
+            frame,
             ServoControl {
                 pan: command.pan,
                 tilt: command.tilt,
                 frequency: command.frequency,
             },
         );
+        if self.left {
+            return;
+        }
+        if let Judgement::Leave(reason) = self.cross_check.answer(frame, sample) {
+            self.left = true;
+            rl.report_odd_one_out(reason);
+            return;
+        }
         let exclusive = self.commands.write(sample);
         let voted = match self.voted.as_mut() {
             Some(voted) => voted.write_when_due(frame, sample),
@@ -298,20 +374,70 @@ fn without_voting_if_refused<T>(what: &str, made: Result<T, rl_layer::Error>) ->
     .ok()
 }
 
-/// `sample` wrong on pan by the offset the fault-injection control asked for
-/// (`skew-commands`: a controller that heartbeats on but computes wrong commands), within the
-/// servo's range.
+/// The wrong output the fault-injection control asks for (`wrong-commands` on stdin), applied
+/// to what the tracker computed, as a bug in it would be: the offset on pan, the command it
+/// froze at, or random values chosen per frame. A fault asked for takes effect at the next
+/// camera frame, as a bug in the computation would: a frame's re-published command stays
+/// what it was.
+#[derive(Default)]
+struct WrongOutput {
+    #[cfg(feature = "fault-injection")]
+    frame_fault: Option<(u64, rl_layer::runtime::OutputFault)>,
+    #[cfg(feature = "fault-injection")]
+    frozen_at: Option<ServoControl>,
+}
+
 #[cfg(feature = "fault-injection")]
-fn injected_fault(rl: &Redundancy, sample: ServoControl) -> ServoControl {
-    let pan = (i32::from(sample.pan) + rl.injected_command_skew()).clamp(0, 1000);
-    ServoControl {
-        pan: u16::try_from(pan).unwrap_or(sample.pan),
-        ..sample
+impl WrongOutput {
+    fn apply(&mut self, rl: &Redundancy, frame: u64, sample: ServoControl) -> ServoControl {
+        use rl_layer::runtime::OutputFault;
+        let fault = match self.frame_fault {
+            Some((at, fault)) if at == frame => fault,
+            _ => {
+                let fault = rl.injected_output_fault();
+                self.frame_fault = Some((frame, fault));
+                fault
+            }
+        };
+        if fault != OutputFault::Frozen {
+            self.frozen_at = None;
+        }
+        match fault {
+            OutputFault::None => sample,
+            OutputFault::Offset(offset) => {
+                let pan = (i32::from(sample.pan) + offset).clamp(0, 1000);
+                ServoControl {
+                    pan: u16::try_from(pan).unwrap_or(sample.pan),
+                    ..sample
+                }
+            }
+            OutputFault::Frozen => *self.frozen_at.get_or_insert(sample),
+            OutputFault::Random => {
+                // The same frame always gets the same values, so a re-publication repeats it.
+                let bits = splitmix64(frame ^ u64::from(rl.status().report.id));
+                ServoControl {
+                    pan: (bits % 1001) as u16,
+                    tilt: ((bits >> 32) % 1001) as u16,
+                    ..sample
+                }
+            }
+        }
     }
 }
 
 /// Without the fault-injection control: `sample` as it is.
 #[cfg(not(feature = "fault-injection"))]
-fn injected_fault(_: &Redundancy, sample: ServoControl) -> ServoControl {
-    sample
+impl WrongOutput {
+    fn apply(&mut self, _: &Redundancy, _: u64, sample: ServoControl) -> ServoControl {
+        sample
+    }
+}
+
+/// SplitMix64's output function: well-mixed bits from a counter.
+#[cfg(feature = "fault-injection")]
+fn splitmix64(x: u64) -> u64 {
+    let mut z = x.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
 }

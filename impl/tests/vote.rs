@@ -5,9 +5,12 @@
 //!
 //! Domain 156: every controller agrees, the voted commands are the commanding controller's, no
 //! dissent; the Primary killed, the two left keep the vote going. Domain 158 (`fault-injection`
-//! build): the Primary's commands made wrong by 300 on pan (it keeps heartbeating and keeps its
-//! role): the voting servo names it, never takes its value, and clears the alarm when its
-//! commands are right again.
+//! build): the Primary's commands made wrong by 300 on pan, with the controllers' cross-check
+//! only counting (`tracker.odd_limit = 0`: it keeps heartbeating and keeps its role): the
+//! voting servo names it, never takes its value, and clears the alarm when its commands are
+//! right again. Domain 159 (`mutation` build too): the same with the voting servo's rule broken
+//! (`RL_VOTE_MUTATION=accept-single-source`), and the judge of the test before sees C1's wrong
+//! values taken. The cross-check itself, leaving, is `cross_check.rs`.
 
 mod support;
 
@@ -179,6 +182,55 @@ fn the_vote_takes_the_controllers_commands_and_goes_on_with_two() {
     assert_eq!(dissents(&cluster), Vec::<&VotedServoEvent>::new());
 }
 
+/// The controllers' cross-check only counts: the receiver alone stands between a wrong
+/// Primary and a voting actuator.
+#[cfg(feature = "fault-injection")]
+const RECEIVER_ALONE: &str = "[tracker]\nodd_limit = 0";
+
+/// How wrong C1's commands are made on pan.
+#[cfg(feature = "fault-injection")]
+const SKEW: u16 = 300;
+
+/// C1 with its fault-injection control piped, C2 and C3, the servos and the camera; the voting
+/// servo with `RL_VOTE_MUTATION` set to `vote_mutation`, if any.
+#[cfg(feature = "fault-injection")]
+fn start_with_c1_piped(
+    cluster: &mut Cluster,
+    vote_mutation: Option<&str>,
+) -> std::process::ChildStdin {
+    let (_, c1) = cluster
+        .fleet
+        .start_controller_piped(1, "C1", &["--json-events"])
+        .expect("start C1");
+    for id in 2..=3 {
+        cluster.start(id);
+    }
+    cluster.start_servo();
+    cluster
+        .fleet
+        .start_other("camera", &["shapes", "--vote"])
+        .expect("start rl shapes --vote");
+    if let Some(mutation) = vote_mutation {
+        cluster.fleet.env("RL_VOTE_MUTATION", mutation);
+    }
+    cluster.start_voting_servo(&[]);
+    c1
+}
+
+/// The voted commands since `from` whose pan is C1's wrong pan (within half the skew of C1's
+/// command nearest in time at the exclusive servo), as (pan, tilt, C1's pan).
+#[cfg(feature = "fault-injection")]
+fn wrong_values_voted(cluster: &Cluster, from: Instant) -> Vec<(u16, u16, u16)> {
+    let wrong = commands_of(cluster, 1, from);
+    assert!(!wrong.is_empty(), "the exclusive servo follows C1");
+    let voted = voted_since(cluster, from).into_iter();
+    let taken = voted.filter_map(|(at, _, pan, tilt)| {
+        let (_, c1_pan, _) = nearest(&wrong, at);
+        (c1_pan.abs_diff(pan) <= SKEW / 2).then_some((pan, tilt, c1_pan))
+    });
+    taken.collect()
+}
+
 /// Writes one fault-injection line to controller 1.
 #[cfg(feature = "fault-injection")]
 fn inject(stdin: &mut std::process::ChildStdin, line: &str) {
@@ -190,16 +242,8 @@ fn inject(stdin: &mut std::process::ChildStdin, line: &str) {
 #[cfg(feature = "fault-injection")]
 #[test]
 fn a_primary_with_wrong_commands_is_named_and_never_followed_by_the_vote() {
-    const SKEW: u16 = 300;
-    let mut cluster = Cluster::new("vote-dissent", 158, "");
-    let (_, mut c1) = cluster
-        .fleet
-        .start_controller_piped(1, "C1", &["--json-events"])
-        .expect("start C1");
-    for id in 2..=3 {
-        cluster.start(id);
-    }
-    start(&mut cluster);
+    let mut cluster = Cluster::new("vote-dissent", 158, RECEIVER_ALONE);
+    let mut c1 = start_with_c1_piped(&mut cluster, None);
     voting_with_all_three(&mut cluster);
     inject(&mut c1, &format!("skew-commands {SKEW}"));
     let skewed = Instant::now();
@@ -231,15 +275,7 @@ fn a_primary_with_wrong_commands_is_named_and_never_followed_by_the_vote() {
         voted.iter().map(|(_, a, _, _)| a).collect::<BTreeSet<_>>()
     );
     // C1's wrong commands, as the exclusive servo follows them: the vote never took one.
-    let wrong = commands_of(&cluster, 1, raised);
-    assert!(!wrong.is_empty(), "the exclusive servo follows C1");
-    for (at, _, pan, tilt) in &voted {
-        let (_, c1_pan, c1_tilt) = nearest(&wrong, *at);
-        assert!(
-            c1_pan.abs_diff(*pan) > SKEW / 2,
-            "voted pan {pan} tilt {tilt} is C1's wrong pan {c1_pan} tilt {c1_tilt}"
-        );
-    }
+    assert_eq!(wrong_values_voted(&cluster, raised), Vec::new());
     assert_eq!(
         no_majorities_since(&cluster, skewed),
         Vec::<&VotedServoEvent>::new()
@@ -262,4 +298,28 @@ fn a_primary_with_wrong_commands_is_named_and_never_followed_by_the_vote() {
             .last()
             .is_some_and(|(_, agreeing, _, _)| agreeing == &[1, 2, 3])
     });
+}
+
+/// The judge above can fail: with the voting servo's rule broken (one source suffices), C1's
+/// wrong values are taken whenever its answer comes first.
+#[cfg(all(feature = "fault-injection", feature = "mutation"))]
+#[test]
+fn a_vote_that_accepts_one_source_takes_the_wrong_primarys_values() {
+    let mut cluster = Cluster::new("vote-mutated", 159, RECEIVER_ALONE);
+    let mut c1 = start_with_c1_piped(&mut cluster, Some("accept-single-source"));
+    voting_with_all_three(&mut cluster);
+    assert!(
+        cluster
+            .lines_from("vote!")
+            .any(|line| line.contains("RL_VOTE_MUTATION")),
+        "the voting servo announces its broken rule"
+    );
+    inject(&mut c1, &format!("skew-commands {SKEW}"));
+    let skewed = Instant::now();
+    cluster.pump(Duration::from_secs(4));
+    let taken = wrong_values_voted(&cluster, skewed + Duration::from_millis(500));
+    assert!(
+        taken.len() >= 3,
+        "C1's wrong values taken by the broken vote: {taken:?}"
+    );
 }

@@ -16,10 +16,14 @@
 //! - [`explore`]: the front of stateright's explorer UI that names the initial states;
 //! - [`outputs`]: a second model beside the role model, sharing its vocabulary: output
 //!   voting, where a controller's commands can go wrong while its heartbeats stay correct
-//!   (`check --outputs`, docs/protocol.md "Output voting").
+//!   (`check --outputs`, docs/protocol.md "Output voting");
+//! - [`architectures`]: the paper's two other architectures, the simple duplex and the
+//!   lockstep pair in software, as models of their own in the same vocabulary
+//!   (`check --architecture duplex|pair`, docs/protocol.md "Other architectures: the spec").
 //!
 //! Time is counted in rounds of one heartbeat period (docs/model.md explains why).
 
+pub mod architectures;
 pub mod config;
 pub mod explore;
 pub mod fixes;

@@ -1,6 +1,8 @@
 //! `model`: check, explore, export and walk RL's voting protocol specification.
 
-use clap::{Args, Parser, Subcommand, ValueEnum};
+use clap::parser::ValueSource;
+use clap::{ArgMatches, Args, CommandFactory, FromArgMatches, Parser, Subcommand, ValueEnum};
+use model::architectures::{ArchitectureArgs, ArchitectureConfig, ArchitectureConfigError};
 use model::config::ConfigError;
 use model::explore::{ExploreError, Front};
 use model::outputs::check::OutputReport;
@@ -36,11 +38,16 @@ enum CliError {
     /// `--depth` or `--order dfs` with `--outputs`, whose check is always exhaustive BFS.
     #[error("{0}: the output model's check is an exhaustive breadth-first search")]
     OutputsSearch(&'static str),
+    /// The duplex's or the pair's flags describe a configuration outside their bounds, or
+    /// the role or output model's flags were given with them.
+    #[error(transparent)]
+    Architecture(#[from] ArchitectureConfigError),
 }
 
 /// RL's voting protocol, as a checkable specification.
 ///
-/// Time is counted in rounds of one heartbeat period; see docs/model.md. Exit codes: 0 all
+/// Time is counted in rounds of one heartbeat period; see docs/model.md. `--architecture
+/// duplex|pair` checks the paper's two other architectures instead. Exit codes: 0 all
 /// properties hold, 1 a property failed or a trace differs, 2 bad arguments.
 #[derive(Parser)]
 #[command(name = "model", version)]
@@ -59,16 +66,22 @@ enum Command {
     /// exits 1.
     ///
     /// With `--outputs`, the output-voting model instead (docs/protocol.md, "Output voting").
+    /// With `--architecture duplex` or `pair`, the paper's simple duplex or a lockstep pair in
+    /// software, with the flags marked "Duplex:" and "Pair:" (docs/protocol.md, "Other
+    /// architectures: the spec"; findings A1-A3 of docs/findings.md exit 1).
     Check(CheckArgs),
     /// Serve stateright's explorer UI: walk the protocol step by step in a browser.
     ///
     /// The initial states are named by which controllers start and which may join later
-    /// (stateright itself says "Init 0", "Init 1", ...).
+    /// (stateright itself says "Init 0", "Init 1", ...). `--outputs` and `--architecture
+    /// duplex|pair` explore those models, with the same flags as `check`.
     Explore {
         #[command(flatten)]
         scope: Scope,
         #[command(flatten)]
         outputs: OutputScope,
+        #[command(flatten)]
+        architecture: ArchitectureArgs,
         /// Address to listen on.
         #[arg(long, default_value = "127.0.0.1:3000")]
         addr: String,
@@ -230,6 +243,8 @@ struct CheckArgs {
     scope: Scope,
     #[command(flatten)]
     outputs: OutputScope,
+    #[command(flatten)]
+    architecture: ArchitectureArgs,
     /// Search order.
     #[arg(long, value_enum, default_value_t = Order::Bfs)]
     order: Order,
@@ -248,14 +263,17 @@ enum Order {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let matches = Cli::command().get_matches();
+    let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|error| error.exit());
+    let given = command_line_flags(&matches);
     let result = match cli.command {
-        Command::Check(args) => check(args),
+        Command::Check(args) => check(args, &given),
         Command::Explore {
             scope,
             outputs,
+            architecture,
             addr,
-        } => explore(&scope, &outputs, &addr),
+        } => explore(&scope, &outputs, &architecture, &addr, &given),
         Command::Traces { scope, out, check } => write_traces(&scope, &out, check),
         Command::Simulate { scope, seed, steps } => walk(&scope, seed, steps),
     };
@@ -268,24 +286,42 @@ fn main() -> ExitCode {
     }
 }
 
+/// The ids of the flags given on the command line to the subcommand (not by default).
+fn command_line_flags(matches: &ArgMatches) -> Vec<String> {
+    let Some((name, given)) = matches.subcommand() else {
+        return Vec::new();
+    };
+    let Some(command) = Cli::command().find_subcommand(name).cloned() else {
+        return Vec::new();
+    };
+    command
+        .get_arguments()
+        .map(|arg| arg.get_id().as_str().to_string())
+        .filter(|id| given.value_source(id) == Some(ValueSource::CommandLine))
+        .collect()
+}
+
 type DynChecker = Box<dyn Checker<RlModel> + Send + Sync>;
 
-fn check(args: CheckArgs) -> Result<ExitCode, CliError> {
+fn check(args: CheckArgs, given: &[String]) -> Result<ExitCode, CliError> {
+    if args.threads == 0 {
+        return Err(CliError::ZeroThreads);
+    }
+    if let Some(config) = args.architecture.config()? {
+        config.refuse_foreign_flags(given)?;
+        return check_architecture(&config, args.threads);
+    }
     if args.outputs.outputs {
         return check_outputs(&args);
     }
     let config = args.scope.config()?;
-    if args.threads == 0 {
-        return Err(CliError::ZeroThreads);
-    }
     println!("checking: {}", config.summary());
     let model = RlModel::new(config.clone());
     let start = Instant::now();
     let checker = run_checker(&model, &args, start);
-    let elapsed = start.elapsed();
+    let secs = start.elapsed().as_secs_f64();
     println!();
     let failures = print_verdicts(&config, &checker);
-    let secs = elapsed.as_secs_f64();
     println!();
     println!(
         "{} unique states, {} total, max depth {}, {:.0} states/s, {:.2} s wall ({} threads, {})",
@@ -415,8 +451,7 @@ fn print_shortest_paths(model: &RlModel, failures: &[PropertyInfo]) {
     }
 }
 
-fn join(checker: DynChecker) -> DynChecker {
-    let mut checker = checker;
+fn join(mut checker: DynChecker) -> DynChecker {
     for handle in checker.handles() {
         let _ = handle.join();
     }
@@ -427,9 +462,6 @@ fn join(checker: DynChecker) -> DynChecker {
 /// every failure.
 fn check_outputs(args: &CheckArgs) -> Result<ExitCode, CliError> {
     let config = args.outputs.config()?;
-    if args.threads == 0 {
-        return Err(CliError::ZeroThreads);
-    }
     if args.depth.is_some() {
         return Err(CliError::OutputsSearch("--depth"));
     }
@@ -440,36 +472,66 @@ fn check_outputs(args: &CheckArgs) -> Result<ExitCode, CliError> {
     let report: OutputReport = outputs::check::check(&config, args.threads);
     println!();
     print!("{}", report.render());
-    let failures = report.failures().len();
-    if failures == 0 {
-        println!(
-            "result: all {} properties as expected",
-            report.verdicts.len()
-        );
-        return Ok(ExitCode::SUCCESS);
+    let failed = report.failures().len();
+    Ok(result(report.verdicts.len(), failed, || {
+        outputs::check::render_failures(&report)
+    }))
+}
+
+/// The result line of a check of `total` properties of which `failed` failed (after
+/// `failures`, their counterexamples) and the exit status: 0, or 1 if any failed.
+fn result(total: usize, failed: usize, failures: impl FnOnce() -> String) -> ExitCode {
+    if failed == 0 {
+        println!("result: all {total} properties as expected");
+        return ExitCode::SUCCESS;
     }
-    print!("{}", outputs::check::render_failures(&report));
-    println!("result: {failures} properties failed");
-    Ok(ExitCode::from(1))
+    print!("{}", failures());
+    println!("result: {failed} properties failed");
+    ExitCode::from(1)
+}
+
+/// `check --architecture duplex|pair`: the model exhaustively; the shortest counterexample
+/// of every failure.
+fn check_architecture(config: &ArchitectureConfig, threads: usize) -> Result<ExitCode, CliError> {
+    println!("checking: {}", config.summary());
+    let report = config.check(threads);
+    println!();
+    print!("{}", report.render());
+    let failed = report.failures().len();
+    Ok(result(report.verdicts.len(), failed, || {
+        config.render_failures(&report)
+    }))
 }
 
 /// stateright's explorer behind a front that names the initial states (model::explore).
-fn explore(scope: &Scope, outputs: &OutputScope, addr: &str) -> Result<ExitCode, CliError> {
+fn explore(
+    scope: &Scope,
+    outputs: &OutputScope,
+    architecture: &ArchitectureArgs,
+    addr: &str,
+    given: &[String],
+) -> Result<ExitCode, CliError> {
+    if let Some(config) = architecture.config()? {
+        config.refuse_foreign_flags(given)?;
+        return Ok(serve(config.explorer(addr)?, &config.summary(), addr));
+    }
     if outputs.outputs {
         let config = outputs.config()?;
         let model = OutputModel::new(config.clone());
         let front = Front::start_named(&model, model.initial_state_names(), addr)?;
-        println!("explorer for {} at http://{addr}/", config.summary());
-        println!("initial states: {}", front.names().join(" | "));
-        front.run();
-        return Ok(ExitCode::SUCCESS);
+        return Ok(serve(front, &config.summary(), addr));
     }
     let config = scope.config()?;
     let front = Front::start(&RlModel::new(config.clone()), addr)?;
-    println!("explorer for {} at http://{addr}/", config.summary());
+    Ok(serve(front, &config.summary(), addr))
+}
+
+/// Serves the explorer until the process ends.
+fn serve(front: Front, summary: &str, addr: &str) -> ExitCode {
+    println!("explorer for {summary} at http://{addr}/");
     println!("initial states: {}", front.names().join(" | "));
     front.run();
-    Ok(ExitCode::SUCCESS)
+    ExitCode::SUCCESS
 }
 
 fn write_traces(scope: &Scope, out: &std::path::Path, check: bool) -> Result<ExitCode, CliError> {

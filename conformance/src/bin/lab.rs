@@ -3,6 +3,7 @@
 
 use clap::builder::PossibleValuesParser;
 use clap::{Parser, Subcommand};
+use conformance::lab::wrong_output::tracking;
 use conformance::lab::{self, host, matrix, run, scenario, session::Setup, soak, LabError};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -11,7 +12,8 @@ use std::process::ExitCode;
 /// each in its own network namespace on a virtual LAN of two nets (A 10.201.1.0/24, B
 /// 10.202.1.0/24), under kills, pauses, partitions, cuts, one-way and random loss, multicast
 /// drop, flapping links, clock offsets and rate limits (each on both nets), and a net or one
-/// controller's link into a net going down.
+/// controller's link into a net going down, and controllers whose commands go wrong while
+/// their heartbeats stay right.
 ///
 /// Every run forms P/S/T, applies its faults, heals them, and must settle within the model's
 /// bound (10 rounds). It is judged on the owner changes each fault caused at both actuators,
@@ -21,7 +23,13 @@ use std::process::ExitCode;
 /// in matrix --ci) are also judged on the controllers' network alarms: raised within 1000 ms
 /// of the fault, cleared within 1500 ms of the heal, no other. two-groups (in neither matrix)
 /// runs two redundancy groups (nav, act) on one LAN, kills both Primaries at once and judges
-/// each group as kill-primary is judged, and for cross-talk between the groups.
+/// each group as kill-primary is judged, and for cross-talk between the groups. The
+/// wrong-output scenarios (wrong-primary, wrong-primary-vote-camera, wrong-secondary,
+/// frozen-primary, random-primary, two-wrong; not in matrix --ci) need an rl built with the
+/// fault-injection feature; they add a voting reader (rl servo --vote --json) beside the two
+/// exclusive ones and are judged on the wrong commands each reader took, the wrong
+/// controller's odd-one-out decision, exit and return, and the voting reader's dissent and
+/// hold; the camera's tracking error is drawn to OUT/NAME-seedN-tracking.svg.
 /// Controllers get --network-a and --network-b (their addresses on A and B) when the rl takes them; a judge that cannot
 /// run (an rl without them, no Connext connector) is an error unless --lenient skips it. A run leaves its recording, result.json and
 /// timeline in OUT/NAME-seedN/ and its picture in
@@ -38,8 +46,10 @@ use std::process::ExitCode;
 ///   lab run random --seed 17
 ///   lab run two-groups
 ///   lab run kill-primary --mutation failback   (rl built with --features mutation)
+///   lab run wrong-primary --vote-mutation accept-single-source
 ///   lab matrix --ci
 ///   lab soak --minutes 30
+///   lab figure --to tracking.svg OUT/wrong-primary-seed1 OUT/wrong-primary-vote-camera-seed1
 #[derive(Parser)]
 #[command(name = "lab", verbatim_doc_comment)]
 struct Cli {
@@ -84,6 +94,11 @@ enum Command {
         /// with an error.
         #[arg(long, value_name = "NAME", value_parser = PossibleValuesParser::new(lab::mutation::NAMES))]
         mutation: Option<String>,
+        /// Run the voting reader of a wrong-output scenario with a deliberately broken voting
+        /// rule (RL_VOTE_MUTATION=NAME, set for `rl servo --vote` only), to see the lab catch
+        /// it: the run must FAIL. Needs an rl built with the `mutation` feature.
+        #[arg(long, value_name = "NAME", value_parser = PossibleValuesParser::new(lab::mutation::VOTE_NAMES), conflicts_with = "mutation")]
+        vote_mutation: Option<String>,
     },
     /// Every scenario and random seeds 1, 2, 3, 7, 8, as a table (--ci: the short subset CI runs).
     Matrix {
@@ -96,6 +111,18 @@ enum Command {
         minutes: u64,
         #[arg(long, default_value_t = 1)]
         seed: u64,
+    },
+    /// Draws the camera's tracking error of wrong-output runs (their OUT/NAME-seedN
+    /// directories) on one figure, against the time since each run's wrong commands began.
+    Figure {
+        /// The SVG to write.
+        #[arg(long, value_name = "FILE")]
+        to: PathBuf,
+        /// Seconds shown after the fault began.
+        #[arg(long, value_name = "S", default_value_t = 4.0)]
+        seconds: f64,
+        #[arg(required = true, value_name = "RUN_DIR")]
+        runs: Vec<PathBuf>,
     },
     /// Removes every lab LAN left on this host (after a run killed with SIGKILL), other
     /// runs' included.
@@ -116,6 +143,10 @@ fn main() -> ExitCode {
 fn execute(cli: &Cli) -> Result<ExitCode, LabError> {
     if let Command::List { random } = cli.command {
         list(random);
+        return Ok(ExitCode::SUCCESS);
+    }
+    if let Command::Figure { to, seconds, runs } = &cli.command {
+        figure(to, *seconds, runs)?;
         return Ok(ExitCode::SUCCESS);
     }
     host::require_root()?;
@@ -174,13 +205,23 @@ fn execute(cli: &Cli) -> Result<ExitCode, LabError> {
             }
             failures.is_empty()
         }
-        Command::List { .. } | Command::Clean => true,
+        Command::List { .. } | Command::Clean | Command::Figure { .. } => true,
     };
     Ok(if passed {
         ExitCode::SUCCESS
     } else {
         ExitCode::FAILURE
     })
+}
+
+/// `lab figure`: the tracking error of the wrong-output runs in `runs` on one figure at `to`.
+fn figure(to: &std::path::Path, seconds: f64, runs: &[PathBuf]) -> Result<(), LabError> {
+    let series = runs
+        .iter()
+        .map(|dir| tracking::read_series(dir))
+        .collect::<Result<Vec<_>, _>>()?;
+    let title = "the ball off centre at the camera, a wrong Primary at 0 s";
+    tracking::draw(to, title, &series, -1.0, seconds)
 }
 
 /// `lab list`: every named scenario with its schedule, `two-groups`, and what random seeds
@@ -237,9 +278,13 @@ fn setup(cli: &Cli) -> Result<Setup, LabError> {
         }
         eprintln!("lab: {fix}: the Connext judge is skipped (--lenient)");
     }
-    let mutation = match &cli.command {
-        Command::Run { mutation, .. } => mutation.clone(),
-        _ => None,
+    let (mutation, vote_mutation) = match &cli.command {
+        Command::Run {
+            mutation,
+            vote_mutation,
+            ..
+        } => (mutation.clone(), vote_mutation.clone()),
+        _ => (None, None),
     };
     Ok(Setup {
         rl,
@@ -247,5 +292,8 @@ fn setup(cli: &Cli) -> Result<Setup, LabError> {
         connext,
         lenient: cli.lenient,
         mutation,
+        vote_mutation,
+        output_readers: false,
+        camera: Default::default(),
     })
 }

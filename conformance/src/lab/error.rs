@@ -57,6 +57,13 @@ pub enum LabError {
         rl: PathBuf,
         message: String,
     },
+    /// `--vote-mutation` for a scenario without a voting reader.
+    #[error("--vote-mutation breaks the voting reader, which only the wrong-output scenarios run ({scenario} does not: `lab list`)")]
+    NoVotingReader { scenario: String },
+    /// A controller asked for wrong commands never said it took the fault: its `rl` was built
+    /// without the `fault-injection` feature, which leaves stdin unread.
+    #[error("the rl at {} did not take the wrong-output fault ({lives} never acknowledged it): the wrong-output scenarios need an rl built with the `fault-injection` feature (the workspace's test build, --all-features)", rl.display())]
+    InjectionIgnored { rl: PathBuf, lives: String },
     /// `--mutation NAME`, and controllers formed without saying they run it: their `rl` was
     /// built without the `mutation` feature, which ignores `RL_MUTATION`.
     #[error("the rl at {} does not run the mutation {name:?} ({silent} never announced it): --mutation needs an rl built with the `mutation` feature (cargo build --release -p rl --features mutation, or the workspace's test build with --all-features)", rl.display())]

@@ -152,6 +152,10 @@ pub fn for_fault(fault: &Fault) -> FaultExpected {
         // One net, or one controller's link into one, lost: RL's own participant sends every
         // datagram on both nets (docs/protocol.md, "RL's own traffic on two networks").
         Fault::LinkDown(..) | Fault::NetworkDown(_) => UNFELT,
+        // The wrong controller leaves (the cross-check: FAILED, exit 75) and is restarted
+        // below: to the role model a crash and a restart (docs/protocol.md, "Output voting").
+        // Its strength goes with its writers, so nobody else is at 30 meanwhile.
+        Fault::WrongCommands(..) => CRASH,
     }
 }
 
@@ -287,6 +291,17 @@ pub fn for_scenario(name: &str, faults: &[Fault]) -> Result<Expected, UnknownSce
             expected.two_at_top_ms = merging.two_at_top_ms;
             Ok(expected)
         }
+        // A wrong Primary leaves as a crashed one does: one change, to the Secondary
+        // (`super::wrong_output::verdict` holds it to exactly that, and to the wrong commands
+        // the readers may take).
+        "wrong-primary" | "wrong-primary-vote-camera" | "frozen-primary" | "random-primary" => {
+            Ok(for_faults(faults))
+        }
+        // A wrong Secondary leaves as a crashed Secondary: the readers follow the Primary, so
+        // nothing moves at them.
+        "wrong-secondary" => Ok(from_each(vec![UNFELT; faults.len()])),
+        // Two wrong that never agree: nobody is the odd one out, nobody leaves, no role moves.
+        "two-wrong" => Ok(from_each(vec![UNFELT; faults.len()])),
         _ => Err(UnknownScenario {
             name: name.to_string(),
         }),

@@ -3,8 +3,9 @@
 //! namespaces they touch (partition, cut, one-way loss, random loss, multicast drop, one
 //! controller's link into one net), a whole net down (its bridge down), a flapping link (a
 //! thread that takes the host ends of a node's veths down and up at seeded random intervals)
-//! and a rate-limited link (tbf both ways). A [`Target`] names a controller by id or by the role it holds when the fault is
-//! applied.
+//! and a rate-limited link (tbf both ways), and wrong outputs (a `wrong-commands` line on the
+//! controller's stdin: it heartbeats on while its commands are wrong). A [`Target`] names a
+//! controller by id or by the role it holds when the fault is applied.
 //!
 //! The controller-level faults (everything but `LinkDown` and `NetworkDown`) hit both nets:
 //! RL's traffic runs on both, so a fault on one would be a net fault, which the network alarm
@@ -80,6 +81,47 @@ pub enum Fault {
     LinkDown(Target, Net),
     /// A whole net dead for every node (a switch without power).
     NetworkDown(Net),
+    /// The target's commands wrong (`wrong-commands ...` on its stdin, a `fault-injection`
+    /// build of `rl`) while its heartbeats, and so its role, stay right; healed by
+    /// `wrong-commands none` (a restarted process starts right anyway).
+    WrongCommands(Target, WrongOutput),
+}
+
+/// How a controller's commands are wrong (docs/protocol.md, "Output voting": the output
+/// model's wrong values and frozen output).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WrongOutput {
+    /// Pan off by this much (clamped to the servo's 0..=1000).
+    Offset(i32),
+    /// The last command it sent before the fault, whatever the camera shows.
+    Frozen,
+    /// Random pan and tilt at every camera frame.
+    Random,
+}
+
+impl WrongOutput {
+    /// The line that asks a controller for this fault on its stdin.
+    pub fn line(self) -> String {
+        match self {
+            WrongOutput::Offset(n) => format!("wrong-commands offset {n}"),
+            WrongOutput::Frozen => "wrong-commands frozen".into(),
+            WrongOutput::Random => "wrong-commands random".into(),
+        }
+    }
+}
+
+/// The line that makes a controller's commands right again.
+pub const RIGHT_COMMANDS_LINE: &str = "wrong-commands none";
+
+impl fmt::Display for WrongOutput {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            WrongOutput::Offset(n) => write!(f, "pan {n:+}"),
+            WrongOutput::Frozen => f.write_str("frozen"),
+            WrongOutput::Random => f.write_str("random"),
+        }
+    }
 }
 
 impl fmt::Display for Target {
@@ -129,6 +171,7 @@ impl fmt::Display for Fault {
             Fault::RateLimit(t, kbit) => write!(f, "{t}'s links at {kbit} kbit/s (tbf)"),
             Fault::LinkDown(t, net) => write!(f, "{t}'s link into {net} down"),
             Fault::NetworkDown(net) => write!(f, "{net} down"),
+            Fault::WrongCommands(t, wrong) => write!(f, "{t}'s commands wrong ({wrong})"),
         }
     }
 }
@@ -149,9 +192,16 @@ impl Fault {
             | Fault::ClockOffset(t, _)
             | Fault::ClockRate(t, _)
             | Fault::RateLimit(t, _)
-            | Fault::LinkDown(t, _) => Some(*t),
+            | Fault::LinkDown(t, _)
+            | Fault::WrongCommands(t, _) => Some(*t),
             Fault::NetworkDown(_) => None,
         }
+    }
+
+    /// Whether it is a wrong output: roles and links untouched, only what the controller
+    /// commands.
+    pub fn is_wrong_output(&self) -> bool {
+        matches!(self, Fault::WrongCommands(..))
     }
 
     /// The same fault aimed at controller `id` (a fault without a target stays as it is).
@@ -177,6 +227,7 @@ impl Fault {
             Fault::ClockRate(_, rate) => Fault::ClockRate(t, rate),
             Fault::RateLimit(_, k) => Fault::RateLimit(t, k),
             Fault::LinkDown(_, net) => Fault::LinkDown(t, net),
+            Fault::WrongCommands(_, wrong) => Fault::WrongCommands(t, wrong),
             fault @ Fault::NetworkDown(_) => fault,
         }
     }
@@ -298,6 +349,7 @@ pub fn apply(
             host::run("ip", &["link", "set", &lan.bridge(*net), "down"])?;
             applied.bridge_down = Some(*net);
         }
+        Fault::WrongCommands(_, wrong) => procs.inject_wrong_output(id, Some(*wrong))?,
     }
     for (node, node_rules) in rules {
         let ns = lan.ns(node);
@@ -345,6 +397,9 @@ pub fn heal(applied: Applied, lan: &Lan, procs: &mut Procs) -> Result<(), LabErr
             let _ = rate_limit(lan, Node::Controller(id), None);
             Ok(())
         }
+        // To whichever life runs now: a restarted one is right already, and the line changes
+        // nothing there.
+        Fault::WrongCommands(..) => procs.inject_wrong_output(id, None),
         _ => Ok(()),
     }
 }

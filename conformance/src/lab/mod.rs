@@ -3,10 +3,11 @@
 //! Each run builds a virtual LAN of network namespaces (three controllers, the actuator side,
 //! the camera; two bridges), starts real `rl` processes in it, forms P/S/T, applies a
 //! scenario's faults (kill, pause, partitions, cuts, one-way and random loss, multicast drop,
-//! flapping, clock offsets, a rate-limited link, a link into one net or a whole net down),
-//! heals them, lets the system settle, and
-//! judges what the actuators (`rl servo --json` and an RTI Connext reader) and the
-//! controllers' own events show. docs/faults.md has the scenarios, the judges and the figures.
+//! flapping, clock offsets, a rate-limited link, a link into one net or a whole net down,
+//! wrong commands), heals them, lets the system settle, and
+//! judges what the actuators (`rl servo --json` and an RTI Connext reader; `rl servo --vote`
+//! too when commands go wrong) and the controllers' own events show. docs/faults.md has the
+//! scenarios, the judges and the figures.
 //!
 //! Modules, in the order a run uses them:
 //! - [`host`]: root, tools, system commands; [`lan`]: the namespaces, links and bridges, and
@@ -21,6 +22,8 @@
 //! - [`run`]: one run start to verdict and its output; [`plot`]: its picture; [`matrix`]:
 //!   many runs and the table; [`soak`]: long runs with resource sampling; [`mutation`]: runs
 //!   against a deliberately broken `rl`, which must fail;
+//! - [`wrong_output`]: controllers whose commands go wrong while their roles stay, judged at
+//!   the exclusive readers and a voting one, with the camera's tracking error;
 //! - [`two_groups`]: two redundancy groups on one LAN, each host running a controller of
 //!   each, both Primaries killed at once, each group judged as one run and, by
 //!   [`cross_talk`], against the other.
@@ -46,5 +49,6 @@ pub mod session;
 pub mod soak;
 pub mod two_groups;
 pub mod validation;
+pub mod wrong_output;
 
 pub use error::LabError;

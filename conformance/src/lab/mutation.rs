@@ -2,6 +2,10 @@
 //! fail proves nothing, so it must be seen failing a build whose voting rule is broken
 //! (docs/faults.md, "The lab catches a broken build"; `conformance/tests/lab_mutation.rs`).
 //!
+//! The voting reader's rule can be broken the same way (`lab run --vote-mutation NAME`): the
+//! voting reader of the wrong-output scenarios, and only it, gets `RL_VOTE_MUTATION=NAME`, and
+//! a wrong Primary's commands must then be caught at it (`super::wrong_output`).
+//!
 //! The controllers, and only they, get `RL_MUTATION=NAME`. An `rl` built with the `mutation`
 //! feature reads it (`impl/core/src/mutation.rs`) and says so on stderr at start; any other
 //! build ignores it without a word. So a mutation run checks, once the system formed, that
@@ -23,6 +27,13 @@ pub const NAMES: [&str; 5] = [
     "admit-fourth",
     "stay-when-unplugged",
 ];
+
+/// The environment variable a `mutation` build of `rl servo --vote` reads.
+pub const VOTE_VARIABLE: &str = "RL_VOTE_MUTATION";
+
+/// The broken voting rules a `mutation` build of `rl servo --vote` knows: a value taken from
+/// one source (the output model's `--output-mutation accept-single-source`).
+pub const VOTE_NAMES: [&str; 1] = ["accept-single-source"];
 
 /// What a `mutation` build prints on stderr when it runs a broken rule (`impl/layer/src/runtime.rs`).
 const ANNOUNCED: &str = "(RL_MUTATION)";
@@ -65,6 +76,34 @@ pub fn refused(
         silent: silent.join(", "),
     })
 }
+
+/// With `--vote-mutation NAME`: an error unless the voting reader (its stderr lines among
+/// `stderr`, `(source, text)`) announced it runs the broken rule, as a `mutation` build does.
+pub fn require_vote_mutation_announced(
+    name: Option<&str>,
+    rl: &Path,
+    stderr: &[(String, String)],
+) -> Result<(), LabError> {
+    let Some(name) = name else {
+        return Ok(());
+    };
+    let voter = super::wrong_output::readings::VOTER;
+    let announced = stderr
+        .iter()
+        .any(|(source, text)| source == voter && text.contains(VOTE_ANNOUNCED));
+    if announced {
+        return Ok(());
+    }
+    Err(LabError::MutationIgnored {
+        name: name.into(),
+        rl: rl.to_path_buf(),
+        silent: voter.into(),
+    })
+}
+
+/// What a `mutation` build of `rl servo --vote` prints on stderr when it votes by a broken
+/// rule (`impl/src/sim/mod.rs`).
+const VOTE_ANNOUNCED: &str = "(RL_VOTE_MUTATION)";
 
 #[cfg(test)]
 mod tests {

@@ -1,6 +1,8 @@
 //! What a run observed, on the lab clock: every controller life's JSON events (its network
 //! alarm and conclusion lines apart, `super::network_alarms`), the servo's
-//! accepted commands and owner changes, the Connext reader's samples, and every stderr line.
+//! accepted commands and owner changes, the Connext reader's samples, every stderr line, and
+//! what the wrong-output judges read (`super::wrong_output::readings`: the voting reader, the
+//! camera's frames, odd-one-out decisions).
 //! Owners are named by controller life (`C1`, `C1#2`): a writer's participant (the first 12
 //! bytes of its GUID) is one process, across the writers it re-creates at new strengths; which
 //! controller it is comes from the servo (which learns it from heartbeats), which life from
@@ -9,6 +11,7 @@
 use super::clock::LabClock;
 use super::network_alarms::{self, NapRecord};
 use super::procs::{Life, Line};
+use super::wrong_output::readings::{self, Readings};
 use rl::procs::ServoEvent;
 use rl_layer::event::EventLine;
 use std::collections::BTreeMap;
@@ -32,6 +35,8 @@ pub struct ActuatorSample {
     pub writer_entity: String,
     /// The servo's own time (ms since it started), for exact gaps.
     pub own_ms: f64,
+    /// The command's pan and tilt (0..=1000), where the reader printed them.
+    pub pan_tilt: Option<(u16, u16)>,
 }
 
 /// Everything a run observed.
@@ -50,6 +55,8 @@ pub struct Observations {
     pub participant_ids: BTreeMap<String, u8>,
     /// stderr lines, `(source, text)`.
     pub stderr: Vec<(String, String)>,
+    /// The voting reader, the camera's frames and odd-one-out decisions.
+    pub outputs: Readings,
     /// The servo's clock origin on the lab clock (the smallest read time minus servo time).
     servo_origin_ms: Option<f64>,
 }
@@ -68,13 +75,21 @@ impl Observations {
     /// Takes in one line; `lives` gives a controller life's clock error.
     pub fn ingest(&mut self, line: Line, clock: &LabClock, lives: &[Life]) {
         if let Some(source) = line.source.strip_suffix('!') {
+            if source.starts_with('C') {
+                self.outputs
+                    .ingest_controller(source, &line, true, clock, lives);
+            }
             self.stderr.push((source.to_string(), line.text));
             return;
         }
         match line.source.as_str() {
             "servo" => self.ingest_servo(&line),
             "connext" => self.ingest_connext(&line, clock),
+            readings::VOTER => self.outputs.ingest_voter(&line, clock),
+            readings::CAMERA => self.outputs.ingest_camera(&line),
             source if source.starts_with('C') => {
+                self.outputs
+                    .ingest_controller(source, &line, false, clock, lives);
                 let Some(event) = EventLine::parse(&line.text) else {
                     return;
                 };
@@ -116,6 +131,8 @@ impl Observations {
         if let ServoEvent::Command {
             writer_guid,
             controller_id,
+            pan,
+            tilt,
             ..
         } = event
         {
@@ -129,6 +146,7 @@ impl Observations {
                 participant,
                 writer_entity,
                 own_ms,
+                pan_tilt: Some((pan, tilt)),
             });
         }
     }
@@ -143,6 +161,7 @@ impl Observations {
                 participant: participant_of(guid),
                 writer_entity: entity_of(guid),
                 own_ms: t_ms,
+                pan_tilt: pan_tilt(&value),
             });
         }
     }
@@ -217,6 +236,12 @@ pub fn largest_gap(samples: &[ActuatorSample], from_ms: f64, to_ms: f64) -> (f64
         )
 }
 
+/// A Connext sample's pan and tilt, when it printed both as servo positions.
+fn pan_tilt(value: &serde_json::Value) -> Option<(u16, u16)> {
+    let axis = |name: &str| value[name].as_u64().and_then(|v| u16::try_from(v).ok());
+    Some((axis("pan")?, axis("tilt")?))
+}
+
 /// When the Connext reader received a sample: the reception time Connext recorded (`rx_ms`),
 /// or, from a reader that does not print it, when the script handled it (`t_ms`, which adds
 /// the Python process's scheduling, up to 10 ms on an idle machine).
@@ -234,6 +259,7 @@ mod tests {
             participant: participant.into(),
             writer_entity: String::new(),
             own_ms: at_ms,
+            pan_tilt: None,
         }
     }
 

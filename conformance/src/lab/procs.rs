@@ -1,9 +1,11 @@
 //! The processes of a run, each inside its node's namespace: three `rl controller
 //! --json-events` (with `--network-a`/`--network-b`, their addresses on the two nets, when the
 //! `rl` monitors networks, and `--config` when they form a named group, `super::two_groups`),
-//! `rl servo --json` and the Connext reader on the actuator side,
-//! `rl shapes` on the camera. Every line they print comes back on one channel stamped with the
-//! lab clock.
+//! `rl servo --json` and the Connext reader on the actuator side (and, in the wrong-output
+//! scenarios, `rl servo --vote --json` beside them), `rl shapes` on the camera. Every line they
+//! print comes back on one channel stamped with the lab clock. A controller's stdin stays open
+//! for its life: a `fault-injection` build reads `wrong-commands` lines there
+//! (`super::wrong_output`).
 //!
 //! A controller's life is one process: `C2` for the first, `C2#2` after a restart. A
 //! controller that exits 75 (it voted itself FAILED) is restarted a second later, as the
@@ -12,11 +14,14 @@
 
 use super::clock::LabClock;
 use super::error::LabError;
+use super::faults::{WrongOutput, RIGHT_COMMANDS_LINE};
 use super::host::LIBFAKETIME;
 use super::lan::{Lan, Net, Node};
+use super::wrong_output::Injection;
 use std::collections::BTreeMap;
+use std::io::Write;
 use std::path::PathBuf;
-use std::process::{Child, Command, Stdio};
+use std::process::{Child, ChildStdin, Command, Stdio};
 use std::sync::mpsc::Sender;
 use std::time::Duration;
 
@@ -107,6 +112,10 @@ pub struct Procs {
     /// Every controller life, in start order.
     pub lives: Vec<Life>,
     running: BTreeMap<u8, Child>,
+    /// Each running controller's stdin, open for its life (fault-injection lines).
+    stdins: BTreeMap<u8, ChildStdin>,
+    /// Every wrong output asked of a controller, in order.
+    pub injections: Vec<Injection>,
     /// The clock offset each controller id gets when it next starts.
     pub clock_offsets_s: BTreeMap<u8, f64>,
     /// The clock rate (1.0: true) each controller id gets when it next starts.
@@ -142,6 +151,8 @@ impl Procs {
             namespaces: Node::all().iter().map(|n| (*n, lan.ns(*n))).collect(),
             lives: Vec::new(),
             running: BTreeMap::new(),
+            stdins: BTreeMap::new(),
+            injections: Vec::new(),
             clock_offsets_s: BTreeMap::new(),
             clock_rates: BTreeMap::new(),
             helpers: Vec::new(),
@@ -157,8 +168,9 @@ impl Procs {
     }
 
     /// `ip netns exec NS env [faketime] [RL_MUTATION] program args`. `ip netns exec` passes
-    /// the lab's environment on; `RL_MUTATION` is taken out of it, so only a controller of a
-    /// `--mutation` run ever has it.
+    /// the lab's environment on; `RL_MUTATION` and `RL_VOTE_MUTATION` are taken out of it, so
+    /// only a controller of a `--mutation` run, or the voting servo of a `--vote-mutation` run,
+    /// ever has one.
     fn command(
         &self,
         node: Node,
@@ -169,6 +181,7 @@ impl Procs {
         let mut command = Command::new("ip");
         command
             .env_remove(super::mutation::VARIABLE)
+            .env_remove(super::mutation::VOTE_VARIABLE)
             .args(["netns", "exec", &self.namespaces[&node], "env"])
             .args(env.iter().map(|(k, v)| format!("{k}={v}")))
             .arg(program)
@@ -238,12 +251,16 @@ impl Procs {
         let number = self.lives.iter().filter(|l| l.id == id).count() as u32 + 1;
         let mut child = self
             .command(Node::Controller(id), &env, &rl, &args)
+            .stdin(Stdio::piped())
             .spawn()
             .map_err(|source| LabError::Spawn {
                 what: label(id, number),
                 source,
             })?;
         self.forward(&mut child, &label(id, number));
+        if let Some(stdin) = child.stdin.take() {
+            self.stdins.insert(id, stdin);
+        }
         self.lives.push(Life {
             id,
             number,
@@ -257,6 +274,40 @@ impl Procs {
             exit: None,
         });
         self.running.insert(id, child);
+        Ok(())
+    }
+
+    /// Asks the running life of controller `id` for wrong commands (`Some`) or right ones
+    /// again (`None`), on its stdin, and records it. A controller without a process is left
+    /// alone (nothing is recorded, so the judges see no injection); one whose stdin is closed
+    /// has just exited, and a restarted life starts right anyway.
+    pub fn inject_wrong_output(
+        &mut self,
+        id: u8,
+        wrong: Option<WrongOutput>,
+    ) -> Result<(), LabError> {
+        let now = self.clock.now_ms();
+        let Some(life) = self.current(id).map(|l| l.label()) else {
+            return Ok(());
+        };
+        let line = wrong.map_or_else(|| RIGHT_COMMANDS_LINE.to_string(), WrongOutput::line);
+        if let Some(stdin) = self.stdins.get_mut(&id) {
+            let _ = writeln!(stdin, "{line}").and_then(|()| stdin.flush());
+        }
+        match wrong {
+            Some(wrong) => self.injections.push(Injection {
+                id,
+                life,
+                wrong,
+                from_ms: now,
+                healed_ms: None,
+            }),
+            None => {
+                for open in self.injections.iter_mut().filter(|i| i.id == id) {
+                    open.healed_ms.get_or_insert(now);
+                }
+            }
+        }
         Ok(())
     }
 
@@ -278,6 +329,7 @@ impl Procs {
 
     fn end(&mut self, id: u8, signal: i32) {
         let now = self.clock.now_ms();
+        self.stdins.remove(&id);
         let Some(mut child) = self.running.remove(&id) else {
             return;
         };
@@ -319,12 +371,12 @@ impl Procs {
         Ok(())
     }
 
-    /// Starts a helper process on `node`: `rl` with `args`, or another program.
     /// The DDS domain the processes run on.
     pub fn domain(&self) -> u16 {
         self.domain
     }
 
+    /// Starts a helper process on `node`: `rl` with `args`, or another program.
     pub fn start_helper(
         &mut self,
         name: &'static str,
@@ -332,10 +384,22 @@ impl Procs {
         program: Option<&str>,
         args: &[&str],
     ) -> Result<(), LabError> {
+        self.start_helper_with(name, node, program, args, &[])
+    }
+
+    /// [`Procs::start_helper`] with `env` set for it alone.
+    pub fn start_helper_with(
+        &mut self,
+        name: &'static str,
+        node: Node,
+        program: Option<&str>,
+        args: &[&str],
+        env: &[(String, String)],
+    ) -> Result<(), LabError> {
         let rl = self.rl.display().to_string();
         let program = program.unwrap_or(&rl);
         let mut child = self
-            .command(node, &[], program, args)
+            .command(node, env, program, args)
             .spawn()
             .map_err(|source| LabError::Spawn {
                 what: name.into(),
@@ -362,6 +426,7 @@ impl Procs {
         }
         for (id, status) in exited {
             self.running.remove(&id);
+            self.stdins.remove(&id);
             if let Some(life) = self.lives.iter_mut().rev().find(|l| l.id == id) {
                 life.ended_ms = Some(now);
                 life.exit = Some(status.to_string());

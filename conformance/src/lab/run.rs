@@ -3,8 +3,10 @@
 //! run's output: `DIR/NAME-seedN/` with `result.json` (measurements, verdict, the replay
 //! command), `timeline.txt`, `stderr.log` and `events/` (the recording trace validation
 //! reads), and the picture `DIR/NAME-seedN.svg` beside it. A run against a deliberately
-//! broken `rl` (`--mutation M`, `super::mutation`) is `NAME-seedN-mutation-M`, and says so in
-//! its result and summary.
+//! broken `rl` (`--mutation M`, `super::mutation`) is `NAME-seedN-mutation-M` (with the voting
+//! reader's rule broken, `--vote-mutation M`: `NAME-seedN-mutation-vote-M`), and says so in its
+//! result and summary. A wrong-output run (`super::wrong_output`) is judged at the voting
+//! reader too, and draws its tracking error to `DIR/NAME-seedN-tracking.svg`.
 
 use super::error::LabError;
 use super::expect::SETTLE_ROUNDS;
@@ -14,6 +16,7 @@ use super::plot;
 use super::scenario::Scenario;
 use super::session::{Session, Setup};
 use super::validation::{self, Verdict};
+use super::wrong_output::{self, OutputReport};
 use rl_layer::wire::Certainty;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -32,7 +35,8 @@ pub struct Outcome {
     pub scenario: String,
     pub about: String,
     pub seed: u64,
-    /// The deliberately broken rule the controllers ran (`--mutation`); `None`: RL's rules.
+    /// The deliberately broken rule the controllers ran (`--mutation`), or `vote-NAME` for the
+    /// voting reader's (`--vote-mutation`); `None`: RL's rules.
     pub mutation: Option<String>,
     pub faults: Vec<FaultRecord>,
     pub metrics: Metrics,
@@ -42,6 +46,8 @@ pub struct Outcome {
     pub network: Option<NapReport>,
     /// Every network alarm raised or cleared, in any scenario (`network_alarms::changes`).
     pub network_alarm_changes: Vec<String>,
+    /// The wrong-output judges' measurements and verdict (wrong-output scenarios only).
+    pub output: Option<OutputReport>,
     /// Every expectation missed; empty: the run passed.
     pub failures: Vec<String>,
     pub dir: PathBuf,
@@ -61,12 +67,16 @@ impl Outcome {
 pub fn replay_command(name: &str, seed: u64, setup: &Setup) -> String {
     let command =
         format!("cargo run --release -p conformance --bin lab -- run {name} --seed {seed}");
-    match &setup.mutation {
-        Some(mutation) => format!(
+    match (&setup.mutation, &setup.vote_mutation) {
+        (Some(mutation), _) => format!(
             "{command} --rl {} --mutation {mutation}",
             setup.rl.display()
         ),
-        None => command,
+        (None, Some(mutation)) => format!(
+            "{command} --rl {} --vote-mutation {mutation}",
+            setup.rl.display()
+        ),
+        (None, None) => command,
     }
 }
 
@@ -81,33 +91,21 @@ pub fn output_name(name: &str, seed: u64, mutation: Option<&str>) -> String {
 /// Runs `scenario` (seed `seed`) and writes its output under `out`.
 pub fn run(scenario: &Scenario, seed: u64, setup: &Setup, out: &Path) -> Result<Outcome, LabError> {
     let expected = scenario.expected()?;
-    let mut session = Session::start(setup)?;
-    if scenario.network.is_some() && !session.procs.two_networks && !setup.lenient {
-        return Err(LabError::MissingJudge {
-            judge: "the network alarm judge".into(),
-            fix: format!(
-                "{} has no --network-a (no network alarm participants)",
-                setup.rl.display()
-            ),
-        });
-    }
-    let broken = setup
-        .mutation
-        .as_ref()
-        .map_or(String::new(), |m| format!(", mutation {m}"));
-    eprintln!(
-        "lab: {} (seed {seed}{broken}) on LAN {}: formed at {:.1} s; {}",
-        scenario.name,
-        session.prefix(),
-        session.judged_from_ms / 1000.0,
-        super::scenario::describe(&scenario.steps)
-    );
+    let setup = &scenario.session_setup(setup);
+    let mut session = start(scenario, seed, setup)?;
     session.play(&scenario.steps)?;
     session.pump(LIVENESS)?;
     let dead = session.dead();
     let end_ms = session.clock.now_ms();
     let lives = session.procs.lives.clone();
+    let injections = session.procs.injections.clone();
     session.stop()?;
+    wrong_output::require_acknowledged(&injections, &session.observed.stderr, &setup.rl)?;
+    super::mutation::require_vote_mutation_announced(
+        setup.vote_mutation.as_deref(),
+        &setup.rl,
+        &session.observed.stderr,
+    )?;
     let period_ms = rl_layer::config::Config::default()
         .timing
         .heartbeat_period_ms as f64;
@@ -121,31 +119,31 @@ pub fn run(scenario: &Scenario, seed: u64, setup: &Setup, out: &Path) -> Result<
         setup.connext,
     );
     metrics.dead = dead;
-    let name = output_name(&scenario.name, seed, setup.mutation.as_deref());
+    let name = output_name(&scenario.name, seed, setup.mutation_label().as_deref());
     let dir = out.join(&name);
     let _ = std::fs::remove_dir_all(&dir);
     let events = dir.join("events");
     validation::write_recording(&events, &session.observed, &lives)?;
     let validation = validate_with_timeout(events);
     let mut failures = judge::failures(&metrics, &expected, validation.as_ref().map(|_| ()));
-    let network = scenario.network.as_ref().map(|expected| {
-        let monitored = session.procs.two_networks;
-        if !monitored {
-            eprintln!(
-                "lab: {} has no --network-a (no network alarm participants): the network alarm checks are skipped (--lenient), controller alarms and roles still judged",
-                setup.rl.display()
-            );
-        }
-        let recorded = Recorded {
-            network: &session.observed.network,
-            controller: &session.observed.controller,
-            lives: &lives,
-            faults: &session.faults,
-            judged_from_ms: session.judged_from_ms,
-        };
-        network_alarms::judge(&recorded, expected, monitored)
-    });
+    let network = network_report(scenario, &session, &lives, setup);
     if let Some(report) = &network {
+        failures.extend(report.failures.iter().cloned());
+    }
+    let output = scenario.output.map(|output| {
+        let recorded = wrong_output::Recorded {
+            observed: &session.observed,
+            lives: &lives,
+            injections: &injections,
+            faults: &session.faults,
+            servo_owners: &metrics.servo_owners,
+            connext_owners: metrics.connext_owners.as_deref(),
+            judged_from_ms: session.judged_from_ms,
+            end_ms,
+        };
+        wrong_output::judge(&recorded, output)
+    });
+    if let Some(report) = &output {
         failures.extend(report.failures.iter().cloned());
     }
     let picture = out.join(format!("{name}.svg"));
@@ -153,12 +151,13 @@ pub fn run(scenario: &Scenario, seed: u64, setup: &Setup, out: &Path) -> Result<
         scenario: scenario.name.clone(),
         about: scenario.about.clone(),
         seed,
-        mutation: setup.mutation.clone(),
+        mutation: setup.mutation_label(),
         faults: session.faults.clone(),
         metrics,
         validation,
         network,
         network_alarm_changes: network_alarms::changes(&session.observed.network),
+        output,
         failures,
         dir: dir.clone(),
         picture: picture.clone(),
@@ -166,7 +165,68 @@ pub fn run(scenario: &Scenario, seed: u64, setup: &Setup, out: &Path) -> Result<
     };
     plot::draw(&picture, &outcome, &session.observed, &lives, end_ms)?;
     write_outputs(&dir, &outcome, &session.observed)?;
+    if outcome.output.is_some() {
+        let tracking = out.join(format!("{name}-tracking.svg"));
+        wrong_output::files::write_outputs(&dir, &tracking, &outcome, &session.observed)?;
+    }
     Ok(outcome)
+}
+
+/// A formed session for `scenario`, announced on stderr; refused when its network alarm judge
+/// cannot run (unless `--lenient`), or when a voting reader's mutation is asked of a scenario
+/// without one.
+fn start(scenario: &Scenario, seed: u64, setup: &Setup) -> Result<Session, LabError> {
+    if setup.vote_mutation.is_some() && scenario.output.is_none() {
+        return Err(LabError::NoVotingReader {
+            scenario: scenario.name.clone(),
+        });
+    }
+    let session = Session::start(setup)?;
+    if scenario.network.is_some() && !session.procs.two_networks && !setup.lenient {
+        return Err(LabError::MissingJudge {
+            judge: "the network alarm judge".into(),
+            fix: format!(
+                "{} has no --network-a (no network alarm participants)",
+                setup.rl.display()
+            ),
+        });
+    }
+    let broken = setup
+        .mutation_label()
+        .map_or(String::new(), |m| format!(", mutation {m}"));
+    eprintln!(
+        "lab: {} (seed {seed}{broken}) on LAN {}: formed at {:.1} s; {}",
+        scenario.name,
+        session.prefix(),
+        session.judged_from_ms / 1000.0,
+        super::scenario::describe(&scenario.steps)
+    );
+    Ok(session)
+}
+
+/// The network alarm judge's report, for a scenario that has one.
+fn network_report(
+    scenario: &Scenario,
+    session: &Session,
+    lives: &[super::procs::Life],
+    setup: &Setup,
+) -> Option<NapReport> {
+    let expected = scenario.network.as_ref()?;
+    let monitored = session.procs.two_networks;
+    if !monitored {
+        eprintln!(
+            "lab: {} has no --network-a (no network alarm participants): the network alarm checks are skipped (--lenient), controller alarms and roles still judged",
+            setup.rl.display()
+        );
+    }
+    let recorded = Recorded {
+        network: &session.observed.network,
+        controller: &session.observed.controller,
+        lives,
+        faults: &session.faults,
+        judged_from_ms: session.judged_from_ms,
+    };
+    Some(network_alarms::judge(&recorded, expected, monitored))
 }
 
 /// Trace validation in a thread, given up after `VALIDATION_TIMEOUT`.
@@ -299,6 +359,9 @@ pub fn summary(outcome: &Outcome) -> String {
         m.final_roles.join(" "),
         outcome.picture.display(),
     );
+    if let Some(report) = &outcome.output {
+        text.push_str(&wrong_output::summary(report));
+    }
     match &outcome.network {
         Some(report) => text.push_str(&network_summary(report)),
         None if !outcome.network_alarm_changes.is_empty() => text.push_str(&format!(

@@ -2,11 +2,14 @@
 //! seed picks the faults, their targets and their times). Each step applies a fault at
 //! `at_ms` after judging starts (the system formed, both actuators following the Primary) and
 //! heals it `lasts_ms` later; after the last heal a fault-free liveness phase must settle.
+//! The wrong-output scenarios are `super::wrong_output`'s.
 
 use super::expect::{self, Expected, UnknownScenario};
 use super::faults::{Direction, Fault, Target};
 use super::lan::Net;
 use super::network_alarms::{self, NapExpected};
+use super::session::Setup;
+use super::wrong_output::{self, OutputScenario};
 use rand::{Rng, SeedableRng};
 
 /// One fault of a schedule.
@@ -27,6 +30,9 @@ pub struct Scenario {
     pub in_ci: bool,
     /// What the network alarm judge expects (`None`: not judged).
     pub network: Option<NapExpected>,
+    /// A wrong-output scenario: judged at the voting reader too, its tracking error measured
+    /// (`None`: neither).
+    pub output: Option<OutputScenario>,
 }
 
 impl Scenario {
@@ -49,6 +55,17 @@ impl Scenario {
     pub fn expected(&self) -> Result<Expected, UnknownScenario> {
         expect::for_scenario(&self.name, &self.faults())
     }
+
+    /// `setup` with the readers this scenario needs: a wrong-output one adds the voting
+    /// reader and the camera's frames, with the camera following what it says.
+    pub fn session_setup(&self, setup: &Setup) -> Setup {
+        let mut setup = setup.clone();
+        if let Some(output) = self.output {
+            setup.output_readers = true;
+            setup.camera = output.camera;
+        }
+        setup
+    }
 }
 
 fn step(at_s: f64, fault: Fault, lasts_s: f64) -> Step {
@@ -66,6 +83,7 @@ fn one(name: &str, about: &str, in_ci: bool, fault: Fault, lasts_s: f64) -> Scen
         steps: vec![step(2.0, fault, lasts_s)],
         in_ci,
         network: network_alarms::for_scenario(name),
+        output: None,
     }
 }
 
@@ -102,6 +120,7 @@ fn clock_fault(name: &str, about: String, fault: Fault, in_ci: bool) -> Scenario
         ],
         in_ci,
         network: network_alarms::for_scenario(name),
+        output: None,
     }
 }
 
@@ -251,6 +270,7 @@ fn net_scenarios() -> Vec<Scenario> {
             .collect(),
         in_ci: false,
         network: network_alarms::for_scenario(name),
+        output: None,
     };
     vec![
         one(
@@ -289,6 +309,7 @@ pub fn named() -> Vec<Scenario> {
     let mut all = process_and_split_scenarios();
     all.extend(link_and_clock_scenarios());
     all.extend(net_scenarios());
+    all.extend(wrong_output::scenarios());
     all
 }
 
@@ -375,6 +396,7 @@ pub fn random(seed: u64) -> Scenario {
         steps,
         in_ci: false,
         network: None,
+        output: None,
     }
 }
 

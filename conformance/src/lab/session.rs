@@ -1,7 +1,9 @@
 //! One system under test on its own virtual LAN: the LAN built, the processes started, the
 //! formation awaited (P=C1 S=C2 T=C3 steady, both actuators following C1 for a second), then
 //! faults applied and healed on schedule while every line is taken in, then a fault-free
-//! liveness phase. Dropping a session stops its processes and then removes its LAN.
+//! liveness phase. Dropping a session stops its processes and then removes its LAN. The
+//! wrong-output scenarios add a voting reader beside the exclusive ones and have the camera
+//! print its frames ([`Setup::output_readers`]).
 
 use super::clock::LabClock;
 use super::error::LabError;
@@ -31,6 +33,37 @@ pub struct Setup {
     /// The deliberately broken rule the controllers run (`RL_MUTATION`; a `mutation` build of
     /// `rl` only): `super::mutation`.
     pub mutation: Option<String>,
+    /// The deliberately broken voting rule the voting reader runs (`RL_VOTE_MUTATION`; a
+    /// `mutation` build of `rl` only): `super::mutation`.
+    pub vote_mutation: Option<String>,
+    /// Start `rl servo --vote --json` on the actuator node beside the exclusive readers, and
+    /// `rl shapes` with `--json` (its frames: the tracking error): the wrong-output scenarios
+    /// (`super::wrong_output`).
+    pub output_readers: bool,
+    /// What the camera's gimbal follows.
+    pub camera: Camera,
+}
+
+/// What the camera's gimbal follows: the exclusive command topic's owner (`rl shapes`, the
+/// paper's pan-tilt) or the vote on the voted topic (`rl shapes --vote`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Camera {
+    #[default]
+    Exclusive,
+    Vote,
+}
+
+impl Setup {
+    /// The broken rule a run carries, for its output's name and its summary: the controllers'
+    /// mutation, or `vote-NAME` for the voting reader's.
+    pub fn mutation_label(&self) -> Option<String> {
+        match (&self.mutation, &self.vote_mutation) {
+            (Some(controllers), _) => Some(controllers.clone()),
+            (None, Some(voting)) => Some(format!("vote-{voting}")),
+            (None, None) => None,
+        }
+    }
 }
 
 /// The Connext reader's command deadline: the paper's reader QoS, as the actuator tests use.
@@ -59,6 +92,50 @@ pub fn start_connext(procs: &mut Procs, topic: Option<&str>) -> Result<(), LabEr
     procs.start_helper("connext", Node::Actuator, Some("python3"), &args)
 }
 
+/// `rl shapes` on the camera node: at the frame rate the wrong-output bounds count in
+/// (`super::wrong_output::CAMERA_RATE_HZ`, its default), following what `setup.camera` says,
+/// printing its frames when the wrong-output judges read them.
+fn start_camera(procs: &mut Procs, setup: &Setup) -> Result<(), LabError> {
+    let domain = procs.domain().to_string();
+    let rate = super::wrong_output::CAMERA_RATE_HZ.to_string();
+    let mut args = vec!["shapes", "--domain", &domain, "--rate-hz", &rate];
+    if setup.camera == Camera::Vote {
+        args.push("--vote");
+    }
+    if setup.output_readers {
+        args.push("--json");
+    }
+    procs.start_helper(
+        super::wrong_output::readings::CAMERA,
+        Node::Camera,
+        None,
+        &args,
+    )
+}
+
+/// `rl servo --vote --json` on the actuator node, with `RL_VOTE_MUTATION` when the run gives
+/// it one.
+fn start_voting_reader(procs: &mut Procs, setup: &Setup) -> Result<(), LabError> {
+    let domain = procs.domain().to_string();
+    let dissent_after = super::wrong_output::VOTER_DISSENT_AFTER.to_string();
+    let args = [
+        "servo",
+        "--vote",
+        "--json",
+        "--domain",
+        &domain,
+        "--dissent-after",
+        &dissent_after,
+    ];
+    let env: Vec<(String, String)> = setup
+        .vote_mutation
+        .iter()
+        .map(|name| (super::mutation::VOTE_VARIABLE.to_string(), name.clone()))
+        .collect();
+    let name = super::wrong_output::readings::VOTER;
+    procs.start_helper_with(name, Node::Actuator, None, &args, &env)
+}
+
 /// Formation, including the Connext reader's start (Python, Connext, discovery).
 pub const FORMATION_TIMEOUT: Duration = Duration::from_secs(60);
 /// The longest the safety phase waits for the controllers to settle before the next fault: a
@@ -80,6 +157,8 @@ pub struct Session {
     /// The applied steps whose target was the Primary when they applied.
     primary_steps: std::collections::BTreeSet<usize>,
     connext: bool,
+    /// The voting reader runs, and judging waits for it to be steady too.
+    output_readers: bool,
 }
 
 impl Session {
@@ -97,12 +176,10 @@ impl Session {
             None,
             &["servo", "--json", "--domain", &domain],
         )?;
-        procs.start_helper(
-            "camera",
-            Node::Camera,
-            None,
-            &["shapes", "--domain", &domain],
-        )?;
+        start_camera(&mut procs, setup)?;
+        if setup.output_readers {
+            start_voting_reader(&mut procs, setup)?;
+        }
         for id in CONTROLLER_IDS {
             procs.start_controller(id)?;
         }
@@ -121,6 +198,7 @@ impl Session {
             record_of_step: Default::default(),
             primary_steps: Default::default(),
             connext: setup.connext,
+            output_readers: setup.output_readers,
         };
         session.await_formation()?;
         session.judged_from_ms = session.clock.now_ms();
@@ -173,12 +251,9 @@ impl Session {
     fn await_formation(&mut self) -> Result<(), LabError> {
         let started = Instant::now();
         loop {
-            let formed = formed(
-                &self.procs,
-                &self.observed,
-                self.clock.now_ms(),
-                self.connext,
-            );
+            let now_ms = self.clock.now_ms();
+            let formed = formed(&self.procs, &self.observed, now_ms, self.connext)
+                && (!self.output_readers || self.observed.outputs.voter_steady(now_ms));
             if let Some(refused) = self.mutation_refused(formed) {
                 return Err(refused);
             }
@@ -186,11 +261,20 @@ impl Session {
                 return Ok(());
             }
             if started.elapsed() > FORMATION_TIMEOUT {
+                // A life that left before judging (the odd one out of three, voted out) is
+                // why a run can form without its C1.
+                let left: Vec<_> = self
+                    .procs
+                    .lives
+                    .iter()
+                    .filter_map(|l| l.exit.as_ref().map(|exit| (l.label(), exit)))
+                    .collect();
                 let detail = format!(
-                    "formed: {formed}; servo commands {}, Connext samples {}; dead: {:?}; stderr: {:?}",
+                    "formed: {formed}; servo commands {}, Connext samples {}; dead: {:?}; exited: {left:?}; odd one out: {:?}; stderr: {:?}",
                     self.observed.servo_commands.len(),
                     self.observed.connext.len(),
                     self.procs.dead(&CONTROLLER_IDS),
+                    self.observed.outputs.odd_one_out,
                     self.observed.stderr.iter().rev().take(5).collect::<Vec<_>>()
                 );
                 return Err(LabError::NoFormation {
@@ -265,13 +349,31 @@ impl Session {
     /// Whether applying `step` now, beside the `active` steps (indices after `base`), would
     /// overlap a fault on the Primary with another fault: the schedule overlaps faults on
     /// different controllers, and which one is the Primary is known only when they apply.
+    /// Wrong outputs together are not such an overlap: they move no role, and two of them at
+    /// once is the double fault the output model checks (`two-wrong`, docs/protocol.md "Two
+    /// wrong controllers"), which must start together or the first is the odd one out alone.
     fn overlap_involves_the_primary(&self, step: &Step, base: usize, active: &[usize]) -> bool {
+        if step.fault.is_wrong_output()
+            && active
+                .iter()
+                .all(|k| self.applied_is_wrong_output(base + k))
+        {
+            return false;
+        }
         let primary = self.resolve(Target::Primary);
         let hits_primary = step.fault.target().map(|t| self.resolve(t)) == Some(primary);
         hits_primary
             || active
                 .iter()
                 .any(|k| self.primary_steps.contains(&(base + k)))
+    }
+
+    /// Whether the applied step at `index` is a wrong output.
+    fn applied_is_wrong_output(&self, index: usize) -> bool {
+        self.applied
+            .get(index)
+            .and_then(Option::as_ref)
+            .is_some_and(|applied| applied.fault.is_wrong_output())
     }
 
     /// Whether the controllers have settled: all three steady, one in each role, and the

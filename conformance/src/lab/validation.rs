@@ -4,12 +4,18 @@
 //! whole periods of a life's clock error (an offset, or what a fast clock has gained), onto
 //! the rounds the controllers share (the model's rounds; `Life::round_clock_correction_ms`), so
 //! `cargo run --release -p conformance --bin validate-run -- DIR/events` repeats the check.
+//!
+//! A life that found itself the odd one out of three (its `odd_one_out` event: its commands
+//! wrong, its role and heartbeats right) ends there in the recording: to the role model a
+//! controller that leaves on a local fault is a crash, and its restart a new life
+//! (docs/protocol.md, "Output voting"); the role model has no local faults.
 
 use super::error::LabError;
 use super::observe::Observations;
 use super::procs::Life;
 use crate::record::{RecordError, Recording};
 use crate::validate::{self, Accepted, Rejection, Timing, TimingError};
+use rl_layer::event::Event;
 use std::io::Write;
 use std::path::Path;
 use std::sync::Arc;
@@ -59,11 +65,9 @@ pub fn write_recording(
     for life in lives {
         let path = dir.join(format!("{}.log", life.label()));
         let mut file = std::fs::File::create(&path).map_err(|e| LabError::output(&path, e))?;
-        for event in observed
-            .controller
-            .iter()
-            .filter(|e| e.life == life.label())
-        {
+        let label = life.label();
+        let events = observed.controller.iter().filter(|e| e.life == label);
+        for event in events.take_while(|e| !matches!(e.line.event, Event::OddOneOut { .. })) {
             let mut line = event.line.clone();
             line.t_ms = line
                 .t_ms

@@ -103,10 +103,22 @@ impl Redundancy {
             .clone()
     }
 
-    /// The application detected its own fault: the controller fails itself (stops commanding,
-    /// announces FAILED so the others re-vote).
+    /// The application detected its own fault: the controller fails itself (stops commanding
+    /// at once, announces FAILED so the others re-vote).
     pub fn report_fault(&self) {
+        self.shared.silenced.store(true, Ordering::SeqCst);
         self.shared.fault.store(true, Ordering::SeqCst);
+    }
+
+    /// Its cross-check found this controller the odd one out of three (crate::cross_check):
+    /// as [`Redundancy::report_fault`], with the reason in the event lines and the log.
+    pub fn report_odd_one_out(&self, reason: crate::cross_check::OddOneOut) {
+        *self
+            .shared
+            .odd_one_out
+            .lock()
+            .unwrap_or_else(|e| e.into_inner()) = Some(reason);
+        self.report_fault();
     }
 
     /// The DDS session (to create the application's own readers on the same participant).
@@ -254,11 +266,11 @@ impl Redundancy {
         )?)
     }
 
-    /// With the `fault-injection` feature: the pan offset the test control asked this
-    /// controller's commands to be wrong by (`skew-commands <offset>` on stdin; 0: none).
+    /// With the `fault-injection` feature: how the test control asked this controller's
+    /// commands to be wrong (`wrong-commands offset <n>|frozen|random|none` on stdin).
     #[cfg(feature = "fault-injection")]
-    pub fn injected_command_skew(&self) -> i32 {
-        runtime::injected_command_skew()
+    pub fn injected_output_fault(&self) -> runtime::OutputFault {
+        runtime::injected_output_fault()
     }
 
     /// The owner feed of `topic` whose controllers are those `heartbeats` announce.
@@ -391,7 +403,10 @@ impl<T: Clone, K: Keying<T>> RoleWriter<T, K> {
         };
         // Back from a stop before the voting loop has noticed: what the status says is stale
         // (a new Primary commands meanwhile), so the writer goes and nothing is written.
-        let allowed = allowed.filter(|_| !self.shared.loop_clock.stalled());
+        // A reported fault silences it at once, before the voting loop fails it.
+        let allowed = allowed.filter(|_| {
+            !self.shared.loop_clock.stalled() && !self.shared.silenced.load(Ordering::SeqCst)
+        });
         self.writer.set_strength(allowed)?;
         match sample {
             Some(sample) => self.writer.write(sample),
@@ -435,7 +450,8 @@ impl<T: Clone + 'static> VotedWriter<T> {
             (report.id, report.role.is_some() && !failed)
         };
         // Back from a stop before the voting loop has noticed, the role is stale: silent.
-        if !role_held || self.shared.loop_clock.stalled() {
+        let silenced = self.shared.silenced.load(Ordering::SeqCst);
+        if !role_held || silenced || self.shared.loop_clock.stalled() {
             return Ok(false);
         }
         let answer = Voted {

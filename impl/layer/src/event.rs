@@ -128,6 +128,17 @@ pub enum Event {
     /// again as the incarnation of this line, silent until it has heard a round and joined
     /// below.
     Deposed,
+    /// Its cross-check found its commands the odd one out of three at `odd_limit` inputs of
+    /// this life (crate::cross_check): it reports a local fault and leaves (a `stopped` line
+    /// with reason `local_fault` follows).
+    OddOneOut {
+        /// The inputs (the application's tags) at which it was the odd one out, oldest first.
+        inputs: Vec<u64>,
+        /// N: the odd inputs in one life at which a controller leaves.
+        odd_limit: u32,
+        /// The peers that agreed with each other at the last of them.
+        peers: Vec<ControllerId>,
+    },
     /// The voting thread stopped cleanly: asked to (no other fields), or on its own after the
     /// controller failed itself. Then `reason` says why (`outvoted`, `local_fault`),
     /// `disagreed_with` lists the peers whose votes differed from its own, and `exit_status`
@@ -163,6 +174,7 @@ impl Event {
             Event::Resumed { .. } => "resumed",
             Event::Detached => "detached",
             Event::Deposed => "deposed",
+            Event::OddOneOut { .. } => "odd_one_out",
             Event::Stopped { .. } => "stopped",
         }
     }

@@ -22,7 +22,9 @@
 //!   actuator and for a standby that continues from where the owner was.
 //! - [`vote_reader`]: output voting at the receiver, pure: every controller's answer to each
 //!   input on a voted topic, a value taken only when two fresh controllers agree, a dissenting
-//!   one alarmed; [`vote_feed`] reads a voted topic over DDS into it.
+//!   one alarmed; [`vote_feed`] reads a voted topic over DDS into it. [`cross_check`]: a
+//!   controller's own answers compared with the two others', the odd one out of three at N
+//!   inputs of a life leaving, pure.
 //! - [`identity`] (the core's): each controller id bound to the DDS participant it speaks
 //!   from, so a forged heartbeat is not believed and a duplicate id is alarmed.
 //! - [`round_clock`]: the voting loop's clock, moved as the core says to follow the Primary's
@@ -49,6 +51,7 @@ pub mod api;
 pub mod arbiter;
 pub mod config;
 pub mod console;
+pub mod cross_check;
 pub use rl_core as core;
 pub mod dds;
 pub mod error;

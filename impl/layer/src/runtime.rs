@@ -114,6 +114,8 @@ pub(crate) fn spawn(
         status: Mutex::new(core.status()),
         alarms: Mutex::new(Vec::new()),
         fault: AtomicBool::new(false),
+        silenced: AtomicBool::new(false),
+        odd_one_out: Mutex::new(None),
         stop: AtomicBool::new(false),
         loop_clock: crate::stall::LoopClock::new(timing.peer_deadline_ms),
         subscribers: Mutex::new(Vec::new()),
@@ -292,6 +294,7 @@ impl Voting {
             self.follow_arrivals(&poll)?;
             self.take_commands();
             if self.shared.fault.swap(false, Ordering::SeqCst) {
+                self.report_odd_one_out();
                 self.step(Input::LocalFault);
             }
             self.fire_due_timers();
@@ -559,11 +562,14 @@ mod commands_in;
 #[cfg(feature = "fault-injection")]
 mod fault_injection;
 
-/// With the `fault-injection` feature: the pan offset the test control asked the application's
-/// commands to be wrong by (`skew-commands <offset>` on stdin; 0: none).
 #[cfg(feature = "fault-injection")]
-pub fn injected_command_skew() -> i32 {
-    fault_injection::command_skew()
+pub use fault_injection::OutputFault;
+
+/// With the `fault-injection` feature: how the test control asked the application's commands
+/// to be wrong (`wrong-commands ...` on stdin).
+#[cfg(feature = "fault-injection")]
+pub fn injected_output_fault() -> OutputFault {
+    fault_injection::output_fault()
 }
 mod heartbeat_delay;
 mod impostors;

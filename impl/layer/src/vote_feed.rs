@@ -16,7 +16,9 @@ use crate::core::types::Strength;
 use crate::dds::{guid_hex, DdsError, Reader, Session};
 use crate::trust::CommandTrust;
 use crate::vote_reader::{ServoRule, VoteEvent, VoteReader, VoteRule, VoteSettings};
-use crate::wire::{HeartbeatSample, ServoControl, VotedSample, VOTED_SERVO_CONTROL_TYPE_NAME};
+use crate::wire::{
+    HeartbeatSample, ServoControl, Voted, VotedSample, VOTED_SERVO_CONTROL_TYPE_NAME,
+};
 use tracing::warn;
 
 /// Votes on the answers of one voted topic as they arrive.
@@ -101,6 +103,16 @@ where
     /// call it at least every few milliseconds, also without arrivals, so a lapsed majority is
     /// reported in time.
     pub fn take(&mut self, now_ms: u64) -> Vec<VoteEvent<T>> {
+        self.take_seeing(now_ms, |_| {})
+    }
+
+    /// As [`VoteFeed::take`], showing `seen` every answer that counts, as it arrives (a
+    /// controller's cross-check compares its own answers with them, crate::cross_check).
+    pub fn take_seeing(
+        &mut self,
+        now_ms: u64,
+        mut seen: impl FnMut(&Voted<T>),
+    ) -> Vec<VoteEvent<T>> {
         for heartbeat in self.heartbeats.take() {
             self.trust.heartbeat(&heartbeat, now_ms);
         }
@@ -109,6 +121,7 @@ where
             // Shared ownership: no strength; the trust checks the participant only.
             match self.trust.admit(sample.writer, Strength(0)) {
                 Ok(speaks_for) if speaks_for == sample.value.from => {
+                    seen(&sample.value);
                     events.extend(self.votes.offer(sample.value, now_ms));
                 }
                 admitted => {
@@ -132,6 +145,12 @@ where
     /// The vote itself: the last accepted value, the dissenting controllers.
     pub fn votes(&self) -> &VoteReader<T, R> {
         &self.votes
+    }
+
+    /// Breaks the vote's rule on purpose (a `mutation` build; crate::vote_reader::VoteMutation).
+    #[cfg(feature = "mutation")]
+    pub fn mutate(&mut self, mutation: crate::vote_reader::VoteMutation) {
+        self.votes.mutate(mutation);
     }
 
     /// How many answers were refused (their participant does not speak for their id).

@@ -218,6 +218,40 @@ pub struct VoteReader<T, R> {
     majority_at_ms: Option<u64>,
     /// A no-majority was reported and no value has been accepted since.
     without_majority: bool,
+    /// Sources that must agree on a value: 2 (1 only under a deliberately broken rule,
+    /// [`VoteMutation::AcceptSingleSource`]).
+    sources_needed: usize,
+}
+
+/// The receiver's deliberately broken rules (a `mutation` build), to show that the tests and
+/// the lab's judges catch a broken vote: `RL_VOTE_MUTATION=accept-single-source` on `rl servo
+/// --vote` or `rl shapes --vote`.
+#[cfg(feature = "mutation")]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VoteMutation {
+    /// A value is accepted from one source: the first answer to a new input decides it.
+    AcceptSingleSource,
+}
+
+#[cfg(feature = "mutation")]
+impl VoteMutation {
+    /// The environment variable that names one.
+    pub const VARIABLE: &'static str = "RL_VOTE_MUTATION";
+
+    /// The mutation `RL_VOTE_MUTATION` names: `Ok(None)` when it is unset, an error naming
+    /// the value when it names none.
+    pub fn from_env() -> Result<Option<VoteMutation>, String> {
+        match std::env::var(Self::VARIABLE) {
+            Err(_) => Ok(None),
+            Ok(name) if name == "accept-single-source" => {
+                Ok(Some(VoteMutation::AcceptSingleSource))
+            }
+            Ok(name) => Err(format!(
+                "{}={name} is not a vote mutation; known: accept-single-source",
+                Self::VARIABLE
+            )),
+        }
+    }
 }
 
 impl<T: Clone, R: VoteRule<T>> VoteReader<T, R> {
@@ -231,6 +265,15 @@ impl<T: Clone, R: VoteRule<T>> VoteReader<T, R> {
             accepted: None,
             majority_at_ms: None,
             without_majority: false,
+            sources_needed: 2,
+        }
+    }
+
+    /// Breaks its rule on purpose (`mutation`).
+    #[cfg(feature = "mutation")]
+    pub fn mutate(&mut self, mutation: VoteMutation) {
+        match mutation {
+            VoteMutation::AcceptSingleSource => self.sources_needed = 1,
         }
     }
 
@@ -307,7 +350,7 @@ impl<T: Clone, R: VoteRule<T>> VoteReader<T, R> {
         count
             .into_iter()
             .rev()
-            .find(|(_, n)| *n >= 2)
+            .find(|(_, n)| *n >= self.sources_needed)
             .map(|(i, _)| i)
     }
 
@@ -343,7 +386,7 @@ impl<T: Clone, R: VoteRule<T>> VoteReader<T, R> {
         events: &mut Vec<VoteEvent<T>>,
     ) {
         let answers = self.answers_to(input, fresh);
-        match largest_agreeing(&self.rule, &answers) {
+        match largest_agreeing(&self.rule, &answers, self.sources_needed) {
             Some(agreeing) => {
                 let agreeing: BTreeMap<ControllerId, T> = agreeing
                     .into_iter()
@@ -499,12 +542,13 @@ impl<T: Clone, R: VoteRule<T>> VoteReader<T, R> {
     }
 }
 
-/// The indices of the largest set of `answers` (two or more) that agree pairwise; among sets
+/// The indices of the largest set of `answers` (`sources_needed` or more: two) that agree pairwise; among sets
 /// of one size, the first by the bits of their members' places in id order (of three
 /// controllers: {1,2}, then {1,3}, then {2,3}).
 fn largest_agreeing<T, R: VoteRule<T>>(
     rule: &R,
     answers: &[(ControllerId, T)],
+    sources_needed: usize,
 ) -> Option<Vec<usize>> {
     let n = answers.len().min(MAX_VOTERS);
     let agree = |i: usize, j: usize| rule.agree(&answers[i].1, &answers[j].1);
@@ -512,7 +556,8 @@ fn largest_agreeing<T, R: VoteRule<T>>(
     // Subsets in increasing bit order visit lower ids first among sets of one size.
     for mask in 1u32..(1 << n) {
         let members: Vec<usize> = (0..n).filter(|i| mask & (1 << i) != 0).collect();
-        if members.len() < 2 || best.as_ref().is_some_and(|b| b.len() >= members.len()) {
+        if members.len() < sources_needed || best.as_ref().is_some_and(|b| b.len() >= members.len())
+        {
             continue;
         }
         let pairwise = members

@@ -222,14 +222,14 @@ impl GimbalCommands {
                 )
                 .map_err(Error::dds)?,
             )),
-            (false, true) => Some(GimbalCommands::Vote(
+            (false, true) => Some(GimbalCommands::Vote(crate::sim::vote_mutated(
                 VoteFeed::servo_commands(
                     session,
                     ServoRule::default(),
                     VoteSettings::holding(deadline_ms),
                 )
                 .map_err(Error::dds)?,
-            )),
+            )?)),
         })
     }
 

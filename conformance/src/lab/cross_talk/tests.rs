@@ -107,6 +107,7 @@ fn sample(at_ms: f64, participant: &str) -> ActuatorSample {
         participant: participant.into(),
         writer_entity: String::new(),
         own_ms: at_ms,
+        pan_tilt: None,
     }
 }
 

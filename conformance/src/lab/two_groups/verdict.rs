@@ -141,6 +141,7 @@ fn judge_group(
         validation,
         network: Some(network),
         network_alarm_changes: network_alarms::changes(&observed.network),
+        output: None,
         failures,
         dir: dir.clone(),
         picture: picture.clone(),

@@ -370,6 +370,11 @@ const RULE_BREAKS: &[(&str, &str, &str)] = &[
         "tracker.servo_frequency_hz",
         "between 1 and 1000",
     ),
+    (
+        "[tracker]\nodd_limit = 101",
+        "tracker.odd_limit",
+        "at most 100",
+    ),
     ("[leds]\nchip = \"\"", "leds.chip", "GPIO character device"),
     (
         "[leds]\npins = [[1, 2], [3, 4], [5, 6], [7, 1]]",

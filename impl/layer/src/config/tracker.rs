@@ -43,6 +43,10 @@ pub struct Tracker {
     pub servo_frequency_hz: u16,
     /// The implementation of the control law this controller runs.
     pub law: ControlLaw,
+    /// N of the cross-check (crate::cross_check): the camera frames of one life at which this
+    /// controller may be the odd one out of three before it reports a local fault and leaves;
+    /// 0: it only counts them.
+    pub odd_limit: u32,
 }
 
 impl Default for Tracker {
@@ -52,15 +56,21 @@ impl Default for Tracker {
             aperiodic: AperiodicPolicy::Republish,
             servo_frequency_hz: 60,
             law: ControlLaw::Integer,
+            odd_limit: crate::cross_check::ODD_LIMIT_DEFAULT,
         }
     }
 }
+
+/// The largest `tracker.odd_limit`: beyond it an exclusive reader takes that many wrong
+/// commands from a wrong Primary (K = N), seconds of camera frames.
+pub const ODD_LIMIT_MAX: u32 = 100;
 
 /// Servo frequencies the gimbal can be asked for.
 pub const SERVO_FREQUENCY_HZ_RANGE: std::ops::RangeInclusive<u16> = 1..=1000;
 
 impl Tracker {
-    /// Checks that the colour is uppercase letters A-Z and the servo frequency is 1..=1000 Hz.
+    /// Checks that the colour is uppercase letters A-Z, the servo frequency is 1..=1000 Hz and
+    /// the odd limit at most `ODD_LIMIT_MAX` (100).
     pub fn validate(&self) -> Result<(), InvalidValue> {
         // The colour goes into a content filter expression: letters only keeps it a literal.
         check(
@@ -80,6 +90,12 @@ impl Tracker {
                     SERVO_FREQUENCY_HZ_RANGE.end()
                 )
             },
+        )?;
+        check(
+            self.odd_limit <= ODD_LIMIT_MAX,
+            "tracker.odd_limit",
+            self.odd_limit,
+            || format!("must be at most {ODD_LIMIT_MAX} (0: the cross-check only counts)"),
         )
     }
 }

@@ -4,23 +4,62 @@
 //! blocks the voting loop once for that long, as a hung loop would (the watchdog test);
 //! `break-dds-event-loop` makes RustDDS's event loop fail its poll and exit, as it does on a
 //! poll error: the process's every participant then sends and receives nothing while writes
-//! still succeed (the watchdog test); `skew-commands <offset>` asks the application to make
-//! its commands wrong by `offset` on pan (crate::api::Redundancy::injected_command_skew: the
-//! voted output test, a controller that heartbeats on but computes wrong commands).
+//! still succeed (the watchdog test); `wrong-commands offset <n>|frozen|random|none` asks the
+//! application to make its commands wrong (crate::api::Redundancy::injected_output_fault: a
+//! controller that heartbeats on but computes wrong commands, for the output voting tests and
+//! the lab); `skew-commands <n>` is `wrong-commands offset <n>`.
 
 use std::collections::BTreeSet;
 use std::io::BufRead;
-use std::sync::atomic::{AtomicI32, Ordering};
 use std::sync::Mutex;
 use std::time::Duration;
 
 static DROPPED: Mutex<BTreeSet<u8>> = Mutex::new(BTreeSet::new());
 static STALL: Mutex<Option<Duration>> = Mutex::new(None);
-static COMMAND_SKEW: AtomicI32 = AtomicI32::new(0);
+static OUTPUT_FAULT: Mutex<OutputFault> = Mutex::new(OutputFault::None);
 
-/// The pan offset asked for with `skew-commands`.
-pub fn command_skew() -> i32 {
-    COMMAND_SKEW.load(Ordering::Relaxed)
+/// How the application's commands are to be wrong (`wrong-commands`); the application applies
+/// it to what it computed, as a bug in it would.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum OutputFault {
+    /// Right (`wrong-commands none`, `skew-commands 0`).
+    #[default]
+    None,
+    /// Pan off by this much, within the servo's range (`wrong-commands offset <n>`).
+    Offset(i32),
+    /// The command sent when it froze, whatever the input (`wrong-commands frozen`).
+    Frozen,
+    /// Random pan and tilt at every input (`wrong-commands random`).
+    Random,
+}
+
+impl OutputFault {
+    /// The fault a `wrong-commands` line's words after the verb name; `None` if they name none.
+    pub fn parse<'a>(mut words: impl Iterator<Item = &'a str>) -> Option<OutputFault> {
+        let fault = match (words.next()?, words.next()) {
+            ("none", None) => OutputFault::None,
+            ("frozen", None) => OutputFault::Frozen,
+            ("random", None) => OutputFault::Random,
+            ("offset", Some(n)) => OutputFault::Offset(n.parse().ok()?),
+            _ => return None,
+        };
+        words.next().is_none().then_some(fault)
+    }
+}
+
+/// The output fault asked for.
+pub fn output_fault() -> OutputFault {
+    *OUTPUT_FAULT.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+fn set_output_fault(line: &str, fault: Option<OutputFault>) {
+    match fault {
+        Some(fault) => {
+            *OUTPUT_FAULT.lock().unwrap_or_else(|e| e.into_inner()) = fault;
+            tracing::warn!("fault injection: commands wrong: {fault:?}");
+        }
+        None => tracing::warn!("fault injection: bad output fault in {line:?}"),
+    }
 }
 
 /// Blocks the calling (voting) thread if a stall was asked for.
@@ -93,7 +132,8 @@ fn break_dds_event_loops() {
 }
 
 /// Reads `drop-heartbeats-from <id>`, `accept-heartbeats-from <id>`,
-/// `stall-voting-loop <ms>`, `skew-commands <offset>` and `break-dds-event-loop` lines.
+/// `stall-voting-loop <ms>`, `wrong-commands ...`, `skew-commands <offset>` and
+/// `break-dds-event-loop` lines.
 pub fn listen_on_stdin() {
     let _ = std::thread::Builder::new()
         .name("rl-fault-injection".into())
@@ -107,14 +147,17 @@ pub fn listen_on_stdin() {
                 let (Some(verb), Some(id)) = (words.next(), words.next()) else {
                     continue;
                 };
+                if verb == "wrong-commands" {
+                    let words = line.split_whitespace().skip(1);
+                    set_output_fault(&line, OutputFault::parse(words));
+                    continue;
+                }
                 if verb == "skew-commands" {
-                    match id.parse::<i32>() {
-                        Ok(offset) => {
-                            COMMAND_SKEW.store(offset, Ordering::Relaxed);
-                            tracing::warn!("fault injection: commands skewed by {offset} on pan");
-                        }
-                        Err(_) => tracing::warn!("fault injection: bad offset in {line:?}"),
-                    }
+                    let fault = id.parse().ok().map(|offset| match offset {
+                        0 => OutputFault::None,
+                        offset => OutputFault::Offset(offset),
+                    });
+                    set_output_fault(&line, fault);
                     continue;
                 }
                 if verb == "stall-voting-loop" {
@@ -144,4 +187,28 @@ pub fn listen_on_stdin() {
                 tracing::info!("fault injection: dropping heartbeats from {dropped:?}");
             }
         });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::OutputFault;
+
+    #[test]
+    fn output_faults_parse_from_their_words() {
+        let parse = |line: &str| OutputFault::parse(line.split_whitespace());
+        assert_eq!(parse("none"), Some(OutputFault::None));
+        assert_eq!(parse("frozen"), Some(OutputFault::Frozen));
+        assert_eq!(parse("random"), Some(OutputFault::Random));
+        assert_eq!(parse("offset -300"), Some(OutputFault::Offset(-300)));
+        for bad in [
+            "",
+            "offset",
+            "offset x",
+            "frozen now",
+            "sideways",
+            "offset 3 4",
+        ] {
+            assert_eq!(parse(bad), None, "{bad:?}");
+        }
+    }
 }

@@ -96,4 +96,23 @@ impl Voting {
             let _ = out.flush();
         }
     }
+
+    /// Why the application's fault was reported, when its cross-check found it the odd one
+    /// out of three: in the log and as an `odd_one_out` event line, before it fails.
+    pub(super) fn report_odd_one_out(&mut self) {
+        let reason = self
+            .shared
+            .odd_one_out
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .take();
+        if let Some(reason) = reason {
+            warn!("C{} leaves: {reason}", self.core.config().id);
+            self.event(Event::OddOneOut {
+                inputs: reason.inputs,
+                odd_limit: reason.odd_limit,
+                peers: reason.peers,
+            });
+        }
+    }
 }

@@ -28,6 +28,12 @@ pub(crate) struct Shared {
     pub status: Mutex<Status>,
     pub alarms: Mutex<Vec<(ControllerId, AlarmReason)>>,
     pub fault: AtomicBool,
+    /// The application reported a fault: nothing more goes out in this life, from the moment
+    /// it reported it (the voting loop fails the controller at its next turn).
+    pub silenced: AtomicBool,
+    /// Why, when its cross-check found it the odd one out (crate::cross_check): the voting loop
+    /// reports it with the fault.
+    pub odd_one_out: Mutex<Option<crate::cross_check::OddOneOut>>,
     pub stop: AtomicBool,
     /// When the voting loop last ran: a stalled loop (crate::stall) lets no command out.
     pub loop_clock: crate::stall::LoopClock,

@@ -315,3 +315,15 @@ fn of_three_chained_answers_the_first_agreeing_pair_wins_and_the_third_dissents(
     assert_eq!(accepted(&events), vec![(5, servo(480, 500), vec![1, 2])]);
     assert_eq!(votes.dissenting(), vec![3]);
 }
+
+/// The rule broken on purpose (`RL_VOTE_MUTATION=accept-single-source`): the wrong answer that
+/// comes first is taken, which the test of a wrong controller above refuses, so that test can
+/// fail.
+#[cfg(feature = "mutation")]
+#[test]
+fn a_vote_that_accepts_one_source_takes_the_first_answer_wrong_or_not() {
+    let mut votes = reader(Fallback::Hold);
+    votes.mutate(VoteMutation::AcceptSingleSource);
+    let events = votes.offer(answer(1, 7, 800, 500), 1);
+    assert_eq!(accepted(&events), vec![(7, servo(800, 500), vec![1])]);
+}

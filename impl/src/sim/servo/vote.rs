@@ -186,7 +186,8 @@ pub(super) fn run(
         dissent_after: options.dissent_after,
         fallback: options.safe.map_or(Fallback::Hold, Fallback::Safe),
     };
-    let mut feed = VoteFeed::servo_commands(session, rule, settings).map_err(Error::dds)?;
+    let feed = VoteFeed::servo_commands(session, rule, settings).map_err(Error::dds)?;
+    let mut feed = crate::sim::vote_mutated(feed)?;
     let poll = mio::Poll::new().map_err(|e| Error::io("creating a poll", e))?;
     for (token, reader) in feed.readers().into_iter().enumerate() {
         poll.register(

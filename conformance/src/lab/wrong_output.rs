@@ -1,0 +1,521 @@
+//! Wrong outputs: controllers that heartbeat on, and so keep their roles, while the commands
+//! they compute are wrong (docs/protocol.md, "Output voting"; docs/faults.md, "Wrong
+//! outputs"). A `fault-injection` build of `rl controller` reads `wrong-commands offset N`,
+//! `frozen`, `random` and `none` on its stdin (`super::faults::Fault::WrongCommands`); each
+//! controller cross-checks its answer to every camera frame with the two others' and leaves
+//! (FAILED, exit 75, restarted by the lab as by systemd) once it has been the odd one out of
+//! three at N = 2 frames of one life.
+//!
+//! Each scenario is judged at three readers on the actuator node: `rl servo --json` and the
+//! Connext reader (exclusive ownership: they take the strongest writer's commands, whatever
+//! they are) and `rl servo --vote --json` (the voting reader: a command only when two
+//! controllers agree). Which sample is wrong, and how many reached each reader:
+//! [`delivered`]; what each scenario promises: [`verdict`]; the ball's tracking error at the
+//! camera: [`tracking`]; the lines they read: [`readings`]; what a run leaves beside the
+//! lab's usual output: [`files`].
+
+pub mod delivered;
+pub mod files;
+pub mod readings;
+pub mod tracking;
+pub mod verdict;
+
+use super::error::LabError;
+use super::expect::GAP_SLACK_MS;
+use super::faults::{Fault, Target, WrongOutput};
+use super::judge::FaultRecord;
+use super::observe::{Observations, OwnerSpan};
+use super::procs::Life;
+use super::scenario::{Scenario, Step};
+use super::session::Camera;
+use delivered::{Delivered, Judging};
+use serde::Serialize;
+
+/// N: the odd-one-out inputs of one life after which a controller leaves, the output model's
+/// and the controllers' (`tracker.odd_limit`, which the lab leaves at its default;
+/// docs/protocol.md, "K = N = 2").
+pub const ODD_LIMIT: usize = rl_layer::cross_check::ODD_LIMIT_DEFAULT as usize;
+
+/// The camera's frame rate (`rl shapes --rate-hz`, its default, which the lab passes): one
+/// input of the output model per frame.
+pub const CAMERA_RATE_HZ: f64 = 30.0;
+
+/// The dissents after which the voting reader raises its alarm (`--dissent-after`): N. A wrong
+/// controller's answers reach the voting reader at N inputs of its life and no more (its N-th
+/// odd answer is the last it publishes; its fault starts at the next camera frame), so a
+/// reader waiting for more (the servo's default is 3) never names a controller the
+/// cross-check takes out, and one waiting for fewer would name a right one that is a frame out
+/// of step once.
+pub const VOTER_DISSENT_AFTER: u32 = ODD_LIMIT as u32;
+
+/// The largest difference per axis at which two commands agree: the voting reader's and the
+/// cross-check's default (`rl servo --vote-tolerance`).
+pub const TOLERANCE: u16 = rl_layer::vote_reader::SERVO_TOLERANCE_DEFAULT;
+
+/// One camera period (ms).
+pub fn camera_period_ms() -> f64 {
+    1000.0 / CAMERA_RATE_HZ
+}
+
+/// A wrong output asked of one controller life (lab ms).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Injection {
+    pub id: u8,
+    /// `C1`, `C1#2`: the life that was asked.
+    pub life: String,
+    pub wrong: WrongOutput,
+    /// When the line was written to its stdin.
+    pub from_ms: f64,
+    /// When `wrong-commands none` was written to its controller id's stdin.
+    pub healed_ms: Option<f64>,
+}
+
+/// Which wrong-output scenario: what its judges promise ([`verdict`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Kind {
+    /// The Primary's pan off by 300: it leaves within N wrong answers, the exclusive readers
+    /// move once to the Secondary.
+    WrongPrimary,
+    /// The Secondary's: it leaves, and the exclusive readers see nothing.
+    WrongSecondary,
+    /// The Primary's output frozen: wrong once the ball has moved, then as `WrongPrimary`.
+    FrozenPrimary,
+    /// The Primary's commands random at every frame.
+    RandomPrimary,
+    /// Two controllers wrong at once, never agreeing: the voting reader holds, nobody leaves,
+    /// the exclusive readers follow the wrong Primary.
+    TwoWrong,
+}
+
+impl Kind {
+    /// Whether one controller, the Primary, is wrong.
+    pub fn primary_alone(self) -> bool {
+        matches!(
+            self,
+            Kind::WrongPrimary | Kind::FrozenPrimary | Kind::RandomPrimary
+        )
+    }
+}
+
+/// What makes a scenario a wrong-output one.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct OutputScenario {
+    pub kind: Kind,
+    pub camera: Camera,
+}
+
+/// How far apart the two wrong controllers of `two-wrong` are: each 300 off the right pan,
+/// one up and one down, so they never agree (600 apart) and neither agrees with the right one.
+pub const OFFSET: i32 = 300;
+
+fn scenario(name: &str, about: &str, output: OutputScenario, steps: Vec<Step>) -> Scenario {
+    Scenario {
+        name: name.into(),
+        about: about.into(),
+        steps,
+        in_ci: false,
+        network: None,
+        output: Some(output),
+    }
+}
+
+/// The wrong outputs at 2 s into judging, as every named scenario applies its fault.
+fn wrong(target: Target, wrong: WrongOutput, lasts_s: f64) -> Step {
+    Step {
+        at_ms: 2000,
+        fault: Fault::WrongCommands(target, wrong),
+        lasts_ms: (lasts_s * 1000.0) as u64,
+    }
+}
+
+/// The wrong-output scenarios (`lab list`): not in `matrix --ci`.
+pub fn scenarios() -> Vec<Scenario> {
+    let (p, s) = (Target::Primary, Target::Secondary);
+    let exclusive = |kind| OutputScenario {
+        kind,
+        camera: Camera::Exclusive,
+    };
+    let offset = WrongOutput::Offset(OFFSET);
+    vec![
+        scenario(
+            "wrong-primary",
+            "the Primary's pan 300 off, 3 s: it leaves within N = 2 wrong frames, voting reader takes none",
+            exclusive(Kind::WrongPrimary),
+            vec![wrong(p, offset, 3.0)],
+        ),
+        scenario(
+            "wrong-primary-vote-camera",
+            "wrong-primary with the camera's gimbal following the vote (rl shapes --vote)",
+            OutputScenario {
+                kind: Kind::WrongPrimary,
+                camera: Camera::Vote,
+            },
+            vec![wrong(p, offset, 3.0)],
+        ),
+        scenario(
+            "wrong-secondary",
+            "the Secondary's pan 300 off, 3 s: it leaves, nothing changes at the exclusive readers",
+            exclusive(Kind::WrongSecondary),
+            vec![wrong(s, offset, 3.0)],
+        ),
+        // Longer: wrong only once the ball has moved the tolerance away from where it froze.
+        scenario(
+            "frozen-primary",
+            "the Primary's output frozen, 5 s: it leaves once the ball has moved away",
+            exclusive(Kind::FrozenPrimary),
+            vec![wrong(p, WrongOutput::Frozen, 5.0)],
+        ),
+        scenario(
+            "random-primary",
+            "the Primary's commands random at every frame, 3 s",
+            exclusive(Kind::RandomPrimary),
+            vec![wrong(p, WrongOutput::Random, 3.0)],
+        ),
+        // The camera follows the vote: the plant is then driven by the reader that must fail
+        // safe. Following the exclusive topic it follows the wrong Primary, the ball leaves
+        // the view and no controller answers a frame again, so nothing could be healed. Brief:
+        // while the vote holds the gimbal, the ball drifts off centre and the right pan runs
+        // to the servo's end within about a second, where the Primary's +300, clamped, is
+        // right again (C1 and C3 then agree, rightly, and C2 is the odd one out).
+        scenario(
+            "two-wrong",
+            "the Primary's pan 300 up and the Secondary's 300 down, 0.6 s, the camera following the vote: the voting reader holds, nobody leaves",
+            OutputScenario {
+                kind: Kind::TwoWrong,
+                camera: Camera::Vote,
+            },
+            vec![
+                wrong(p, offset, 0.6),
+                wrong(s, WrongOutput::Offset(-OFFSET), 0.6),
+            ],
+        ),
+    ]
+}
+
+/// What the wrong-output judges read of a run.
+pub struct Recorded<'a> {
+    pub observed: &'a Observations,
+    pub lives: &'a [Life],
+    pub injections: &'a [Injection],
+    pub faults: &'a [FaultRecord],
+    pub servo_owners: &'a [OwnerSpan],
+    pub connext_owners: Option<&'a [OwnerSpan]>,
+    pub judged_from_ms: f64,
+    pub end_ms: f64,
+}
+
+/// A wrong life's way out and back (lab ms after its injection).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct OutAndBack {
+    pub life: String,
+    /// Its odd-one-out decision.
+    pub decided_after_ms: Option<f64>,
+    /// The inputs its decision counted that were camera frames taken after the fault (its
+    /// wrong answers the voting reader heard), and before it (a right answer of this life
+    /// found odd: a glitch the per-life count keeps); `None` without its `odd_one_out` event.
+    pub odd_after_fault: Option<usize>,
+    pub odd_before_fault: Option<usize>,
+    /// Its process's end, and how it ended.
+    pub exited_after_ms: Option<f64>,
+    pub exit: Option<String>,
+    /// The next life of its id first steady in a role: when, which life, which role.
+    pub back_after_ms: Option<f64>,
+    pub back_life: Option<String>,
+    pub back_as: Option<String>,
+    /// The voting reader's dissent alarm about its id: raised (after the injection), and
+    /// cleared (after that).
+    pub dissent_raised_after_ms: Option<f64>,
+    pub dissent_cleared_after_ms: Option<f64>,
+}
+
+/// The voting reader's figures.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct VoterFigures {
+    /// Commands it accepted in the judged window.
+    pub accepted: usize,
+    pub wrong: Delivered,
+    /// Its `no_majority` lines in the judged window, and the first after the injections.
+    pub no_majority: usize,
+    pub first_no_majority_after_ms: Option<f64>,
+    /// Its first accepted command after the last heal (ms after it).
+    pub accepting_again_after_ms: Option<f64>,
+    /// Every dissent alarm raised in the judged window, `C1 at 2.03 s`.
+    pub dissents_raised: Vec<String>,
+}
+
+/// What the wrong-output judges measured and decided.
+#[derive(Clone, Debug, Serialize)]
+pub struct OutputReport {
+    pub scenario: OutputScenario,
+    pub injections: Vec<Injection>,
+    pub voter: VoterFigures,
+    /// Wrong commands delivered at `rl servo` and at the Connext reader (when it ran).
+    pub servo: Delivered,
+    pub connext: Option<Delivered>,
+    /// The owners at each exclusive reader in the judged window, in order.
+    pub servo_owner_path: Vec<String>,
+    pub connext_owner_path: Option<Vec<String>>,
+    pub out_and_back: Vec<OutAndBack>,
+    pub tracking: tracking::Tracking,
+    pub failures: Vec<String>,
+}
+
+/// The owners of `spans` in the judged window, in order, each once per span.
+pub fn owner_path(spans: &[OwnerSpan], judged_from_ms: f64) -> Vec<String> {
+    spans
+        .iter()
+        .filter(|span| span.to_ms >= judged_from_ms)
+        .map(|span| span.owner.clone())
+        .collect()
+}
+
+/// Measures and judges a wrong-output run.
+pub fn judge(recorded: &Recorded, scenario: OutputScenario) -> OutputReport {
+    let observed = recorded.observed;
+    let judging = Judging::new(
+        &observed.outputs.accepted,
+        recorded.injections,
+        recorded.lives,
+    );
+    let life_of =
+        |participant: &str, at_ms: f64| observed.owner_name(participant, at_ms, recorded.lives);
+    let in_window = |at_ms: f64| at_ms >= recorded.judged_from_ms && at_ms <= recorded.end_ms;
+    let exclusive = |samples: &[super::observe::ActuatorSample]| {
+        let judged: Vec<_> = samples
+            .iter()
+            .filter(|s| in_window(s.at_ms))
+            .cloned()
+            .collect();
+        judging.exclusive(&judged, life_of)
+    };
+    let servo = exclusive(&observed.servo_commands);
+    let connext = recorded
+        .connext_owners
+        .map(|_| exclusive(&observed.connext));
+    let voter = voter_figures(recorded, &judging);
+    let out_and_back = recorded
+        .injections
+        .iter()
+        .map(|injection| out_and_back(recorded, injection))
+        .collect();
+    let tracking = tracking::measure(
+        &observed.outputs.frames,
+        recorded.faults,
+        recorded.judged_from_ms,
+        recorded.end_ms,
+        scenario.camera,
+    );
+    let mut report = OutputReport {
+        scenario,
+        injections: recorded.injections.to_vec(),
+        voter,
+        servo,
+        connext,
+        servo_owner_path: owner_path(recorded.servo_owners, recorded.judged_from_ms),
+        connext_owner_path: recorded
+            .connext_owners
+            .map(|spans| owner_path(spans, recorded.judged_from_ms)),
+        out_and_back,
+        tracking,
+        failures: Vec::new(),
+    };
+    report.failures = verdict::failures(&report, recorded);
+    report
+}
+
+/// The voting reader's figures in the judged window.
+fn voter_figures(recorded: &Recorded, judging: &Judging) -> VoterFigures {
+    let outputs = &recorded.observed.outputs;
+    let from = recorded.judged_from_ms;
+    let in_window = |at_ms: f64| at_ms >= from && at_ms <= recorded.end_ms;
+    let accepted: Vec<_> = outputs
+        .accepted
+        .iter()
+        .filter(|a| in_window(a.at_ms))
+        .cloned()
+        .collect();
+    let first_injection = recorded
+        .injections
+        .iter()
+        .map(|i| i.from_ms)
+        .fold(f64::INFINITY, f64::min);
+    let last_heal = recorded
+        .injections
+        .iter()
+        .filter_map(|i| i.healed_ms)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let no_majority: Vec<f64> = outputs
+        .no_majority
+        .iter()
+        .map(|n| n.at_ms)
+        .filter(|at| in_window(*at))
+        .collect();
+    VoterFigures {
+        accepted: accepted.len(),
+        wrong: judging.voter(&accepted),
+        no_majority: no_majority.len(),
+        first_no_majority_after_ms: no_majority
+            .iter()
+            .find(|at| **at >= first_injection)
+            .map(|at| at - first_injection),
+        accepting_again_after_ms: accepted
+            .iter()
+            .find(|a| a.at_ms > last_heal)
+            .map(|a| a.at_ms - last_heal),
+        dissents_raised: outputs
+            .dissents
+            .iter()
+            .filter(|d| d.raised && in_window(d.at_ms))
+            .map(|d| format!("C{} at {:.2} s", d.id, d.at_ms / 1000.0))
+            .collect(),
+    }
+}
+
+/// How the life `injection` asked went out and came back.
+fn out_and_back(recorded: &Recorded, injection: &Injection) -> OutAndBack {
+    let from = injection.from_ms;
+    let after = |at_ms: f64| at_ms - from;
+    let life = recorded.lives.iter().find(|l| l.label() == injection.life);
+    let next = recorded
+        .lives
+        .iter()
+        .find(|l| l.id == injection.id && l.started_ms > from);
+    let back = next.and_then(|next| {
+        let label = next.label();
+        recorded
+            .observed
+            .controller
+            .iter()
+            .filter(|e| e.life == label)
+            .find_map(|e| {
+                let status = e.line.status()?;
+                let role = status.report.role?;
+                (status.report.phase == rl_layer::core::Phase::Steady)
+                    .then(|| (e.at_ms, label.clone(), role.name().to_string()))
+            })
+    });
+    let decision = recorded.observed.outputs.odd_one_out_of(&injection.life);
+    // A frame taken just before the asking may reach the controller after it: the slack.
+    let fault_frames_from = from - GAP_SLACK_MS;
+    let odd_counts = decision.filter(|d| !d.inputs_at_ms.is_empty()).map(|d| {
+        let after = d
+            .inputs_at_ms
+            .iter()
+            .filter(|at| **at >= fault_frames_from)
+            .count();
+        (after, d.inputs_at_ms.len() - after)
+    });
+    let dissents = &recorded.observed.outputs.dissents;
+    let raised = dissents
+        .iter()
+        .find(|d| d.id == injection.id && d.raised && d.at_ms >= from);
+    let cleared = raised.and_then(|raised| {
+        dissents
+            .iter()
+            .find(|d| d.id == injection.id && !d.raised && d.at_ms > raised.at_ms)
+    });
+    OutAndBack {
+        life: injection.life.clone(),
+        decided_after_ms: decision.map(|o| after(o.at_ms)),
+        odd_after_fault: odd_counts.map(|(after, _)| after),
+        odd_before_fault: odd_counts.map(|(_, before)| before),
+        exited_after_ms: life.and_then(|l| l.ended_ms).map(after),
+        exit: life.and_then(|l| l.exit.clone()),
+        back_after_ms: back.as_ref().map(|(at, ..)| after(*at)),
+        back_life: back.as_ref().map(|(_, life, _)| life.clone()),
+        back_as: back.map(|(.., role)| role),
+        dissent_raised_after_ms: raised.map(|d| after(d.at_ms)),
+        dissent_cleared_after_ms: cleared.map(|d| after(d.at_ms)),
+    }
+}
+
+/// What a `fault-injection` build logs when it takes a `wrong-commands` line
+/// (`impl/layer/src/runtime/fault_injection.rs`).
+const ACKNOWLEDGED: &str = "fault injection: commands wrong";
+
+/// An error unless every life asked for wrong commands said on stderr (`(source, text)`)
+/// that it took them: a PASS of a run whose controllers ignored the fault would say nothing.
+pub fn require_acknowledged(
+    injections: &[Injection],
+    stderr: &[(String, String)],
+    rl: &std::path::Path,
+) -> Result<(), LabError> {
+    let silent: Vec<&str> = injections
+        .iter()
+        .filter(|i| {
+            !stderr
+                .iter()
+                .any(|(source, text)| *source == i.life && text.contains(ACKNOWLEDGED))
+        })
+        .map(|i| i.life.as_str())
+        .collect();
+    if silent.is_empty() {
+        return Ok(());
+    }
+    Err(LabError::InjectionIgnored {
+        rl: rl.to_path_buf(),
+        lives: silent.join(", "),
+    })
+}
+
+/// The report's figures for the run's summary, one line each.
+pub fn summary(report: &OutputReport) -> String {
+    let ms = |v: Option<f64>| v.map_or("never".into(), |v| format!("{v:.0} ms"));
+    let mut text = format!(
+        "  voting reader: {} accepted, {} wrong; no majority {} times (first {} after the fault); accepting again {} after the last heal; dissents raised: {}\n",
+        report.voter.accepted,
+        report.voter.wrong.samples,
+        report.voter.no_majority,
+        ms(report.voter.first_no_majority_after_ms),
+        ms(report.voter.accepting_again_after_ms),
+        if report.voter.dissents_raised.is_empty() {
+            "none".into()
+        } else {
+            report.voter.dissents_raised.join(", ")
+        },
+    );
+    for (reader, delivered, path) in [
+        (
+            "rl servo",
+            Some(&report.servo),
+            Some(&report.servo_owner_path),
+        ),
+        (
+            "Connext",
+            report.connext.as_ref(),
+            report.connext_owner_path.as_ref(),
+        ),
+    ] {
+        if let (Some(d), Some(path)) = (delivered, path) {
+            text.push_str(&format!(
+                "  {reader}: {} wrong samples ({} distinct commands) over {}; owners {}\n",
+                d.samples,
+                d.distinct,
+                ms(d.span_ms()),
+                path.join(" -> ")
+            ));
+        }
+    }
+    for o in &report.out_and_back {
+        text.push_str(&format!(
+            "  {}: odd one out {} after the fault ({} odd inputs after it, {} before), exited {} ({}), back {} ({} {}); dissent raised {}, cleared {}\n",
+            o.life,
+            ms(o.decided_after_ms),
+            o.odd_after_fault.map_or("?".into(), |n| n.to_string()),
+            o.odd_before_fault.map_or("?".into(), |n| n.to_string()),
+            ms(o.exited_after_ms),
+            o.exit.as_deref().unwrap_or("running"),
+            ms(o.back_after_ms),
+            o.back_life.as_deref().unwrap_or("-"),
+            o.back_as.as_deref().unwrap_or("-"),
+            ms(o.dissent_raised_after_ms),
+            ms(o.dissent_cleared_after_ms),
+        ));
+    }
+    text.push_str(&tracking::summary(&report.tracking));
+    text
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,210 @@
+//! The controller-side cross-check, pure: each controller compares its own answer to an input
+//! with the two others' answers to the same input (read from the voted topic), and a controller
+//! that is the odd one out of three at N inputs of one life reports a local fault and leaves.
+//! This protects an exclusive-ownership reader too, which takes the Primary's commands whatever
+//! they are: a wrong Primary leaves after at most N wrong answers, and the actuator moves to the
+//! next strongest writer (one owner change). The output model's rules 4 and 5
+//! (`model/src/outputs/`, docs/protocol.md "Output voting"):
+//!
+//! - **Odd one out**: of an input that two peers answered, when those two agree with each
+//!   other ([`VoteRule::agree`]) and its own answer agrees with neither. Only a full comparison
+//!   judges anyone: with one peer's answer (or none) nobody can tell which is wrong. Agreeing
+//!   with neither, not merely with one, so that tolerance, which is not transitive, never makes
+//!   a correct controller odd: its answer is within the tolerance of the correct peer's.
+//! - **Per life**: N odd inputs in one life, in a row or not (a count that forgets never
+//!   catches a controller wrong at every other input: finding O2 of docs/findings.md); a new
+//!   life counts from zero.
+//! - **Order**: an input is judged when the controller answers the next one, before that answer
+//!   goes out ([`CrossCheck::answer`]), so the N-th odd answer of a life is its last.
+//! - **Judged in step**: an input is judged only if, before answering it, the controller took
+//!   the group's position from the accepted answers to the input it answered before
+//!   ([`CrossCheck::aligned`]; the tracker's bumpless transfer). An application with state (the
+//!   tracker integrates its errors) answers from that state; taken from the group at the input
+//!   before, the state is the group's, and an answer that differs is its own computation's
+//!   fault. Otherwise it answered from its own state (at formation, a controller that began
+//!   tracking a frame later than the others; or the group's answers came late), which is not
+//!   wrong. This is the model's timing assumption, answers to an input arriving before the
+//!   next input, met for both inputs; without it an input is not compared, as in the model.
+//!
+//! Where it differs from the model: a controller that omits its answers judges nothing (its
+//! own answer is what it compares), so an omission is the receiver's to catch (a silent
+//! controller goes stale at the voting reader; the exclusive reader's deadline moves on).
+
+use crate::core::types::ControllerId;
+use crate::vote_reader::VoteRule;
+use std::collections::BTreeMap;
+
+/// The default N: odd-one-out inputs in one life before a controller leaves. The model's
+/// value: N = 1 removes a correct controller at one glitch; N = 2 tolerates one per life at
+/// the price of one more wrong command at an exclusive reader (K = N, docs/protocol.md).
+pub const ODD_LIMIT_DEFAULT: u32 = 2;
+
+/// Inputs of peers' answers kept for the comparison: the newest few (a peer answering far
+/// ahead of this controller is compared with nothing).
+const INPUTS_KEPT: usize = 8;
+
+/// Why a controller leaves: the inputs at which it was the odd one out of three.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct OddOneOut {
+    /// The odd-one-out inputs of this life, oldest first (`odd_limit` of them).
+    pub inputs: Vec<u64>,
+    /// N.
+    pub odd_limit: u32,
+    /// The peers that agreed with each other at the last of them.
+    pub peers: Vec<ControllerId>,
+}
+
+impl std::fmt::Display for OddOneOut {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let peers: Vec<String> = self.peers.iter().map(|id| format!("C{id}")).collect();
+        write!(
+            f,
+            "the odd one out of three at {} inputs of this life ({}): its answers disagree \
+             with both of {}, which agree",
+            self.inputs.len(),
+            self.inputs
+                .iter()
+                .map(u64::to_string)
+                .collect::<Vec<_>>()
+                .join(", "),
+            peers.join(" and ")
+        )
+    }
+}
+
+/// What the controller does with its answer to a new input.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Judgement {
+    /// Publish it.
+    Answer,
+    /// Publish nothing more: report a local fault and leave (`Redundancy::report_odd_one_out`).
+    Leave(OddOneOut),
+}
+
+/// The controller's answer to one input.
+#[derive(Clone, Debug)]
+struct OwnAnswer<T> {
+    input: u64,
+    value: T,
+    /// Computed from the group's position at the input answered before.
+    in_step: bool,
+}
+
+/// One controller's cross-check (see the module's rules).
+#[derive(Clone, Debug)]
+pub struct CrossCheck<T, R> {
+    own: ControllerId,
+    rule: R,
+    odd_limit: u32,
+    /// Peers' answers by input, the newest [`INPUTS_KEPT`] inputs.
+    peers: BTreeMap<u64, BTreeMap<ControllerId, T>>,
+    /// Its own answer to the input it answers now, judged at the next input.
+    own_answer: Option<OwnAnswer<T>>,
+    /// The newest input whose group position it took in this life.
+    aligned_to: Option<u64>,
+    /// This life's odd-one-out inputs.
+    odd_inputs: Vec<u64>,
+    /// Decided to leave, and why: nothing more is answered in this life.
+    left: Option<OddOneOut>,
+}
+
+impl<T: Clone, R: VoteRule<T>> CrossCheck<T, R> {
+    /// The cross-check of controller `own`, agreeing by `rule`, leaving at `odd_limit` odd
+    /// inputs in one life (0: never; the check only counts).
+    pub fn new(own: ControllerId, rule: R, odd_limit: u32) -> CrossCheck<T, R> {
+        CrossCheck {
+            own,
+            rule,
+            odd_limit,
+            peers: BTreeMap::new(),
+            own_answer: None,
+            aligned_to: None,
+            odd_inputs: Vec::new(),
+            left: None,
+        }
+    }
+
+    /// A peer's answer `value` to `input`, as it arrived (trusted: its participant speaks for
+    /// `from`). Its own answers, read back, are ignored: it compares what it computed.
+    pub fn peer_answer(&mut self, from: ControllerId, input: u64, value: T) {
+        if from == self.own {
+            return;
+        }
+        self.peers.entry(input).or_default().insert(from, value);
+        while self.peers.len() > INPUTS_KEPT {
+            self.peers.pop_first();
+        }
+    }
+
+    /// The controller took the group's position from the answers to `input` (bumpless
+    /// transfer): its answer to the next input is the group's to compare.
+    pub fn aligned(&mut self, input: u64) {
+        self.aligned_to = self.aligned_to.max(Some(input));
+    }
+
+    /// Its answer `value` to `input`, before it goes out: judges the input it answered before
+    /// (rule 5) and says whether to publish. Answering the same input again (a re-publication)
+    /// only replaces the answer kept for it.
+    pub fn answer(&mut self, input: u64, value: T) -> Judgement {
+        if let Some(left) = &self.left {
+            return Judgement::Leave(left.clone());
+        }
+        let previous = self.own_answer.take();
+        let in_step = match &previous {
+            Some(previous) if previous.input == input => previous.in_step,
+            Some(previous) => self.aligned_to >= Some(previous.input),
+            None => false,
+        };
+        if let Some(previous) = previous.filter(|p| p.input < input && p.in_step) {
+            if let Some(peers) = self.odd_at(previous.input, &previous.value) {
+                self.odd_inputs.push(previous.input);
+                if self.odd_limit > 0 && self.odd_inputs.len() >= self.odd_limit as usize {
+                    let verdict = OddOneOut {
+                        inputs: self.odd_inputs.clone(),
+                        odd_limit: self.odd_limit,
+                        peers,
+                    };
+                    self.left = Some(verdict.clone());
+                    return Judgement::Leave(verdict);
+                }
+            }
+        }
+        self.own_answer = Some(OwnAnswer {
+            input,
+            value,
+            in_step,
+        });
+        Judgement::Answer
+    }
+
+    /// A new life (the layer started it again): counts from zero, judged again once in step.
+    pub fn new_life(&mut self) {
+        self.own_answer = None;
+        self.aligned_to = None;
+        self.odd_inputs.clear();
+        self.left = None;
+    }
+
+    /// The odd-one-out inputs of this life so far.
+    pub fn odd_inputs(&self) -> &[u64] {
+        &self.odd_inputs
+    }
+
+    /// The two peers that agree with each other and with which `value`, its answer to `input`,
+    /// agrees with neither; `None` when it is not the odd one out.
+    fn odd_at(&self, input: u64, value: &T) -> Option<Vec<ControllerId>> {
+        let answers: Vec<(&ControllerId, &T)> = self.peers.get(&input)?.iter().collect();
+        if answers.iter().any(|(_, peer)| self.rule.agree(value, peer)) {
+            return None;
+        }
+        answers.iter().enumerate().find_map(|(i, (a, first))| {
+            let agreeing = answers[i + 1..]
+                .iter()
+                .find(|(_, second)| self.rule.agree(first, second))?;
+            Some(vec![**a, *agreeing.0])
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests;
