@@ -21,10 +21,10 @@
 //! 0.5 s and more may outlast the peers' decision.
 //!
 //! The third is the voting reader's rule: `wrong-primary` with `rl servo --vote` taking a
-//! value from one source (`--vote-mutation accept-single-source`). The first answer to a
-//! camera frame decides it, and the wrong Primary's answers come first at some frames, so the
-//! voting reader takes wrong commands, which it never does with the rule whole (every run of
-//! `wrong-primary` measured 0); nothing else in the run depends on that reader, so every other
+//! value from one source (`--vote-mutation accept-single-source`). Every answer is taken alone
+//! as it arrives, and the wrong Primary answers at least two frames wrongly before its
+//! cross-check takes it out, so the voting reader takes wrong commands in every run, which it
+//! never does with the rule whole (every run of `wrong-primary` measured 0); nothing else in the run depends on that reader, so every other
 //! judge passes and the failure is the mutation's, in one run.
 //!
 //! The lab runs need root (namespaces, links, nftables) and nft and libfaketime installed, as

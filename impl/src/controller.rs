@@ -166,6 +166,11 @@ fn track(
     let mut last_written = started - republish;
     // The camera frame the commands answer (its source timestamp), for the voted topic.
     let mut frame: u64 = 0;
+    // Its answer to that frame: a re-publication repeats it. The tracker's state, aligned to
+    // the group since, is for the next frame; a re-publication computed from it would be a
+    // second, different answer to the same frame (two wrong values per frame from a wrong
+    // controller at an exclusive reader, where the model bounds wrong answers per input).
+    let mut answer = None;
     notifier.ready();
     loop {
         if stop.load(Ordering::SeqCst) || rl.is_finished() {
@@ -192,10 +197,11 @@ fn track(
             if shape.value.color == config.tracker.color {
                 fresh = Some(pan_tilt.update(shape.value.x, shape.value.y));
                 frame = shape.source_timestamp.map_or(0, |t| t.to_ticks());
+                answer = fresh;
             }
         }
         if fresh.is_some() || last_written.elapsed() >= republish {
-            let command = fresh.unwrap_or_else(|| pan_tilt.command());
+            let command = answer.unwrap_or_else(|| pan_tilt.command());
             outputs.write(rl, frame, command);
             last_written = Instant::now();
         }

@@ -3,8 +3,9 @@
 //! second dissent, as the controllers leave at their second odd input) and the camera on the
 //! vote. The Primary's commands are made wrong by 300 on pan while it keeps heartbeating: it
 //! finds itself the odd one out of three at `tracker.odd_limit` = 2 frames, reports it, stops
-//! commanding and exits 75; the exclusive servo takes at most those 2 wrong commands and moves
-//! to C2, once; the voting servo takes none and names C1. Restarted (as its service manager
+//! commanding and exits 75; the exclusive servo takes at most those 2 wrong commands (one more
+//! for each answer C1 says went out before it could be judged: the timing assumption broken
+//! on a loaded host) and moves to C2, once; the voting servo takes none and names C1. Restarted (as its service manager
 //! would), C1 comes back as Tertiary, correct, the servo stays with C2, and the dissent alarm
 //! clears (docs/protocol.md, "Output voting").
 
@@ -75,23 +76,27 @@ fn dissent_about_c1(cluster: &Cluster, raised: bool) -> bool {
     })
 }
 
-/// C1's `odd_one_out` event, if it reported one: the inputs and the agreeing peers.
-fn odd_one_out(cluster: &Cluster) -> Option<(Vec<u64>, Vec<u8>)> {
+/// C1's `odd_one_out` event, if it reported one: the inputs, the agreeing peers, and how
+/// many of its answers went out before they could be judged at their next input.
+fn odd_one_out(cluster: &Cluster) -> Option<(Vec<u64>, Vec<u8>, u32)> {
     cluster
         .events
         .iter()
         .find_map(|(_, line)| match &line.event {
-            Event::OddOneOut { inputs, peers, .. } if line.id == 1 => {
-                Some((inputs.clone(), peers.clone()))
-            }
+            Event::OddOneOut {
+                inputs,
+                peers,
+                late,
+                ..
+            } if line.id == 1 => Some((inputs.clone(), peers.clone(), *late)),
             _ => None,
         })
 }
 
-#[test]
-fn a_wrong_primary_leaves_after_two_odd_frames_and_the_servo_moves_once() {
-    let mut cluster = Cluster::new("cross-check", 155, "");
-    let (_, mut c1) = cluster
+/// The three controllers (C1's stdin piped, for the fault), both servos and the camera on the
+/// vote, formed with the exclusive servo following C1; C1's stdin.
+fn start(cluster: &mut Cluster) -> std::process::ChildStdin {
+    let (_, c1) = cluster
         .fleet
         .start_controller_piped(1, "C1", &["--json-events"])
         .expect("start C1");
@@ -106,6 +111,42 @@ fn a_wrong_primary_leaves_after_two_odd_frames_and_the_servo_moves_once() {
     cluster.start_voting_servo(&["--dissent-after", "2"]);
     cluster.wait_for("C1, C2, C3 formed", FORM, formed);
     cluster.wait_for("the servo follows C1", FORM, |c| c.servo_owner() == Some(1));
+    c1
+}
+
+/// The distinct pans from C1 the exclusive servo took since `from` that are wrong: off the
+/// nearest (in time) command of C2 or C3 by more than half the skew.
+fn wrong_pans_of_c1(cluster: &Cluster, from: Instant) -> BTreeSet<u16> {
+    let (c1_commands, others) = commands_since(cluster, from);
+    let reference = others.first().map(|(_, pan)| *pan);
+    let wrong = c1_commands.iter().filter(|(at, pan)| {
+        let nearest = others
+            .iter()
+            .min_by_key(|(when, _)| when.max(at).duration_since(*when.min(at)))
+            .map(|(_, pan)| *pan)
+            .or(reference);
+        nearest.is_some_and(|right| right.abs_diff(*pan) > SKEW / 2)
+    });
+    wrong.map(|(_, pan)| *pan).collect()
+}
+
+fn exited_75(cluster: &Cluster) -> bool {
+    cluster.events.iter().any(|(_, line)| {
+        line.id == 1
+            && matches!(
+                line.event,
+                Event::Stopped {
+                    exit_status: Some(75),
+                    ..
+                }
+            )
+    })
+}
+
+#[test]
+fn a_wrong_primary_leaves_after_two_odd_frames_and_the_servo_moves_once() {
+    let mut cluster = Cluster::new("cross-check", 155, "");
+    let mut c1 = start(&mut cluster);
     cluster.pump(Duration::from_secs(2));
     assert_eq!(odd_one_out(&cluster), None, "no correct controller is odd");
 
@@ -115,44 +156,21 @@ fn a_wrong_primary_leaves_after_two_odd_frames_and_the_servo_moves_once() {
     cluster.wait_for("C1 finds itself the odd one out", FORM, |c| {
         odd_one_out(c).is_some()
     });
-    let (inputs, peers) = odd_one_out(&cluster).unwrap_or_default();
+    let (inputs, peers, late) = odd_one_out(&cluster).unwrap_or_default();
     assert_eq!((inputs.len(), peers), (2, vec![2, 3]));
-    cluster.wait_for("C1 exits 75", FORM, |c| {
-        c.events.iter().any(|(_, line)| {
-            line.id == 1
-                && matches!(
-                    line.event,
-                    Event::Stopped {
-                        exit_status: Some(75),
-                        ..
-                    }
-                )
-        })
-    });
+    cluster.wait_for("C1 exits 75", FORM, exited_75);
     cluster.wait_for("C2 Primary", FORM, |c| {
         c.steady_with(2, Some(Role::Primary))
     });
     cluster.pump(Duration::from_secs(1));
 
-    // The exclusive servo: C1's wrong commands (off C2's and C3's by more than half the skew),
-    // at most N = 2 distinct ones, then C2, in one owner change.
-    let (c1_commands, others) = commands_since(&cluster, injected);
-    let reference = others.first().map(|(_, pan)| *pan);
-    let wrong: BTreeSet<u16> = c1_commands
-        .iter()
-        .filter(|(at, pan)| {
-            let nearest = others
-                .iter()
-                .min_by_key(|(when, _)| when.max(at).duration_since(*when.min(at)))
-                .map(|(_, pan)| *pan)
-                .or(reference);
-            nearest.is_some_and(|right| right.abs_diff(*pan) > SKEW / 2)
-        })
-        .map(|(_, pan)| *pan)
-        .collect();
+    // The exclusive servo: C1's wrong commands, at most N = 2 distinct ones (K = N; one more
+    // for each answer that went out before it could be judged, which C1 counts), then C2, in
+    // one owner change.
+    let wrong = wrong_pans_of_c1(&cluster, injected);
     assert!(
-        !wrong.is_empty() && wrong.len() <= 2,
-        "wrong commands at the exclusive servo: {wrong:?}"
+        !wrong.is_empty() && wrong.len() <= 2 + late as usize,
+        "wrong commands at the exclusive servo: {wrong:?} ({late} of C1's answers late)"
     );
     assert_eq!(
         owner_changes_since(&cluster, injected),
@@ -169,8 +187,12 @@ fn a_wrong_primary_leaves_after_two_odd_frames_and_the_servo_moves_once() {
         }
     }
     assert!(dissent_about_c1(&cluster, true), "dissent about C1 raised");
+    comes_back_as_tertiary(&mut cluster);
+}
 
-    // Restarted, C1 is correct and comes back below the two that stayed.
+/// Restarted, C1 is correct and comes back below the two that stayed; the dissent alarm
+/// clears, the servo stays with C2, and nobody else ever left.
+fn comes_back_as_tertiary(cluster: &mut Cluster) {
     let restarted = Instant::now();
     cluster.start(1);
     cluster.wait_for("C1 back as Tertiary", FORM, |c| {
@@ -180,7 +202,7 @@ fn a_wrong_primary_leaves_after_two_odd_frames_and_the_servo_moves_once() {
         dissent_about_c1(c, false)
     });
     cluster.pump(Duration::from_secs(1));
-    assert_eq!(owner_changes_since(&cluster, restarted), []);
+    assert_eq!(owner_changes_since(cluster, restarted), []);
     let odd_reports = cluster
         .events
         .iter()

@@ -1,4 +1,4 @@
-//! Two redundancy groups on one DDS domain (223), as the paper's navigation and actuator
+//! Two redundancy groups on one DDS domain (166), as the paper's navigation and actuator
 //! controllers share one network: real `rl controller` processes, ids 1-3 in each group, each
 //! group commanding its own topic read by its own `rl servo`. Neither group hears the other's
 //! heartbeats, votes or alarms, and when both Primaries die at once each group's actuator
@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 use support::actuators::{owner_changes, servo_owners};
 use support::Cluster;
 
-const DOMAIN: u16 = 223;
+const DOMAIN: u16 = 166;
 
 fn group(name: &str) -> Cluster {
     let mut cluster = Cluster::new(
@@ -51,6 +51,19 @@ fn heard_no_other_group(cluster: &Cluster, name: &str) {
     }
 }
 
+/// The last stderr lines of each controller of `cluster`, for a failure to say what each
+/// heard.
+fn controller_logs(cluster: &Cluster) -> String {
+    let mut logs = Vec::new();
+    for id in 1..=3 {
+        let source = format!("C{id}!");
+        let lines: Vec<&str> = cluster.lines_from(&source).collect();
+        let tail = &lines[lines.len().saturating_sub(15)..];
+        logs.extend(tail.iter().map(|line| format!("{source} {line}")));
+    }
+    logs.join("\n")
+}
+
 #[test]
 fn two_groups_on_one_domain_fail_over_apart() {
     let mut nav = group("nav");
@@ -59,9 +72,10 @@ fn two_groups_on_one_domain_fail_over_apart() {
     while !(formed(&nav) && formed(&act)) {
         assert!(
             Instant::now() < until,
-            "not both formed: nav [{}], act [{}]",
+            "not both formed: nav [{}], act [{}]\n--- act's controllers' logs ---\n{}",
             nav.describe(),
-            act.describe()
+            act.describe(),
+            controller_logs(&act)
         );
         nav.pump(Duration::from_millis(50));
         act.pump(Duration::from_millis(50));

@@ -216,6 +216,10 @@ pub struct OutAndBack {
     /// found odd: a glitch the per-life count keeps); `None` without its `odd_one_out` event.
     pub odd_after_fault: Option<usize>,
     pub odd_before_fault: Option<usize>,
+    /// Its answers that went out before they could be judged at their next input (its
+    /// `odd_one_out` event's `late`): each adds one wrong answer and one camera period to
+    /// the bounds (docs/protocol.md, "The cross-check in the controllers").
+    pub late: Option<u64>,
     /// Its process's end, and how it ended.
     pub exited_after_ms: Option<f64>,
     pub exit: Option<String>,
@@ -420,6 +424,7 @@ fn out_and_back(recorded: &Recorded, injection: &Injection) -> OutAndBack {
         decided_after_ms: decision.map(|o| after(o.at_ms)),
         odd_after_fault: odd_counts.map(|(after, _)| after),
         odd_before_fault: odd_counts.map(|(_, before)| before),
+        late: decision.and_then(|o| o.late),
         exited_after_ms: life.and_then(|l| l.ended_ms).map(after),
         exit: life.and_then(|l| l.exit.clone()),
         back_after_ms: back.as_ref().map(|(at, ..)| after(*at)),
@@ -499,11 +504,12 @@ pub fn summary(report: &OutputReport) -> String {
     }
     for o in &report.out_and_back {
         text.push_str(&format!(
-            "  {}: odd one out {} after the fault ({} odd inputs after it, {} before), exited {} ({}), back {} ({} {}); dissent raised {}, cleared {}\n",
+            "  {}: odd one out {} after the fault ({} odd inputs after it, {} before, {} late), exited {} ({}), back {} ({} {}); dissent raised {}, cleared {}\n",
             o.life,
             ms(o.decided_after_ms),
             o.odd_after_fault.map_or("?".into(), |n| n.to_string()),
             o.odd_before_fault.map_or("?".into(), |n| n.to_string()),
+            o.late.map_or("?".into(), |n| n.to_string()),
             ms(o.exited_after_ms),
             o.exit.as_deref().unwrap_or("running"),
             ms(o.back_after_ms),

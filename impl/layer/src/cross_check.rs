@@ -16,10 +16,18 @@
 //!   life counts from zero.
 //! - **Order**: an input is judged when the controller answers the next one, before that answer
 //!   goes out ([`CrossCheck::answer`]), so the N-th odd answer of a life is its last.
+//! - **Late answers**: when the peers' answers to an input came after the controller answered
+//!   the next one (the model's timing assumption broken: a loaded host, a slow link), the input
+//!   is judged at the first later input at which they are in (up to [`PENDING_KEPT`] inputs
+//!   back), so a wrong controller leaves on a slow bus too; each answer that went out before
+//!   its input was judged (or never judged) is counted in [`OddOneOut::late`], so the bound at
+//!   an exclusive reader, N wrong answers, is N + `late` when the assumption did not hold.
 //! - **Judged in step**: an input is judged only if, before answering it, the controller took
-//!   the group's position from the accepted answers to the input it answered before
-//!   ([`CrossCheck::aligned`]; the tracker's bumpless transfer). An application with state (the
-//!   tracker integrates its errors) answers from that state; taken from the group at the input
+//!   the group's position from the accepted answers to the input it answered before, and the
+//!   newest input it took the group's position at is that one ([`CrossCheck::aligned`]; the
+//!   tracker's bumpless transfer): at a newer one the group answered an input it did not (a
+//!   camera frame lost to it), and its law's memory of the last input differs from theirs.
+//!   An application with state (the tracker integrates its errors) answers from that state; taken from the group at the input
 //!   before, the state is the group's, and an answer that differs is its own computation's
 //!   fault. Otherwise it answered from its own state (at formation, a controller that began
 //!   tracking a frame later than the others; or the group's answers came late), which is not
@@ -43,6 +51,14 @@ pub const ODD_LIMIT_DEFAULT: u32 = 2;
 /// ahead of this controller is compared with nothing).
 const INPUTS_KEPT: usize = 8;
 
+/// Its own answers kept unjudged while the peers' answers to them are not all in: the newest
+/// few (with a peer gone, its answers are never compared and are let go).
+pub const PENDING_KEPT: usize = 4;
+
+/// Late inputs remembered for [`OddOneOut::late`] (a bound on memory; more than this many
+/// late answers since the last agreement report this many).
+const LATE_KEPT: usize = 64;
+
 /// Why a controller leaves: the inputs at which it was the odd one out of three.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct OddOneOut {
@@ -52,6 +68,11 @@ pub struct OddOneOut {
     pub odd_limit: u32,
     /// The peers that agreed with each other at the last of them.
     pub peers: Vec<ControllerId>,
+    /// Its answers since the last one judged not odd that went out before they were judged
+    /// at their next input (the peers' answers, or the group's position, came later; judged
+    /// later or never): 0 when the model's timing assumption held, and then an exclusive
+    /// reader took at most `odd_limit` wrong answers of this life; at most `odd_limit` + `late`.
+    pub late: u32,
 }
 
 impl std::fmt::Display for OddOneOut {
@@ -68,7 +89,15 @@ impl std::fmt::Display for OddOneOut {
                 .collect::<Vec<_>>()
                 .join(", "),
             peers.join(" and ")
-        )
+        )?;
+        if self.late > 0 {
+            write!(
+                f,
+                " ({} answers went out before they could be judged at their next input)",
+                self.late
+            )?;
+        }
+        Ok(())
     }
 }
 
@@ -98,8 +127,11 @@ pub struct CrossCheck<T, R> {
     odd_limit: u32,
     /// Peers' answers by input, the newest [`INPUTS_KEPT`] inputs.
     peers: BTreeMap<u64, BTreeMap<ControllerId, T>>,
-    /// Its own answer to the input it answers now, judged at the next input.
-    own_answer: Option<OwnAnswer<T>>,
+    /// Its own answers not judged yet, oldest first: the input it answers now (judged at the
+    /// next input) and earlier ones whose peers' answers are not all in.
+    pending: Vec<OwnAnswer<T>>,
+    /// Late answers since the last one judged not odd, by input (see [`OddOneOut::late`]).
+    late: std::collections::BTreeSet<u64>,
     /// The newest input whose group position it took in this life.
     aligned_to: Option<u64>,
     /// This life's odd-one-out inputs.
@@ -117,7 +149,8 @@ impl<T: Clone, R: VoteRule<T>> CrossCheck<T, R> {
             rule,
             odd_limit,
             peers: BTreeMap::new(),
-            own_answer: None,
+            pending: Vec::new(),
+            late: std::collections::BTreeSet::new(),
             aligned_to: None,
             odd_inputs: Vec::new(),
             left: None,
@@ -142,34 +175,37 @@ impl<T: Clone, R: VoteRule<T>> CrossCheck<T, R> {
         self.aligned_to = self.aligned_to.max(Some(input));
     }
 
-    /// Its answer `value` to `input`, before it goes out: judges the input it answered before
-    /// (rule 5) and says whether to publish. Answering the same input again (a re-publication)
-    /// only replaces the answer kept for it.
+    /// Its answer `value` to `input`, before it goes out: judges the inputs it answered before
+    /// (rule 5; late ones as soon as the peers' answers are in) and says whether to publish.
+    /// Answering the same input again (a re-publication) only replaces the answer kept for it.
     pub fn answer(&mut self, input: u64, value: T) -> Judgement {
         if let Some(left) = &self.left {
             return Judgement::Leave(left.clone());
         }
-        let previous = self.own_answer.take();
-        let in_step = match &previous {
-            Some(previous) if previous.input == input => previous.in_step,
-            Some(previous) => self.aligned_to >= Some(previous.input),
-            None => false,
-        };
-        if let Some(previous) = previous.filter(|p| p.input < input && p.in_step) {
-            if let Some(peers) = self.odd_at(previous.input, &previous.value) {
-                self.odd_inputs.push(previous.input);
-                if self.odd_limit > 0 && self.odd_inputs.len() >= self.odd_limit as usize {
-                    let verdict = OddOneOut {
-                        inputs: self.odd_inputs.clone(),
-                        odd_limit: self.odd_limit,
-                        peers,
-                    };
-                    self.left = Some(verdict.clone());
-                    return Judgement::Leave(verdict);
-                }
+        if let Some(last) = self.pending.last_mut().filter(|p| p.input == input) {
+            last.value = value;
+            return Judgement::Answer;
+        }
+        let previous = self.pending.last().map(|p| p.input);
+        // The group's position at exactly the input it answered before: at a newer one, the
+        // group answered an input it did not (a camera frame lost to it, or peers ahead), and
+        // its law's memory of the last frame (the PD's previous error) is not the group's.
+        let in_step = previous.is_some_and(|p| self.aligned_to == Some(p));
+        for answer in std::mem::take(&mut self.pending) {
+            if answer.input > input {
+                continue;
+            }
+            let on_time = Some(answer.input) == previous;
+            if let Some(verdict) = self.judge(answer, on_time) {
+                self.left = Some(verdict.clone());
+                return Judgement::Leave(verdict);
             }
         }
-        self.own_answer = Some(OwnAnswer {
+        while self.pending.len() >= PENDING_KEPT {
+            let let_go = self.pending.remove(0);
+            self.note_late(let_go.input);
+        }
+        self.pending.push(OwnAnswer {
             input,
             value,
             in_step,
@@ -177,9 +213,51 @@ impl<T: Clone, R: VoteRule<T>> CrossCheck<T, R> {
         Judgement::Answer
     }
 
+    /// Judges its earlier `answer` (`on_time`: at the input after it): kept pending while the
+    /// peers' answers are not all in; the verdict when it is the N-th odd input of the life.
+    fn judge(&mut self, answer: OwnAnswer<T>, on_time: bool) -> Option<OddOneOut> {
+        if !answer.in_step {
+            self.note_late(answer.input);
+            return None;
+        }
+        match self.compare(answer.input, &answer.value) {
+            Comparison::Incomplete => {
+                self.pending.push(answer);
+                None
+            }
+            Comparison::NotOdd => {
+                self.late.retain(|late| *late > answer.input);
+                None
+            }
+            Comparison::Odd(peers) => {
+                if !on_time {
+                    self.note_late(answer.input);
+                }
+                self.odd_inputs.push(answer.input);
+                self.odd_inputs.sort_unstable();
+                let limit = self.odd_limit as usize;
+                (limit > 0 && self.odd_inputs.len() >= limit).then(|| OddOneOut {
+                    inputs: self.odd_inputs.clone(),
+                    odd_limit: self.odd_limit,
+                    peers,
+                    late: u32::try_from(self.late.len()).unwrap_or(u32::MAX),
+                })
+            }
+        }
+    }
+
+    /// `input`'s answer went out before it was judged at its next input.
+    fn note_late(&mut self, input: u64) {
+        self.late.insert(input);
+        while self.late.len() > LATE_KEPT {
+            self.late.pop_first();
+        }
+    }
+
     /// A new life (the layer started it again): counts from zero, judged again once in step.
     pub fn new_life(&mut self) {
-        self.own_answer = None;
+        self.pending.clear();
+        self.late.clear();
         self.aligned_to = None;
         self.odd_inputs.clear();
         self.left = None;
@@ -190,20 +268,38 @@ impl<T: Clone, R: VoteRule<T>> CrossCheck<T, R> {
         &self.odd_inputs
     }
 
-    /// The two peers that agree with each other and with which `value`, its answer to `input`,
-    /// agrees with neither; `None` when it is not the odd one out.
-    fn odd_at(&self, input: u64, value: &T) -> Option<Vec<ControllerId>> {
-        let answers: Vec<(&ControllerId, &T)> = self.peers.get(&input)?.iter().collect();
+    /// How `value`, its answer to `input`, compares with the peers' answers (see the
+    /// module's rules).
+    fn compare(&self, input: u64, value: &T) -> Comparison {
+        let answers: Vec<(&ControllerId, &T)> = self
+            .peers
+            .get(&input)
+            .map(|peers| peers.iter().collect())
+            .unwrap_or_default();
         if answers.iter().any(|(_, peer)| self.rule.agree(value, peer)) {
-            return None;
+            return Comparison::NotOdd;
         }
-        answers.iter().enumerate().find_map(|(i, (a, first))| {
+        if answers.len() < 2 {
+            return Comparison::Incomplete;
+        }
+        let agreeing = answers.iter().enumerate().find_map(|(i, (a, first))| {
             let agreeing = answers[i + 1..]
                 .iter()
                 .find(|(_, second)| self.rule.agree(first, second))?;
             Some(vec![**a, *agreeing.0])
-        })
+        });
+        agreeing.map_or(Comparison::NotOdd, Comparison::Odd)
     }
+}
+
+/// How a controller's answer compares with its peers' answers to the same input.
+enum Comparison {
+    /// Fewer than two peers' answers, none agreeing with it: not judged yet.
+    Incomplete,
+    /// It agrees with a peer, or the peers agree with nobody.
+    NotOdd,
+    /// It agrees with neither of two peers that agree: these two.
+    Odd(Vec<ControllerId>),
 }
 
 #[cfg(test)]

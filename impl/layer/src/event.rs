@@ -138,6 +138,12 @@ pub enum Event {
         odd_limit: u32,
         /// The peers that agreed with each other at the last of them.
         peers: Vec<ControllerId>,
+        /// Its answers since the last one judged not odd that went out before they could be
+        /// judged at their next input (crate::cross_check::OddOneOut::late): 0 when the
+        /// timing assumption held, and then an exclusive reader took at most `odd_limit` of
+        /// its wrong answers in this life, else at most `odd_limit` + `late`.
+        #[serde(default)]
+        late: u32,
     },
     /// The voting thread stopped cleanly: asked to (no other fields), or on its own after the
     /// controller failed itself. Then `reason` says why (`outvoted`, `local_fault`),

@@ -218,9 +218,9 @@ pub struct VoteReader<T, R> {
     majority_at_ms: Option<u64>,
     /// A no-majority was reported and no value has been accepted since.
     without_majority: bool,
-    /// Sources that must agree on a value: 2 (1 only under a deliberately broken rule,
-    /// [`VoteMutation::AcceptSingleSource`]).
-    sources_needed: usize,
+    /// Every answer is taken alone as it arrives: false, true only under a deliberately
+    /// broken rule ([`VoteMutation::AcceptSingleSource`]).
+    one_source_decides: bool,
 }
 
 /// The receiver's deliberately broken rules (a `mutation` build), to show that the tests and
@@ -229,7 +229,9 @@ pub struct VoteReader<T, R> {
 #[cfg(feature = "mutation")]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum VoteMutation {
-    /// A value is accepted from one source: the first answer to a new input decides it.
+    /// A value is accepted from one source: every answer to the accepted input or a newer one
+    /// is taken alone as it arrives, so each answer of a wrong controller reaches the
+    /// application, whatever order the answers come in.
     AcceptSingleSource,
 }
 
@@ -265,7 +267,7 @@ impl<T: Clone, R: VoteRule<T>> VoteReader<T, R> {
             accepted: None,
             majority_at_ms: None,
             without_majority: false,
-            sources_needed: 2,
+            one_source_decides: false,
         }
     }
 
@@ -273,13 +275,16 @@ impl<T: Clone, R: VoteRule<T>> VoteReader<T, R> {
     #[cfg(feature = "mutation")]
     pub fn mutate(&mut self, mutation: VoteMutation) {
         match mutation {
-            VoteMutation::AcceptSingleSource => self.sources_needed = 1,
+            VoteMutation::AcceptSingleSource => self.one_source_decides = true,
         }
     }
 
     /// Takes in `answer`, received at `now_ms`, and votes. Times must not go backwards.
     pub fn offer(&mut self, answer: Voted<T>, now_ms: u64) -> Vec<VoteEvent<T>> {
         self.majority_at_ms.get_or_insert(now_ms);
+        if self.one_source_decides {
+            return self.take_alone(answer, now_ms);
+        }
         self.answers.insert(
             answer.from,
             Answer {
@@ -289,6 +294,27 @@ impl<T: Clone, R: VoteRule<T>> VoteReader<T, R> {
             },
         );
         self.vote(now_ms)
+    }
+
+    /// The broken rule ([`VoteMutation::AcceptSingleSource`]): `answer` is taken alone when it
+    /// answers the accepted input or a newer one.
+    fn take_alone(&mut self, answer: Voted<T>, now_ms: u64) -> Vec<VoteEvent<T>> {
+        if self
+            .accepted_input()
+            .is_some_and(|accepted| answer.input < accepted)
+        {
+            return Vec::new();
+        }
+        let accepted = Acceptance {
+            input: answer.input,
+            agreeing: BTreeMap::from([(answer.from, answer.value.clone())]),
+            value: answer.value,
+        };
+        let events = vec![Self::acceptance_event(&accepted)];
+        self.accepted = Some(accepted);
+        self.majority_at_ms = Some(now_ms);
+        self.without_majority = false;
+        events
     }
 
     /// Votes again at `now_ms` without a new answer (controllers go stale, a majority lapses).
@@ -350,7 +376,7 @@ impl<T: Clone, R: VoteRule<T>> VoteReader<T, R> {
         count
             .into_iter()
             .rev()
-            .find(|(_, n)| *n >= self.sources_needed)
+            .find(|(_, n)| *n >= 2)
             .map(|(i, _)| i)
     }
 
@@ -386,7 +412,7 @@ impl<T: Clone, R: VoteRule<T>> VoteReader<T, R> {
         events: &mut Vec<VoteEvent<T>>,
     ) {
         let answers = self.answers_to(input, fresh);
-        match largest_agreeing(&self.rule, &answers, self.sources_needed) {
+        match largest_agreeing(&self.rule, &answers) {
             Some(agreeing) => {
                 let agreeing: BTreeMap<ControllerId, T> = agreeing
                     .into_iter()
@@ -542,13 +568,12 @@ impl<T: Clone, R: VoteRule<T>> VoteReader<T, R> {
     }
 }
 
-/// The indices of the largest set of `answers` (`sources_needed` or more: two) that agree pairwise; among sets
+/// The indices of the largest set of `answers` (two or more) that agree pairwise; among sets
 /// of one size, the first by the bits of their members' places in id order (of three
 /// controllers: {1,2}, then {1,3}, then {2,3}).
 fn largest_agreeing<T, R: VoteRule<T>>(
     rule: &R,
     answers: &[(ControllerId, T)],
-    sources_needed: usize,
 ) -> Option<Vec<usize>> {
     let n = answers.len().min(MAX_VOTERS);
     let agree = |i: usize, j: usize| rule.agree(&answers[i].1, &answers[j].1);
@@ -556,8 +581,7 @@ fn largest_agreeing<T, R: VoteRule<T>>(
     // Subsets in increasing bit order visit lower ids first among sets of one size.
     for mask in 1u32..(1 << n) {
         let members: Vec<usize> = (0..n).filter(|i| mask & (1 << i) != 0).collect();
-        if members.len() < sources_needed || best.as_ref().is_some_and(|b| b.len() >= members.len())
-        {
+        if members.len() < 2 || best.as_ref().is_some_and(|b| b.len() >= members.len()) {
             continue;
         }
         let pairwise = members

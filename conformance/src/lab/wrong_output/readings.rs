@@ -9,6 +9,7 @@ use crate::lab::procs::{Life, Line};
 use rl::procs::VotedServoEvent;
 use rl::sim::shapes::CameraFrame;
 use serde::Serialize;
+use std::collections::BTreeSet;
 
 /// The voting reader's helper name (its lines' source).
 pub const VOTER: &str = "voter";
@@ -71,6 +72,9 @@ pub struct OddOneOut {
     pub inputs_at_ms: Vec<f64>,
     /// N, when its JSON event says.
     pub odd_limit: Option<u64>,
+    /// Its answers that went out before they could be judged at their next input (the
+    /// timing assumption broken), when its JSON event says.
+    pub late: Option<u64>,
 }
 
 /// Everything the wrong-output judges read.
@@ -194,6 +198,7 @@ impl Readings {
                     inputs: Vec::new(),
                     inputs_at_ms: Vec::new(),
                     odd_limit: None,
+                    late: None,
                 });
             }
             return;
@@ -224,6 +229,7 @@ impl Readings {
                 .collect(),
             inputs,
             odd_limit: value["odd_limit"].as_u64(),
+            late: value["late"].as_u64(),
         };
         // The event, when there is one, says when it decided; the log line only when it was
         // read.
@@ -233,19 +239,22 @@ impl Readings {
 
     /// Whether the voting reader has been steady for the second before `now_ms`: every camera
     /// frame it decided in that second, but the newest (its third answer may be on its way),
-    /// agreed to by all three controllers, and no dissent alarm raised, cleared or up. Judging
+    /// agreed to by all three controllers (over its acceptances of that frame: the whole rule
+    /// grows one set; a broken reader of a mutation run, taking each answer alone, names one
+    /// controller at a time), and no dissent alarm raised, cleared or up. Judging
     /// starts only then: a controller that began tracking a frame after the others is a frame
     /// out of step until it aligns, and the reader may name it for that at formation.
     pub fn voter_steady(&self, now_ms: f64) -> bool {
         let recent = |at_ms: f64| at_ms >= now_ms - 1000.0;
-        let mut agreeing_by_input: std::collections::BTreeMap<u64, usize> = Default::default();
+        let mut agreeing_by_input: std::collections::BTreeMap<u64, BTreeSet<u8>> =
+            Default::default();
         for a in self.accepted.iter().filter(|a| recent(a.at_ms)) {
-            let most = agreeing_by_input.entry(a.input).or_default();
-            *most = (*most).max(a.agreeing.len());
+            let agreeing = agreeing_by_input.entry(a.input).or_default();
+            agreeing.extend(a.agreeing.iter().copied());
         }
         agreeing_by_input.pop_last();
         let all_three = agreeing_by_input.len() >= MIN_STEADY_FRAMES
-            && agreeing_by_input.values().all(|n| *n == 3);
+            && agreeing_by_input.values().all(|ids| ids.len() == 3);
         let changing = self.dissents.iter().any(|d| recent(d.at_ms));
         let mut up = std::collections::BTreeSet::new();
         for change in &self.dissents {

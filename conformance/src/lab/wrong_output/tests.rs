@@ -150,8 +150,11 @@ fn a_controller_is_wrong_from_the_asking_to_its_heal_or_its_lifes_end() {
 fn the_bounds_in_figures() {
     // N = 2 camera periods at 30 Hz and 20 ms: 86.7 ms; N + 1 periods, the voting thread's
     // 100 ms and 20 ms: 220 ms.
-    assert!((wrong_span_bound_ms() - 86.67).abs() < 0.01);
-    assert!((decision_bound_ms() - 220.0).abs() < 0.01);
+    assert!((wrong_span_bound_ms(0) - 86.67).abs() < 0.01);
+    assert!((decision_bound_ms(0) - 220.0).abs() < 0.01);
+    // One answer out before it could be judged: a period more.
+    assert!((wrong_span_bound_ms(1) - 120.0).abs() < 0.01);
+    assert!((decision_bound_ms(1) - 253.33).abs() < 0.01);
     assert_eq!(ODD_LIMIT, 2);
     assert_eq!(TOLERANCE, 25);
 }
@@ -183,6 +186,7 @@ fn report(kind: Kind) -> OutputReport {
             decided_after_ms: Some(75.0),
             odd_after_fault: Some(2),
             odd_before_fault: Some(0),
+            late: Some(0),
             exited_after_ms: Some(100.0),
             exit: Some("exit status: 75".into()),
             back_after_ms: Some(2500.0),
@@ -237,6 +241,17 @@ fn a_wrong_primary_fails_on_each_bound_it_misses() {
         failed
             .iter()
             .any(|f| f.contains("wrong commands for 95 ms")),
+        "{failed:?}"
+    );
+    // One answer out before it could be judged admits the third, and 95 ms, not a fourth.
+    three.out_and_back[0].late = Some(1);
+    assert_eq!(judged(&three, &observed, &lives), Vec::<String>::new());
+    three.servo.distinct = 4;
+    let failed = judged(&three, &observed, &lives);
+    assert!(
+        failed
+            .iter()
+            .any(|f| f.contains("4 distinct wrong commands")),
         "{failed:?}"
     );
     let mut back = report(Kind::WrongPrimary);
@@ -365,6 +380,7 @@ fn two_wrong_controllers_must_leave_the_voting_reader_holding_and_nobody_out() {
         inputs: vec![],
         inputs_at_ms: vec![],
         odd_limit: Some(2),
+        late: Some(0),
     });
     let exited = vec![life(1, 1, 0.0, Some(2100.0), Some("exit status: 75"))];
     let failed = judged(&two, &observed, &exited);

@@ -46,9 +46,10 @@ use crate::lab::expect::GAP_SLACK_MS;
 use crate::lab::faults::WrongOutput;
 
 /// The longest from the first wrong sample of a wrong Primary at an exclusive reader to its
-/// last: N camera periods, and the slack.
-pub fn wrong_span_bound_ms() -> f64 {
-    ODD_LIMIT as f64 * camera_period_ms() + GAP_SLACK_MS
+/// last: N camera periods, and the slack; `late` periods more when that many of its answers
+/// went out before they could be judged at their next input (its `odd_one_out` event says).
+pub fn wrong_span_bound_ms(late: u64) -> f64 {
+    (ODD_LIMIT as u64 + late) as f64 * camera_period_ms() + GAP_SLACK_MS
 }
 
 /// The longest the voting thread sleeps before it looks at the application's fault flag and
@@ -56,10 +57,10 @@ pub fn wrong_span_bound_ms() -> f64 {
 pub const FAULT_FLAG_CHECK_MS: f64 = 100.0;
 
 /// The longest from asking a controller for wrong values (an offset, random) to its
-/// `odd_one_out` event: N + 1 camera periods to the decision, the voting thread's look at
-/// the fault flag, and the slack.
-pub fn decision_bound_ms() -> f64 {
-    (ODD_LIMIT + 1) as f64 * camera_period_ms() + FAULT_FLAG_CHECK_MS + GAP_SLACK_MS
+/// `odd_one_out` event: N + 1 camera periods to the decision (and one more per late answer,
+/// as for [`wrong_span_bound_ms`]), the voting thread's look at the fault flag, and the slack.
+pub fn decision_bound_ms(late: u64) -> f64 {
+    (ODD_LIMIT as u64 + 1 + late) as f64 * camera_period_ms() + FAULT_FLAG_CHECK_MS + GAP_SLACK_MS
 }
 
 /// The failures of a wrong-output run against its scenario's promises.
@@ -160,14 +161,15 @@ fn one_wrong_voter(report: &OutputReport) -> Vec<String> {
 /// and came back as the Tertiary, and the voting reader named it and cleared it.
 fn leaves(out: &OutAndBack, timed: bool) -> Vec<String> {
     let life = &out.life;
+    let late = out.late.unwrap_or(0);
     let mut failed = Vec::new();
     match out.decided_after_ms {
         None => failed.push(format!(
             "{life} never reported that it was the odd one out (expected: it leaves after N = {ODD_LIMIT} wrong answers)"
         )),
-        Some(after) if timed && after > decision_bound_ms() => failed.push(format!(
-            "{life} reported that it was the odd one out {after:.0} ms after its fault (expected within {:.0} ms: N + 1 camera periods and the voting thread's look at the fault flag)",
-            decision_bound_ms()
+        Some(after) if timed && after > decision_bound_ms(late) => failed.push(format!(
+            "{life} reported that it was the odd one out {after:.0} ms after its fault (expected within {:.0} ms: N + 1 + {late} late camera periods and the voting thread's look at the fault flag)",
+            decision_bound_ms(late)
         )),
         Some(_) => {}
     }
@@ -216,6 +218,14 @@ fn primary_left(
 ) -> Vec<String> {
     let mut failed = Vec::new();
     let wrong_life = report.injections.first().map(|i| i.life.as_str());
+    // Each of its answers that went out before it could be judged at its next input (the
+    // timing assumption broken, counted by the controller) adds one wrong answer.
+    let late = report
+        .out_and_back
+        .first()
+        .and_then(|o| o.late)
+        .unwrap_or(0);
+    let bound = ODD_LIMIT as u64 + late;
     let wrong_id = report.injections.first().map(|i| format!("C{}", i.id));
     let away = path.len() == 2
         && path.first().map(String::as_str) == wrong_life
@@ -226,16 +236,19 @@ fn primary_left(
             path.join(" -> ")
         ));
     }
-    if wrong.distinct > ODD_LIMIT {
+    if wrong.distinct as u64 > bound {
         failed.push(format!(
-            "{reader} took {} distinct wrong commands (expected at most K = N = {ODD_LIMIT})",
+            "{reader} took {} distinct wrong commands (expected at most K = N = {ODD_LIMIT}, and {late} for its late answers)",
             wrong.distinct
         ));
     }
-    if let Some(span) = wrong.span_ms().filter(|span| *span > wrong_span_bound_ms()) {
+    if let Some(span) = wrong
+        .span_ms()
+        .filter(|span| *span > wrong_span_bound_ms(late))
+    {
         failed.push(format!(
-            "{reader} took wrong commands for {span:.0} ms (expected at most {:.0} ms: N camera periods)",
-            wrong_span_bound_ms()
+            "{reader} took wrong commands for {span:.0} ms (expected at most {:.0} ms: N + {late} late camera periods)",
+            wrong_span_bound_ms(late)
         ));
     }
     failed

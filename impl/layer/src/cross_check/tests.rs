@@ -12,7 +12,9 @@ fn servo(pan: u16) -> ServoControl {
     }
 }
 
-/// Controller 1's cross-check after input 0, answered by all three alike and aligned to.
+/// Controller 1's cross-check after input 0, answered by all three alike and aligned to. Its
+/// answer to 0, the first of its life, was computed from no group position: it is never
+/// judged, so it counts as late (`OddOneOut::late`) until an answer is judged not odd.
 fn in_step_c1() -> CrossCheck<ServoControl, ServoRule> {
     let mut check = CrossCheck::new(1, ServoRule::default(), ODD_LIMIT_DEFAULT);
     round(&mut check, 0, 500, 500, 500);
@@ -59,6 +61,7 @@ fn a_wrong_controller_leaves_before_answering_after_its_second_odd_input() {
         inputs: vec![1, 2],
         odd_limit: 2,
         peers: vec![2, 3],
+        late: 1,
     };
     assert_eq!(judgement, Judgement::Leave(expected.clone()));
     // Nothing more in this life.
@@ -210,10 +213,108 @@ fn the_reason_names_the_inputs_and_the_agreeing_peers() {
         inputs: vec![17, 19],
         odd_limit: 2,
         peers: vec![2, 3],
+        late: 0,
     };
     assert_eq!(
         reason.to_string(),
         "the odd one out of three at 2 inputs of this life (17, 19): its answers disagree \
          with both of C2 and C3, which agree"
     );
+}
+
+#[test]
+fn an_input_whose_peers_answer_late_is_judged_later_and_counted_late() {
+    let mut check = in_step_c1();
+    assert_eq!(check.answer(1, servo(900)), Judgement::Answer);
+    // The peers' answers to 1, and so the group's position at 1, come after its answer to 2
+    // (a loaded host): 2 was not computed from the group's position.
+    assert_eq!(check.answer(2, servo(900)), Judgement::Answer);
+    for input in 1..=2 {
+        check.peer_answer(2, input, servo(500));
+        check.peer_answer(3, input, servo(500));
+        check.aligned(input);
+    }
+    // At 3, input 1 is judged late (odd) and 2 never (not in step): two late answers, and 0.
+    assert_eq!(check.answer(3, servo(900)), Judgement::Answer);
+    assert_eq!(check.odd_inputs(), &[1]);
+    check.peer_answer(2, 3, servo(500));
+    check.peer_answer(3, 3, servo(500));
+    check.aligned(3);
+    let expected = OddOneOut {
+        inputs: vec![1, 3],
+        odd_limit: 2,
+        peers: vec![2, 3],
+        late: 3,
+    };
+    // Three wrong answers went out (1, 2, 3): N = 2 and one more per late answer bound it.
+    assert_eq!(check.answer(4, servo(900)), Judgement::Leave(expected));
+}
+
+#[test]
+fn a_second_peer_late_by_one_input_still_counts_the_input_odd() {
+    let mut check = in_step_c1();
+    assert_eq!(check.answer(1, servo(900)), Judgement::Answer);
+    check.peer_answer(2, 1, servo(500));
+    check.aligned(1);
+    assert_eq!(check.answer(2, servo(900)), Judgement::Answer);
+    assert!(check.odd_inputs().is_empty(), "one peer: not judged yet");
+    check.peer_answer(3, 1, servo(505));
+    check.peer_answer(2, 2, servo(500));
+    check.peer_answer(3, 2, servo(500));
+    check.aligned(2);
+    let expected = OddOneOut {
+        inputs: vec![1, 2],
+        odd_limit: 2,
+        peers: vec![2, 3],
+        late: 2,
+    };
+    assert_eq!(check.answer(3, servo(900)), Judgement::Leave(expected));
+}
+
+#[test]
+fn an_agreement_forgets_the_late_answers_before_it() {
+    let mut check = CrossCheck::new(1, ServoRule::default(), 2);
+    // Formation: never in step, every answer late.
+    for input in 1..5 {
+        round_unaligned(&mut check, input, 500, 500, 500);
+    }
+    check.aligned(4);
+    round(&mut check, 5, 500, 500, 500);
+    round(&mut check, 6, 900, 500, 500);
+    round(&mut check, 7, 900, 500, 500);
+    let Judgement::Leave(reason) = check.answer(8, servo(900)) else {
+        panic!("C1 stays at its second odd input");
+    };
+    assert_eq!((reason.inputs, reason.late), (vec![6, 7], 0));
+}
+
+#[test]
+fn the_reason_says_how_many_answers_went_out_late() {
+    let reason = OddOneOut {
+        inputs: vec![17, 19],
+        odd_limit: 2,
+        peers: vec![2, 3],
+        late: 1,
+    };
+    assert!(reason.to_string().ends_with(
+        "which agree (1 answers went out before they could be judged at their next input)"
+    ));
+}
+
+#[test]
+fn an_answer_after_an_input_it_never_answered_is_not_judged() {
+    let mut check = in_step_c1();
+    round(&mut check, 1, 500, 500, 500);
+    // Input 2 was lost to it: the group answered it, and it took the group's position there.
+    check.peer_answer(2, 2, servo(500));
+    check.peer_answer(3, 2, servo(500));
+    check.aligned(2);
+    // Its answer to 3 comes from a law that last saw input 1: not the group's to compare.
+    round(&mut check, 3, 900, 500, 500);
+    round(&mut check, 4, 500, 500, 500);
+    assert!(check.odd_inputs().is_empty(), "{:?}", check.odd_inputs());
+    // Back in step, a wrong answer is judged again.
+    round(&mut check, 5, 900, 500, 500);
+    round(&mut check, 6, 500, 500, 500);
+    assert_eq!(check.odd_inputs(), &[5]);
 }

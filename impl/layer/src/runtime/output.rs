@@ -112,6 +112,7 @@ impl Voting {
                 inputs: reason.inputs,
                 odd_limit: reason.odd_limit,
                 peers: reason.peers,
+                late: reason.late,
             });
         }
     }

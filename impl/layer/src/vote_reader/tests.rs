@@ -316,14 +316,21 @@ fn of_three_chained_answers_the_first_agreeing_pair_wins_and_the_third_dissents(
     assert_eq!(votes.dissenting(), vec![3]);
 }
 
-/// The rule broken on purpose (`RL_VOTE_MUTATION=accept-single-source`): the wrong answer that
-/// comes first is taken, which the test of a wrong controller above refuses, so that test can
-/// fail.
+/// The rule broken on purpose (`RL_VOTE_MUTATION=accept-single-source`): a wrong answer is
+/// taken whether it comes first or last, which the test of a wrong controller above refuses,
+/// so that test (and the lab's judge) fail every time, not only when the wrong answer wins a
+/// race.
 #[cfg(feature = "mutation")]
 #[test]
-fn a_vote_that_accepts_one_source_takes_the_first_answer_wrong_or_not() {
+fn a_vote_that_accepts_one_source_takes_every_answer_wrong_or_not() {
     let mut votes = reader(Fallback::Hold);
     votes.mutate(VoteMutation::AcceptSingleSource);
-    let events = votes.offer(answer(1, 7, 800, 500), 1);
-    assert_eq!(accepted(&events), vec![(7, servo(800, 500), vec![1])]);
+    let first = votes.offer(answer(1, 7, 800, 500), 1);
+    assert_eq!(accepted(&first), vec![(7, servo(800, 500), vec![1])]);
+    votes.offer(answer(2, 8, 500, 500), 2);
+    votes.offer(answer(3, 8, 502, 500), 3);
+    let last = votes.offer(answer(1, 8, 800, 500), 4);
+    assert_eq!(accepted(&last), vec![(8, servo(800, 500), vec![1])]);
+    let stale = votes.offer(answer(2, 7, 500, 500), 5);
+    assert_eq!(accepted(&stale), vec![], "an older input is still refused");
 }
