@@ -276,7 +276,15 @@ impl Alignment {
                 cross_check.peer_answer(answer.from, answer.input, answer.value);
             });
             for event in events {
-                if let VoteEvent::Accepted { input, value, .. } = event {
+                if let VoteEvent::Accepted {
+                    input,
+                    value,
+                    agreeing,
+                } = event
+                {
+                    if agreeing.len() >= rl_layer::core::types::ROLE_COUNT {
+                        cross_check.all_agreed();
+                    }
                     voted = (input >= frame).then_some((input, value)).or(voted);
                 }
             }

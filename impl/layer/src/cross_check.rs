@@ -134,6 +134,9 @@ pub struct CrossCheck<T, R> {
     late: std::collections::BTreeSet<u64>,
     /// The newest input whose group position it took in this life.
     aligned_to: Option<u64>,
+    /// The group has answered an input alike, all three, in this life (see
+    /// [`CrossCheck::all_agreed`]): nothing is judged before.
+    group_formed: bool,
     /// This life's odd-one-out inputs.
     odd_inputs: Vec<u64>,
     /// Decided to leave, and why: nothing more is answered in this life.
@@ -152,6 +155,7 @@ impl<T: Clone, R: VoteRule<T>> CrossCheck<T, R> {
             pending: Vec::new(),
             late: std::collections::BTreeSet::new(),
             aligned_to: None,
+            group_formed: false,
             odd_inputs: Vec::new(),
             left: None,
         }
@@ -167,6 +171,15 @@ impl<T: Clone, R: VoteRule<T>> CrossCheck<T, R> {
         while self.peers.len() > INPUTS_KEPT {
             self.peers.pop_first();
         }
+    }
+
+    /// The vote accepted an input on which all three controllers agreed: from now on in this
+    /// life the peers compute from the group's position too, and its answers are judged. At
+    /// formation a peer takes its position from the owner's commands until the vote works,
+    /// so two peers may agree with each other and not with a right controller in step (the
+    /// lab's `partition-actuator-with-two` saw a right Primary leave 0.2 s after formation).
+    pub fn all_agreed(&mut self) {
+        self.group_formed = true;
     }
 
     /// The controller took the group's position from the answers to `input` (bumpless
@@ -190,7 +203,7 @@ impl<T: Clone, R: VoteRule<T>> CrossCheck<T, R> {
         // The group's position at exactly the input it answered before: at a newer one, the
         // group answered an input it did not (a camera frame lost to it, or peers ahead), and
         // its law's memory of the last frame (the PD's previous error) is not the group's.
-        let in_step = previous.is_some_and(|p| self.aligned_to == Some(p));
+        let in_step = self.group_formed && previous.is_some_and(|p| self.aligned_to == Some(p));
         for answer in std::mem::take(&mut self.pending) {
             if answer.input > input {
                 continue;
@@ -259,6 +272,7 @@ impl<T: Clone, R: VoteRule<T>> CrossCheck<T, R> {
         self.pending.clear();
         self.late.clear();
         self.aligned_to = None;
+        self.group_formed = false;
         self.odd_inputs.clear();
         self.left = None;
     }

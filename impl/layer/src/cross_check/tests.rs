@@ -17,6 +17,7 @@ fn servo(pan: u16) -> ServoControl {
 /// judged, so it counts as late (`OddOneOut::late`) until an answer is judged not odd.
 fn in_step_c1() -> CrossCheck<ServoControl, ServoRule> {
     let mut check = CrossCheck::new(1, ServoRule::default(), ODD_LIMIT_DEFAULT);
+    check.all_agreed();
     round(&mut check, 0, 500, 500, 500);
     check
 }
@@ -114,6 +115,7 @@ fn an_input_only_one_peer_answered_judges_nobody() {
 #[test]
 fn an_answer_not_computed_from_the_groups_position_is_not_judged() {
     let mut check = CrossCheck::new(1, ServoRule::default(), 2);
+    check.all_agreed();
     // Never aligned (formation: its own start differs from the group's, and it is not wrong).
     for input in 1..5 {
         assert_eq!(
@@ -156,6 +158,7 @@ fn a_new_life_counts_from_zero_once_in_step_again() {
     assert_eq!(check.odd_inputs(), &[1]);
     check.new_life();
     assert!(check.odd_inputs().is_empty());
+    check.all_agreed();
     round_unaligned(&mut check, 3, 900, 500, 500);
     round(&mut check, 4, 900, 500, 500);
     assert!(
@@ -170,6 +173,7 @@ fn a_new_life_counts_from_zero_once_in_step_again() {
 #[test]
 fn with_no_limit_it_counts_and_never_leaves() {
     let mut check = CrossCheck::new(1, ServoRule::default(), 0);
+    check.all_agreed();
     round(&mut check, 0, 500, 500, 500);
     for input in 1..10 {
         assert_eq!(round(&mut check, input, 900, 500, 500), Judgement::Answer);
@@ -274,6 +278,7 @@ fn a_second_peer_late_by_one_input_still_counts_the_input_odd() {
 #[test]
 fn an_agreement_forgets_the_late_answers_before_it() {
     let mut check = CrossCheck::new(1, ServoRule::default(), 2);
+    check.all_agreed();
     // Formation: never in step, every answer late.
     for input in 1..5 {
         round_unaligned(&mut check, input, 500, 500, 500);
@@ -317,4 +322,19 @@ fn an_answer_after_an_input_it_never_answered_is_not_judged() {
     round(&mut check, 5, 900, 500, 500);
     round(&mut check, 6, 500, 500, 500);
     assert_eq!(check.odd_inputs(), &[5]);
+}
+
+#[test]
+fn nothing_is_judged_before_the_group_has_answered_an_input_alike() {
+    // Formation: the peers take their position from the owner's commands until the vote
+    // works, so two of them may agree on what a right controller in step does not.
+    let mut check = CrossCheck::new(1, ServoRule::default(), 2);
+    for input in 0..6 {
+        assert_eq!(round(&mut check, input, 900, 500, 500), Judgement::Answer);
+    }
+    assert!(check.odd_inputs().is_empty());
+    check.all_agreed();
+    round(&mut check, 6, 900, 500, 500);
+    round(&mut check, 7, 900, 500, 500);
+    assert_eq!(check.odd_inputs(), &[6]);
 }
