@@ -154,9 +154,26 @@ fn a_fresh_demo_run_is_a_behaviour_of_the_model() {
         .arg(&dir)
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
-        .stderr(Stdio::null())
+        .stderr(Stdio::piped())
         .spawn()
         .expect("start rl demo");
+    // What the demo says went wrong (a child that exited, and its last words) goes to stderr.
+    let complaints = std::sync::Arc::new(std::sync::Mutex::new(Vec::<String>::new()));
+    if let Some(stderr) = demo.stderr.take() {
+        let complaints = std::sync::Arc::clone(&complaints);
+        std::thread::spawn(move || {
+            use std::io::BufRead;
+            for line in std::io::BufReader::new(stderr)
+                .lines()
+                .map_while(Result::ok)
+            {
+                complaints
+                    .lock()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .push(line);
+            }
+        });
+    }
     // The demo's timeline, line by line.
     let (lines, timeline) = std::sync::mpsc::channel::<String>();
     if let Some(stdout) = demo.stdout.take() {
@@ -210,7 +227,20 @@ fn a_fresh_demo_run_is_a_behaviour_of_the_model() {
         }
         std::thread::sleep(Duration::from_millis(100));
     };
-    assert!(status.success(), "rl demo exited with {status}");
+    if !status.success() {
+        std::thread::sleep(Duration::from_millis(200));
+        while let Ok(line) = timeline.try_recv() {
+            printed.push(line);
+        }
+        let complaints = complaints
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .join("\n");
+        panic!(
+            "rl demo exited with {status}; it printed:\n{}\nand on stderr:\n{complaints}",
+            printed.join("\n")
+        );
+    }
     println!("rl demo ran for {:.1} s", started.elapsed().as_secs_f64());
     let validated = Instant::now();
     let accepted = check(&dir).unwrap_or_else(|r| panic!("{r}\nthe recording: {}", dir.display()));

@@ -7,12 +7,16 @@
 //! - formation ([`formation`]): the third controller joins two others;
 //! - resources ([`resources`]): RSS and CPU of one controller under load;
 //! - groups ([`groups`], `--groups 1,2,4,8` alone): N groups of three on one domain, their
-//!   formation, RSS and CPU, and one kill of every group's Primary at once.
+//!   formation, RSS and CPU, and one kill of every group's Primary at once;
+//! - architectures ([`architectures`], `--architectures voting,duplex,pair` alone): the
+//!   paper's three architectures side by side, their RSS and CPU, and kills of the servo's
+//!   owner with its restart (docs/architectures.md).
 //!
 //! A kill or a formation that fails is counted and reported, and makes `rl bench` exit
 //! non-zero after printing every figure. `--json` prints one JSON document with every figure,
 //! every sample and the seed (docs/performance.json is one).
 
+pub mod architectures;
 pub mod failover;
 pub mod formation;
 pub mod groups;
@@ -23,7 +27,7 @@ pub mod stats;
 mod watch;
 
 use crate::procs::Fleet;
-use rl_layer::config::ControlLaw;
+use rl_layer::config::{ArchitectureName, ControlLaw};
 use rl_layer::core::ControllerId;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -81,6 +85,27 @@ pub struct BenchArgs {
     /// control laws").
     #[arg(long, value_delimiter = ',', value_name = "LAW", value_parser = parse_law)]
     pub laws: Vec<ControlLaw>,
+    /// Instead of the other runs: each redundancy architecture given (comma-separated:
+    /// `voting`, `duplex`, `pair`) with its controllers, the camera and the servo: every
+    /// controller's RSS and CPU over --resources-s seconds, then --kills kills of the
+    /// controller the servo follows, each restarted once alarmed; the gap, the owner changes
+    /// per fault and the time to the alarm (docs/architectures.md).
+    #[arg(long, value_delimiter = ',', value_name = "NAME", value_parser = parse_architecture)]
+    pub architectures: Vec<ArchitectureName>,
+}
+
+/// An `--architectures` entry that names no architecture.
+#[derive(Debug, thiserror::Error)]
+#[error("{0:?} is not an architecture: voting, duplex or pair")]
+pub struct UnknownArchitecture(String);
+
+fn parse_architecture(text: &str) -> Result<ArchitectureName, UnknownArchitecture> {
+    match text {
+        "voting" => Ok(ArchitectureName::Voting),
+        "duplex" => Ok(ArchitectureName::Duplex),
+        "pair" => Ok(ArchitectureName::Pair),
+        _ => Err(UnknownArchitecture(text.to_string())),
+    }
 }
 
 /// A `--laws` entry that names no control law.
@@ -104,16 +129,35 @@ fn law_name(law: ControlLaw) -> &'static str {
     }
 }
 
-/// What `rl bench --groups` measured: the JSON document of `--groups ... --json`.
+/// What a run of one kind measured: the JSON document of `--groups ... --json` and of
+/// `--architectures ... --json`.
 #[derive(Clone, Debug, Serialize)]
-pub struct GroupsReport {
+pub struct RunReport<T> {
     pub rl_version: &'static str,
     /// The command that repeats this run.
     pub command: String,
     /// CPUs available to the run (the machine may be shared).
     pub cores: usize,
-    pub results: Vec<groups::GroupsResult>,
+    pub results: Vec<T>,
 }
+
+impl<T> RunReport<T> {
+    /// The report of `command`'s `results`, on this machine.
+    fn new(command: String, results: Vec<T>) -> RunReport<T> {
+        RunReport {
+            rl_version: env!("CARGO_PKG_VERSION"),
+            command,
+            cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
+            results,
+        }
+    }
+}
+
+/// What `rl bench --groups` measured.
+pub type GroupsReport = RunReport<groups::GroupsResult>;
+
+/// What `rl bench --architectures` measured.
+pub type ArchitecturesReport = RunReport<architectures::ArchitectureResult>;
 
 pub use crate::error::BenchError;
 
@@ -282,6 +326,12 @@ fn run_bench(args: BenchArgs) -> Result<(), BenchError> {
         keystores: None,
         laws: args.laws.clone(),
     };
+    if !args.architectures.is_empty() {
+        let measured =
+            architectures::architectures(&setup, &args.architectures, args.kills, args.resources_s);
+        let _ = std::fs::remove_dir_all(&setup.dir);
+        return report_architectures(&args, measured?);
+    }
     if !args.groups.is_empty() {
         let measured = groups::groups(&setup, &args.groups, args.resources_s);
         let _ = std::fs::remove_dir_all(&setup.dir);
@@ -308,30 +358,62 @@ fn run_bench(args: BenchArgs) -> Result<(), BenchError> {
     Ok(())
 }
 
+/// Prints what `--architectures` measured (a table; with `--json` the document too).
+fn report_architectures(
+    args: &BenchArgs,
+    results: Vec<architectures::ArchitectureResult>,
+) -> Result<(), BenchError> {
+    let names: Vec<String> = results
+        .iter()
+        .map(|r| format!("{:?}", r.architecture).to_lowercase())
+        .collect();
+    let report = ArchitecturesReport::new(
+        format!(
+            "rl bench --architectures {} --kills {} --resources-s {} --domain {}{}",
+            names.join(","),
+            args.kills,
+            args.resources_s,
+            args.domain,
+            if args.json { " --json" } else { "" }
+        ),
+        results,
+    );
+    emit(args.json, &report, report::write_architectures)
+}
+
+/// Prints `report` as text (on stderr with `--json`, whose document goes to stdout).
+fn emit<R: Serialize>(
+    json: bool,
+    report: &R,
+    write: fn(&mut Box<dyn std::io::Write>, &R) -> std::io::Result<()>,
+) -> Result<(), BenchError> {
+    let mut out: Box<dyn std::io::Write> = if json {
+        Box::new(std::io::stderr())
+    } else {
+        Box::new(std::io::stdout())
+    };
+    // A closed output is not an error worth more than the figures.
+    let _ = write(&mut out, report);
+    if json {
+        println!("{}", serde_json::to_string_pretty(report)?);
+    }
+    Ok(())
+}
+
 /// Prints what `--groups` measured, and fails when a group did not form or a kill failed.
 fn report_groups(args: &BenchArgs, results: Vec<groups::GroupsResult>) -> Result<(), BenchError> {
     let counts: Vec<String> = args.groups.iter().map(u32::to_string).collect();
-    let report = GroupsReport {
-        rl_version: env!("CARGO_PKG_VERSION"),
-        command: format!(
+    let report = GroupsReport::new(
+        format!(
             "rl bench --groups {} --resources-s {} --domain {}{}",
             counts.join(","),
             args.resources_s,
             args.domain,
             if args.json { " --json" } else { "" }
         ),
-        cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
         results,
-    };
-    let mut out: Box<dyn std::io::Write> = if args.json {
-        Box::new(std::io::stderr())
-    } else {
-        Box::new(std::io::stdout())
-    };
-    let _ = report::write_groups(&mut out, &report);
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
-    }
+    );
+    emit(args.json, &report, report::write_groups)?;
     let failed_kills: u32 = report.results.iter().map(|r| r.failed_kills).sum();
     let failed_formations: u32 = report.results.iter().map(|r| r.failed_formations).sum();
     if failed_kills > 0 || failed_formations > 0 {

@@ -7,6 +7,8 @@
 //! rl_layer::vote_reader). It takes the gimbal's position from the voted commands, so that a
 //! takeover is bumpless; until the vote has accepted one in this life (or without a voted
 //! topic), from the commanding controller's commands.
+//! Under `architecture = "pair"` it computes every frame's answer twice, in both
+//! implementations of the law, and leaves on a mismatch before writing (crate::tracker::lockstep).
 //! It cross-checks its own answers with the two others' (rl_layer::cross_check): the odd one
 //! out of three at `tracker.odd_limit` frames of one life reports a local fault and leaves.
 //!
@@ -14,9 +16,10 @@
 //! loop pings the watchdog while the voting loop also goes round (rl_layer::service).
 
 use crate::cli::{load_config, stop_on_signals};
+use crate::tracker::lockstep::Lockstep;
 use crate::tracker::{control_law, ControlLaw};
 use rl_layer::api::{Options, Redundancy, RoleWriter, VoteFeed, VotedWriter};
-use rl_layer::config::Config;
+use rl_layer::config::{ArchitectureName, Config};
 use rl_layer::core::types::ControllerId;
 use rl_layer::core::Incarnation;
 use rl_layer::cross_check::{CrossCheck, Judgement};
@@ -159,6 +162,9 @@ fn track(
         .map_err(|e| crate::Error::io("registering the camera reader", e))?;
     let mut events = Events::with_capacity(8);
     let mut pan_tilt = control_law(config.tracker.law, config.tracker.servo_frequency_hz);
+    // A lockstep pair's controller runs the other implementation beside it and compares.
+    let mut lockstep = (config.architecture == ArchitectureName::Pair)
+        .then(|| Lockstep::beside(config.tracker.law, config.tracker.servo_frequency_hz));
     let republish = Duration::from_millis(config.timing.command_republish_ms);
     let started = Instant::now();
     // The gimbal starts centred; the command is held (re-published before the deadline) so
@@ -171,6 +177,8 @@ fn track(
     // second, different answer to the same frame (two wrong values per frame from a wrong
     // controller at an exclusive reader, where the model bounds wrong answers per input).
     let mut answer = None;
+    // The second implementation's answer to the same frame (a lockstep pair only).
+    let mut second_answer = None;
     notifier.ready();
     loop {
         if stop.load(Ordering::SeqCst) || rl.is_finished() {
@@ -185,24 +193,31 @@ fn track(
         if outputs.follow_life(rl) {
             alignment.voted_in_life = false;
         }
-        alignment.align(
+        let aligned = alignment.align(
             rl,
             pan_tilt.as_mut(),
             frame,
             now_ms,
             &mut outputs.cross_check,
         );
+        if let (Some((pan, tilt)), Some(lockstep)) = (aligned, lockstep.as_mut()) {
+            lockstep.align(pan, tilt);
+        }
         let mut fresh = None;
         for shape in camera.take() {
             if shape.value.color == config.tracker.color {
                 fresh = Some(pan_tilt.update(shape.value.x, shape.value.y));
+                second_answer = lockstep
+                    .as_mut()
+                    .map(|lockstep| lockstep.update(shape.value.x, shape.value.y));
                 frame = shape.source_timestamp.map_or(0, |t| t.to_ticks());
                 answer = fresh;
             }
         }
         if fresh.is_some() || last_written.elapsed() >= republish {
             let command = answer.unwrap_or_else(|| pan_tilt.command());
-            outputs.write(rl, frame, command);
+            let compare = lockstep.as_ref().zip(second_answer);
+            outputs.write(rl, frame, command, compare);
             last_written = Instant::now();
         }
         let wait = republish.saturating_sub(last_written.elapsed());
@@ -260,7 +275,7 @@ impl Alignment {
     /// Aligns `pan_tilt` to what arrived: a voted command for the frame it last answered
     /// (`frame`; one for an older frame would set it back), else, until the vote has worked in
     /// this life, the owner's command. The answers that arrived go to `cross_check`, and so
-    /// does the alignment.
+    /// does the alignment. Returns the position it aligned to, if it did.
     fn align(
         &mut self,
         rl: &Redundancy,
@@ -268,7 +283,7 @@ impl Alignment {
         frame: u64,
         now_ms: u64,
         cross_check: &mut CrossCheck<ServoControl, ServoRule>,
-    ) {
+    ) -> Option<(u16, u16)> {
         let owner = self.owner_commands.take(rl.session(), now_ms);
         let mut voted = None;
         if let Some(votes) = self.votes.as_mut() {
@@ -294,6 +309,7 @@ impl Alignment {
                 pan_tilt.align(command.pan, command.tilt);
                 cross_check.aligned(input);
                 self.voted_in_life = true;
+                Some((command.pan, command.tilt))
             }
             (None, Some((command, writer)))
                 if !self.voted_in_life
@@ -302,8 +318,9 @@ impl Alignment {
                 // Not in step for the cross-check: the exclusive topic does not say which
                 // frame the owner's command answers, so it may be a frame behind.
                 pan_tilt.align(command.pan, command.tilt);
+                Some((command.pan, command.tilt))
             }
-            _ => {}
+            _ => None,
         }
     }
 }
@@ -340,8 +357,15 @@ impl Outputs {
     /// Writes `command`, the answer to camera frame `frame`, on both topics (each only while
     /// this controller may command; on the voted one each new frame's answer, and the same
     /// again only every half deadline) unless the cross-check says leave; failures are
-    /// counted and logged sparingly.
-    fn write(&mut self, rl: &Redundancy, frame: u64, command: crate::tracker::ServoCommand) {
+    /// counted and logged sparingly. A lockstep pair's controller first compares the output
+    /// with its second implementation's (`compare`), and leaves on a mismatch.
+    fn write(
+        &mut self,
+        rl: &Redundancy,
+        frame: u64,
+        command: crate::tracker::ServoCommand,
+        compare: Option<(&Lockstep, crate::tracker::ServoCommand)>,
+    ) {
         let sample = self.wrong.apply(
             rl,
             frame,
@@ -352,6 +376,14 @@ impl Outputs {
             },
         );
         if self.left {
+            return;
+        }
+        if let Some(Err(mismatch)) =
+            compare.map(|(lockstep, second)| lockstep.compare(frame, sample, second))
+        {
+            self.left = true;
+            warn!("{mismatch}: leaving the bus");
+            rl.report_fault();
             return;
         }
         if let Judgement::Leave(reason) = self.cross_check.answer(frame, sample) {

@@ -6,10 +6,18 @@
 //! live line says how far off, in pixels). `--record DIR` keeps every child's output (JSON
 //! events) for later checking.
 //!
+//! `--architecture duplex|pair` shows the paper's two other architectures with their two
+//! controllers (the duplex's Primary killed and restarted, or the pair's commanding one), and
+//! `--controllers 1` the paper's first step: one controller, whose death stops the tracking.
+//!
 //! `--chain` runs the paper's chain instead (crate::chain): three navigation controllers
 //! (group `nav`) aim, three actuator controllers (the configuration's group) command the
 //! servo, and the kills alternate between the two groups' Primaries.
 
+mod architecture;
+
+pub use self::architecture::DemoArchitecture;
+use self::architecture::{architecture_name, controller_ids, write_children_config};
 use crate::chain::ChainLine;
 use crate::procs::{parse_servo_event, Fleet, Line, ServoEvent};
 use crate::sim::shapes::CameraFrame;
@@ -49,8 +57,18 @@ pub struct DemoArgs {
     /// The paper's chain: a navigation group (`rl chain nav`, group `nav`) turns the camera's
     /// ball into aims and an actuator group (`rl chain act`) turns the navigation Primary's
     /// aims into servo commands; the kills alternate between the two groups' Primaries.
-    #[arg(long)]
+    #[arg(long, conflicts_with_all = ["architecture", "controllers"])]
     pub chain: bool,
+    /// The redundancy architecture to show (the paper's three): `voting` (three controllers
+    /// vote roles), `duplex` (a configured Primary and Standby; the Primary takes the
+    /// actuator back on its return) or `pair` (two controllers both commanding, each
+    /// comparing two implementations of its control law). Overrides the configuration's.
+    #[arg(long, value_enum, value_name = "NAME")]
+    pub architecture: Option<DemoArchitecture>,
+    /// How many controllers to run: the paper's first step is one (killing it stops the
+    /// tracking); voting takes 1 to 3 (default 3), duplex and pair exactly 2 (their default).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(1..=3))]
+    pub controllers: Option<u8>,
 }
 
 pub use crate::error::DemoError;
@@ -117,14 +135,23 @@ fn spawn_error(e: std::io::Error) -> crate::Error {
     crate::Error::io("starting a child process", e)
 }
 
-pub fn run(args: DemoArgs) -> Result<(), crate::Error> {
+pub fn run(mut args: DemoArgs) -> Result<(), crate::Error> {
     // The children would each refuse a bad domain or configuration; say it once, at once.
-    crate::cli::load_config(args.config.as_deref(), Some(args.domain))?;
+    let mut config = crate::cli::load_config(args.config.as_deref(), Some(args.domain))?;
+    if let Some(architecture) = args.architecture {
+        config.architecture = architecture.config_name();
+    }
+    let ids = controller_ids(&config, args.controllers)?;
     let stop = crate::cli::stop_on_signals()?;
     let exe = std::env::current_exe().map_err(|e| crate::Error::io("locating rl", e))?;
     if let Some(dir) = &args.record {
         std::fs::create_dir_all(dir)
             .map_err(|e| crate::Error::io(format!("creating {}", dir.display()), e))?;
+    }
+    // An architecture given on the command line reaches the children in a configuration of
+    // the demo's own (the given one with it), kept beside the recording or in the temp dir.
+    if args.architecture.is_some() {
+        args.config = Some(write_children_config(&config, args.record.as_deref())?);
     }
     let (fleet, lines) = Fleet::new(&exe, args.config.as_deref(), args.domain);
     let groups = if args.chain {
@@ -139,12 +166,16 @@ pub fn run(args: DemoArgs) -> Result<(), crate::Error> {
         ]
     } else {
         println!(
-            "rl demo: 3 controllers, camera and servo on domain {} (Ctrl-C to stop)",
+            "rl demo: {} controller{} ({}), camera and servo on domain {} (Ctrl-C to stop)",
+            ids.len(),
+            if ids.len() == 1 { "" } else { "s" },
+            architecture_name(config.architecture),
             args.domain
         );
         vec![Group::new("", fleet.sharing(&["controller"], ""))]
     };
-    let mut demo = Demo::new(args, fleet, groups);
+    let ids = if args.chain { vec![1, 2, 3] } else { ids };
+    let mut demo = Demo::new(args, fleet, groups, ids);
     demo.start_children()?;
     let outcome = loop {
         if stop.load(Ordering::SeqCst) {
@@ -196,12 +227,14 @@ struct Demo {
     settled_since: Option<Instant>,
     /// The group and id of the controller killed, and when.
     killed: Option<(usize, ControllerId, Instant)>,
+    /// The controllers of each group (a duplex's or a pair's two, one to three voting).
+    ids: Vec<ControllerId>,
     cycles: u32,
     next_summary: Instant,
 }
 
 impl Demo {
-    fn new(args: DemoArgs, fleet: Fleet, groups: Vec<Group>) -> Demo {
+    fn new(args: DemoArgs, fleet: Fleet, groups: Vec<Group>, ids: Vec<ControllerId>) -> Demo {
         let started = Instant::now();
         Demo {
             args,
@@ -217,6 +250,7 @@ impl Demo {
             frames_unseen: 0,
             settled_since: None,
             killed: None,
+            ids,
             cycles: 0,
             next_summary: started + Duration::from_secs(2),
         }
@@ -250,7 +284,7 @@ impl Demo {
             .start_other("servo", &["servo", "--json"])
             .map_err(spawn_error)?;
         for group in 0..self.groups.len() {
-            for id in 1..=3 {
+            for id in self.ids.clone() {
                 self.start_controller(group, id)?;
             }
         }
@@ -418,7 +452,10 @@ impl Demo {
     /// Kills a Primary once the system has been settled `--kill-every-s` (the groups' in
     /// turn), restarts it after `--down-s`; `Ok(false)` when `--cycles` are done.
     fn follow_schedule(&mut self, now: Instant) -> Result<bool, crate::Error> {
-        let all_steady = self.groups.iter().all(|group| group.steady() == 3);
+        let all_steady = self
+            .groups
+            .iter()
+            .all(|group| group.steady() == self.ids.len());
         if all_steady && self.owner.is_some() && self.killed.is_none() {
             self.settled_since.get_or_insert(now);
         } else {
@@ -446,8 +483,18 @@ impl Demo {
         let group_index = self.cycles as usize % self.groups.len();
         let stamp = self.stamp(now);
         let group = &mut self.groups[group_index];
-        if let Some(id) = group.holder(Role::Primary) {
-            println!("{stamp} kill -9 {}C{id} (the Primary)", group.label);
+        // A pair's two both report the Primary's role: the one the servo follows is killed.
+        let primaries = group
+            .seen
+            .values()
+            .filter(|s| s.role == Some(Role::Primary))
+            .count();
+        let target = match group.holder(Role::Primary) {
+            Some(id) if primaries == 1 => Some((id, "the Primary")),
+            _ => self.owner.map(|id| (id, "the servo's owner")),
+        };
+        if let Some((id, which)) = target {
+            println!("{stamp} kill -9 {}C{id} ({which})", group.label);
             group
                 .fleet
                 .kill(id)

@@ -89,6 +89,9 @@ pub enum BenchError {
     /// The controller to measure is not running.
     #[error("bench: controller {id} is not running")]
     NotRunning { id: rl_layer::core::ControllerId },
+    /// A kill was due, but the servo followed no controller.
+    #[error("bench: the servo follows no controller, so there is no owner to kill")]
+    NoOwner,
     /// The bench's own DDS reader (formation) could not be set up.
     #[error("bench: {0}")]
     Dds(#[from] rl_layer::dds::DdsError),

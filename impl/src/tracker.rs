@@ -19,6 +19,7 @@
 #[cfg(test)]
 mod diverse_tests;
 mod float;
+pub mod lockstep;
 
 pub use float::FloatPanTilt;
 

@@ -37,6 +37,8 @@ pub struct CoreConfig {
     /// How long a controller that failed itself stays up, announcing FAILED, before it leaves
     /// ([`crate::Command::Exit`]); `None`: it never leaves by itself.
     pub failed_exit_delay_ms: Option<u64>,
+    /// Which architecture's rules it runs (three-way voting unless configured otherwise).
+    pub architecture: crate::architectures::Architecture,
     /// A deliberately broken rule to run with (the conformance suite's mutation check).
     #[cfg(feature = "mutation")]
     pub mutation: Option<crate::mutation::Mutation>,
@@ -56,6 +58,7 @@ impl CoreConfig {
             heartbeat_period_ms,
             rounds,
             failed_exit_delay_ms: None,
+            architecture: crate::architectures::Architecture::Voting,
             #[cfg(feature = "mutation")]
             mutation: None,
         }
@@ -65,6 +68,14 @@ impl CoreConfig {
     pub fn with_failed_exit_delay_ms(self, delay_ms: u64) -> CoreConfig {
         CoreConfig {
             failed_exit_delay_ms: Some(delay_ms),
+            ..self
+        }
+    }
+
+    /// The same controller running another architecture's rules.
+    pub fn with_architecture(self, architecture: crate::architectures::Architecture) -> CoreConfig {
+        CoreConfig {
+            architecture,
             ..self
         }
     }

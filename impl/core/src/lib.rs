@@ -41,6 +41,9 @@
 //! // sleep until `core.next_deadline().at_ms`.
 //! ```
 //!
+//! [`architectures`] holds the paper's two other architectures (the simple duplex and the
+//! lockstep pair) as other round-end rules of the same core.
+//!
 //! Modules: [`types`] (the vocabulary, shared with the model by meaning, never by code),
 //! [`state`] (what one controller knows), [`report`] (the self-report sent as heartbeat and
 //! shown as status), [`io`] (inputs, timers, commands), [`config`] (its own id and its timing
@@ -55,6 +58,7 @@
 
 #![deny(missing_docs)]
 
+pub mod architectures;
 pub mod config;
 mod epochs;
 pub mod failure;
@@ -71,6 +75,7 @@ pub mod state;
 mod strength;
 pub mod types;
 
+pub use architectures::Architecture;
 pub use config::{CoreConfig, Rounds};
 pub use io::{Command, Deadline, Input, Restart, Timer};
 pub use report::{Heartbeat, SelfReport, Status};
@@ -148,7 +153,7 @@ impl Core {
     /// only a Secondary needs them. A controller that stops measuring reports every peer
     /// unheard, so no verdict outlives the measurement behind it.
     pub fn watches_arrivals(&self) -> bool {
-        self.state.role == Some(Role::Secondary)
+        self.config.architecture == Architecture::Voting && self.state.role == Some(Role::Secondary)
     }
 
     /// Whether a heartbeat sent at `sent_ms` (on the caller's clock) was sent before the round
@@ -288,6 +293,7 @@ impl Core {
                     rules::fail_self(&mut self.state);
                 }
             }
+            Input::Commands { .. } if self.config.architecture != Architecture::Voting => {}
             Input::Commands { from, arrival } => {
                 if let Some(peer) = self.state.peers.get_mut(&from) {
                     peer.commands = arrival;
@@ -301,8 +307,12 @@ impl Core {
         if before.phase != Phase::Failed && self.state.phase == Phase::Failed {
             self.failed(before.vote, local_fault, now_ms, &mut commands);
         }
-        if !self.config.is_mutated() {
-            invariants::debug_check(&self.state);
+        match self.config.architecture {
+            Architecture::Voting if !self.config.is_mutated() => {
+                invariants::debug_check(&self.state)
+            }
+            Architecture::Voting => {}
+            other => architectures::debug_check(&other, &self.state),
         }
         commands
     }
@@ -370,7 +380,18 @@ impl Core {
             Timer::RoundEnd => {
                 let heard: Vec<Heartbeat> = std::mem::take(&mut self.inbox).into_values().collect();
                 self.state.establish_writers();
-                rules::end_round(&self.config, &mut self.state, &heard);
+                match &self.config.architecture {
+                    Architecture::Voting => rules::end_round(&self.config, &mut self.state, &heard),
+                    Architecture::Duplex(duplex) => architectures::duplex_round_end(
+                        &self.config,
+                        duplex,
+                        &mut self.state,
+                        &heard,
+                    ),
+                    Architecture::Pair(pair) => {
+                        architectures::pair_round_end(&self.config, pair, &mut self.state, &heard)
+                    }
+                }
                 // A caller that fell behind (a stopped process) runs one round end, not every
                 // missed one: it cannot know what it did not hear.
                 self.round_end_ms = next_boundary(now_ms, period_ms);

@@ -4,6 +4,7 @@
 
 use super::*;
 
+mod architectures;
 mod lives;
 
 const PERIOD_MS: u64 = 250;

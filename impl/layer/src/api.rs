@@ -61,12 +61,21 @@ pub struct Redundancy {
 }
 
 impl Redundancy {
-    /// Joins the configured DDS domain as controller `id` and starts voting.
+    /// Joins the configured DDS domain as controller `id` and starts voting (or, under
+    /// `architecture = "duplex" | "pair"`, watching its partner; `id` must then be one of the
+    /// two configured).
     pub fn start(
         config: &Config,
         id: ControllerId,
         options: Options,
     ) -> Result<Redundancy, crate::Error> {
+        // A duplex or a pair has exactly its two members: another id is a configuration error.
+        config
+            .check_member(id)
+            .map_err(|invalid| crate::config::ConfigError::Invalid {
+                source_name: "the configuration".into(),
+                invalid,
+            })?;
         // On two networks every datagram goes out on both, so losing one loses nothing.
         // With a keystore, secured (checked first: a bad file is named, exit status 2).
         let session = Arc::new(Session::for_config(config)?);

@@ -106,7 +106,8 @@ pub(crate) fn spawn(
     let incarnation = crate::stall::incarnation(clock.now_ms());
     let timing = &config.timing;
     let core_config = CoreConfig::new(id, incarnation, timing.heartbeat_period_ms, timing.rounds())
-        .with_failed_exit_delay_ms(timing.failed_exit_delay_ms);
+        .with_failed_exit_delay_ms(timing.failed_exit_delay_ms)
+        .with_architecture(config.core_architecture());
     #[cfg(feature = "mutation")]
     let core_config = core_config.with_mutation(mutation_from_environment()?);
     let core = Core::new(core_config, clock.now_ms());

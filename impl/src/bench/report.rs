@@ -165,3 +165,30 @@ pub fn write_groups(out: &mut impl Write, report: &GroupsReport) -> std::io::Res
     }
     Ok(())
 }
+
+/// `rl bench --architectures`: one block per architecture.
+pub fn write_architectures(
+    out: &mut impl Write,
+    report: &super::ArchitecturesReport,
+) -> std::io::Result<()> {
+    writeln!(out, "{} ({} cores)", report.command, report.cores)?;
+    for r in &report.results {
+        writeln!(
+            out,
+            "{:?} ({} controllers): RSS kB max {}; CPU % of one core max {:.2}",
+            r.architecture,
+            r.controllers.len(),
+            r.rss_kb_max,
+            r.cpu_percent_of_one_core
+        )?;
+        writeln!(
+            out,
+            "    {} kills of the servo's owner: gap ms {}; owner changes per fault (kill and return) {:.2}; alarm after the kill, ms {}",
+            r.kills.len(),
+            summary(&r.gap_ms),
+            r.owner_changes_per_fault(),
+            summary(&r.alarm_ms)
+        )?;
+    }
+    Ok(())
+}

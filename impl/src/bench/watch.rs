@@ -40,6 +40,17 @@ pub struct Watch {
     /// The camera's frames (`rl shapes --json`): when read, and how far off centre the ball
     /// was (`None`: not seen).
     pub frames: Vec<(Instant, Option<f64>)>,
+    /// Every controller alarm raised, in arrival order.
+    pub alarms: Vec<AlarmRaised>,
+}
+
+/// A controller alarm a controller raised about a peer.
+#[derive(Clone, Copy, Debug)]
+pub struct AlarmRaised {
+    pub by: ControllerId,
+    pub about: ControllerId,
+    /// When, on the raiser's wall clock (ms since the epoch).
+    pub t_ms: u64,
 }
 
 impl Watch {
@@ -53,6 +64,7 @@ impl Watch {
             owner_changes: Vec::new(),
             owner: None,
             frames: Vec::new(),
+            alarms: Vec::new(),
         }
     }
 
@@ -112,6 +124,15 @@ impl Watch {
                     strength,
                 }),
                 Event::Started => self.started.push((line.id, line.t_ms)),
+                Event::Alarm {
+                    about,
+                    raised: true,
+                    ..
+                } => self.alarms.push(AlarmRaised {
+                    by: line.id,
+                    about,
+                    t_ms: line.t_ms,
+                }),
                 _ => {}
             }
         }

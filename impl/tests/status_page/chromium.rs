@@ -32,6 +32,15 @@ pub const HEADLESS: &[&str] = &[
     "--disable-sync",
 ];
 
+/// Chromium at a lower CPU priority (`nice -n 10`, the same pid): it is the test's observer,
+/// and on a two-core machine its start-up would otherwise starve the controllers it watches
+/// past their stall detection (a starved controller rightly starts a new life).
+pub fn browser_command(browser: &PathBuf) -> Command {
+    let mut command = Command::new("nice");
+    command.args(["-n", "10"]).arg(browser);
+    command
+}
+
 /// A fresh profile directory for one Chromium run.
 pub fn profile(tag: &str) -> support::tempdir::Dir {
     support::tempdir::Dir::new(&format!("chromium-{tag}"))
@@ -40,7 +49,7 @@ pub fn profile(tag: &str) -> support::tempdir::Dir {
 /// The page's DOM after its script ran for a while (in Chromium's virtual time).
 pub fn dump_dom(browser: &PathBuf, url: &str) -> String {
     let dir = profile("dom");
-    let output = Command::new(browser)
+    let output = browser_command(browser)
         .args(HEADLESS)
         .args(["--virtual-time-budget=2000", "--dump-dom"])
         .arg(format!("--user-data-dir={}", dir.0.display()))
@@ -87,7 +96,7 @@ impl OpenPage {
     pub fn open(browser: &PathBuf, url: &str) -> OpenPage {
         let dir = profile("live");
         let debug_port = free_port();
-        let child = Command::new(browser)
+        let child = browser_command(browser)
             .args(HEADLESS)
             .arg(format!("--remote-debugging-port={debug_port}"))
             .arg("--remote-allow-origins=*")
@@ -199,7 +208,7 @@ impl Drop for OpenPage {
 /// A screenshot of the page (for the documentation: `RL_STATUS_SCREENSHOT_DIR=docs/img`).
 pub fn screenshot(browser: &PathBuf, url: &str, path: &str) {
     let dir = profile("shot");
-    let status = Command::new(browser)
+    let status = browser_command(browser)
         .args(HEADLESS)
         .args([
             "--virtual-time-budget=2000",

@@ -7,7 +7,7 @@
 //!
 //! ```text
 //! rl.toml: timing.peer_deadline_ms = 300: must be a whole number of heartbeat periods (250 ms) and at least 2 of them
-//! rl.toml:1:1: unknown field `timin`, expected one of `timing`, `dds`, `tracker`, `leds`, `networks`, `security`
+//! rl.toml:1:1: unknown field `timin`, expected one of `architecture`, `timing`, `dds`, `tracker`, `leds`, `networks`, `security`, `duplex`, `pair`
 //! rl.toml:2:20: timing.heartbeat_period_ms: invalid type: string "fast", expected u64
 //! ```
 //!
@@ -18,9 +18,11 @@
 //! [`Timing::dead_after_rounds`] and [`Timing::window_rounds`] are those counts
 //! ([`Timing::rounds`] hands them to the core, which derives the rest).
 //!
-//! One file per section (`timing`, `dds`, `tracker`, `leds`, `networks`, `security`) with its defaults and rules;
+//! One file per section (`timing`, `dds`, `tracker`, `leds`, `networks`, `security`, and
+//! `architecture` with `[duplex]` and `[pair]`) with its defaults and rules;
 //! `error` says what goes wrong, `parse` turns TOML errors into one line naming the field.
 
+mod architecture;
 mod dds;
 mod error;
 mod leds;
@@ -32,6 +34,7 @@ mod tests;
 mod timing;
 mod tracker;
 
+pub use self::architecture::{ArchitectureName, DuplexSection, PairSection};
 pub use self::dds::{Dds, DOMAIN_MAX};
 pub use self::error::{ConfigError, InvalidValue};
 pub use self::leds::{LedBackend, Leds};
@@ -47,6 +50,9 @@ use std::path::Path;
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Config {
+    /// `architecture`: which redundancy architecture the controllers run: `voting` (the
+    /// default), `duplex` or `pair`. First, as TOML wants plain values before sections.
+    pub architecture: ArchitectureName,
     /// `[timing]`: the heartbeat period (one round), peer deadline, initialization window and
     /// command topic timing.
     pub timing: Timing,
@@ -60,6 +66,10 @@ pub struct Config {
     pub networks: Networks,
     /// `[security]`: the DDS Security keystore (empty: security off).
     pub security: Security,
+    /// `[duplex]`: the simple duplex's Primary, Standby and preemption.
+    pub duplex: DuplexSection,
+    /// `[pair]`: the lockstep pair's two members.
+    pub pair: PairSection,
 }
 
 impl Config {
@@ -98,6 +108,19 @@ impl Config {
         self.tracker.validate()?;
         self.leds.validate()?;
         self.networks.validate(self.dds.domain)?;
-        self.security.validate()
+        self.security.validate()?;
+        self.duplex.validate()?;
+        self.pair.validate()
+    }
+
+    /// The architecture the core runs under this configuration.
+    pub fn core_architecture(&self) -> rl_core::Architecture {
+        architecture::core_architecture(self.architecture, &self.duplex, &self.pair)
+    }
+
+    /// Whether controller `id` belongs to the configured architecture (a duplex or a pair has
+    /// exactly two members); the error names the field listing them.
+    pub fn check_member(&self, id: rl_core::ControllerId) -> Result<(), InvalidValue> {
+        architecture::check_member(self.architecture, &self.duplex, &self.pair, id)
     }
 }

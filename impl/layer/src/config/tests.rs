@@ -169,7 +169,7 @@ fn parse_errors_name_the_field_and_place() {
     assert_eq!(field.as_deref(), Some("timin"));
     assert_eq!(
         message,
-        "rl.toml:1:1: unknown field `timin`, expected one of `timing`, `dds`, `tracker`, `leds`, `networks`, `security`"
+        "rl.toml:1:1: unknown field `timin`, expected one of `architecture`, `timing`, `dds`, `tracker`, `leds`, `networks`, `security`, `duplex`, `pair`"
     );
 
     let (field, message) = error_of("[timing]\nheartbeat = 250\n");

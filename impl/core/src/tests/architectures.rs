@@ -1,0 +1,210 @@
+//! The duplex's and the pair's round-end rules (crate::architectures), round by round: the
+//! strengths they command at and the alarms they raise about the partner.
+
+use super::*;
+use crate::architectures::{Duplex, Pair, PAIR_STRENGTH, PAIR_YIELDED_STRENGTH, YIELDED_STRENGTH};
+
+fn duplex_core(id: ControllerId, preempt: bool) -> Core {
+    let duplex = Duplex {
+        primary: 1,
+        standby: 2,
+        preempt,
+    };
+    let config =
+        CoreConfig::new(id, 0, PERIOD_MS, rounds()).with_architecture(Architecture::Duplex(duplex));
+    Core::new(config, 0)
+}
+
+/// The partner's heartbeat: steady, commanding (established) at `strength`.
+fn partner(id: ControllerId, strength: Option<i32>) -> Heartbeat {
+    Heartbeat {
+        established_strength: strength.map(Strength),
+        strength: strength.map(Strength),
+        ..heartbeat(id, Phase::Steady)
+    }
+}
+
+/// One round: `heard` arrives, then every timer up to the round's end at `end_ms` runs.
+fn round(core: &mut Core, heard: &[Heartbeat], end_ms: u64) -> Vec<Command> {
+    deliver(core, heard, end_ms - 1);
+    advance(core, end_ms)
+}
+
+fn outputs(commands: &[Command]) -> Vec<Option<Strength>> {
+    commands
+        .iter()
+        .filter_map(|c| match c {
+            Command::SetOutput { strength, .. } => Some(*strength),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn a_preempting_primary_commands_at_30_from_its_first_round_alone() {
+    let mut c1 = duplex_core(1, true);
+    let commands = round(&mut c1, &[], 250);
+    assert_eq!(outputs(&commands), vec![Some(Strength(30))]);
+    assert_eq!(c1.status().report.role, Some(Role::Primary));
+    assert_eq!(c1.status().report.phase, Phase::Steady);
+}
+
+#[test]
+fn a_returning_primary_without_preemption_yields_to_a_commanding_standby() {
+    let mut c1 = duplex_core(1, false);
+    assert_eq!(
+        outputs(&round(&mut c1, &[], 250)),
+        vec![Some(YIELDED_STRENGTH)]
+    );
+    // The Standby commands at its configured 20: the Primary stays at 10, round after round.
+    for end_ms in [500, 750, 1000] {
+        assert_eq!(
+            outputs(&round(&mut c1, &[partner(2, Some(20))], end_ms)),
+            vec![]
+        );
+        assert_eq!(c1.state().output, Some(YIELDED_STRENGTH));
+    }
+    // The Standby goes silent: at the deadline (2 rounds) it is lost, and the Primary takes 30.
+    assert_eq!(outputs(&round(&mut c1, &[], 1250)), vec![]);
+    let commands = round(&mut c1, &[], 1500);
+    assert_eq!(outputs(&commands), vec![Some(Strength(30))]);
+    assert!(commands.contains(&Command::RaiseAlarm {
+        about: 2,
+        reason: AlarmReason::Lost
+    }));
+    // It comes back: the alarm clears; the Primary keeps 30.
+    let commands = round(&mut c1, &[partner(2, Some(10))], 1750);
+    assert_eq!(
+        commands
+            .iter()
+            .filter(|c| matches!(c, Command::ClearAlarm { .. }))
+            .count(),
+        1
+    );
+    assert_eq!(c1.state().output, Some(Strength(30)));
+}
+
+#[test]
+fn a_returning_primary_with_preemption_takes_30_beside_a_commanding_standby() {
+    let mut c1 = duplex_core(1, true);
+    assert_eq!(
+        outputs(&round(&mut c1, &[partner(2, Some(20))], 250)),
+        vec![Some(Strength(30))]
+    );
+}
+
+#[test]
+fn two_yielded_controllers_starting_together_take_their_configured_strengths() {
+    let mut c1 = duplex_core(1, false);
+    let mut c2 = duplex_core(2, false);
+    assert_eq!(
+        outputs(&round(&mut c1, &[], 250)),
+        vec![Some(YIELDED_STRENGTH)]
+    );
+    assert_eq!(
+        outputs(&round(&mut c2, &[], 250)),
+        vec![Some(YIELDED_STRENGTH)]
+    );
+    // Each hears the other yielded, not commanding: neither yields any longer.
+    let to_c1 = partner(2, Some(10));
+    let to_c2 = partner(1, Some(10));
+    assert_eq!(
+        outputs(&round(&mut c1, &[to_c1], 500)),
+        vec![Some(Strength(30))]
+    );
+    assert_eq!(
+        outputs(&round(&mut c2, &[to_c2], 500)),
+        vec![Some(Strength(20))]
+    );
+}
+
+#[test]
+fn a_standby_without_preemption_never_yields_to_a_primary() {
+    // Yielding is for the controller whose configured strength is the higher one.
+    let mut c2 = duplex_core(2, false);
+    round(&mut c2, &[], 250);
+    assert_eq!(
+        outputs(&round(&mut c2, &[partner(1, Some(30))], 500)),
+        vec![Some(Strength(20))]
+    );
+}
+
+#[test]
+fn a_duplex_standby_ignores_late_commands_and_a_third_id() {
+    let mut c2 = duplex_core(2, true);
+    round(&mut c2, &[partner(1, Some(30)), partner(3, Some(30))], 250);
+    assert!(!c2.watches_arrivals());
+    let commands = c2.step(
+        Input::Commands {
+            from: 1,
+            arrival: Arrival::OnTime,
+        },
+        300,
+    );
+    assert_eq!(commands, vec![]);
+    assert_eq!(c2.status().sees.into_iter().collect::<Vec<_>>(), vec![1]);
+}
+
+fn pair_core(id: ControllerId) -> Core {
+    let pair = Pair { members: [1, 2] };
+    let config =
+        CoreConfig::new(id, 0, PERIOD_MS, rounds()).with_architecture(Architecture::Pair(pair));
+    Core::new(config, 0)
+}
+
+#[test]
+fn a_pair_member_alone_yields_until_its_partner_is_lost_then_commands_as_primary() {
+    let mut c2 = pair_core(2);
+    assert_eq!(
+        outputs(&round(&mut c2, &[], 250)),
+        vec![Some(PAIR_YIELDED_STRENGTH)]
+    );
+    assert_eq!(
+        outputs(&round(&mut c2, &[], 500)),
+        vec![Some(PAIR_STRENGTH)]
+    );
+    assert_eq!(c2.status().report.role, Some(Role::Primary));
+}
+
+#[test]
+fn pair_members_starting_together_both_command_and_a_returning_one_yields() {
+    let (mut c1, mut c2) = (pair_core(1), pair_core(2));
+    round(&mut c1, &[], 250);
+    round(&mut c2, &[], 250);
+    // Each hears the other yielded: both take the pair's strength.
+    assert_eq!(
+        outputs(&round(&mut c1, &[partner(2, Some(20))], 500)),
+        vec![Some(PAIR_STRENGTH)]
+    );
+    assert_eq!(
+        outputs(&round(&mut c2, &[partner(1, Some(20))], 500)),
+        vec![Some(PAIR_STRENGTH)]
+    );
+    // C1 returns beside C2 commanding at 30: it stays at 20 while C2 commands.
+    let mut c1 = pair_core(1);
+    round(&mut c1, &[], 250);
+    for end_ms in [500, 750] {
+        assert_eq!(
+            outputs(&round(&mut c1, &[partner(2, Some(30))], end_ms)),
+            vec![]
+        );
+        assert_eq!(c1.state().output, Some(PAIR_YIELDED_STRENGTH));
+        assert_eq!(c1.status().report.role, Some(Role::Secondary));
+    }
+}
+
+#[test]
+fn a_pair_controller_alarms_a_failed_partner_and_a_local_fault_silences_it() {
+    let mut c2 = pair_core(2);
+    round(&mut c2, &[partner(1, Some(20))], 250);
+    assert_eq!(c2.state().output, Some(PAIR_STRENGTH));
+    let commands = round(&mut c2, &[heartbeat(1, Phase::Failed)], 500);
+    assert!(commands.contains(&Command::RaiseAlarm {
+        about: 1,
+        reason: AlarmReason::Failed
+    }));
+    // A local fault (its two implementations disagreed) silences it.
+    let commands = c2.step(Input::LocalFault, 600);
+    assert_eq!(outputs(&commands), vec![None]);
+    assert_eq!(c2.status().report.phase, Phase::Failed);
+}
