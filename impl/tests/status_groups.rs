@@ -306,8 +306,28 @@ fn chromium_shows_a_section_per_group_and_follows_one_groups_kill() {
         screenshot(&browser, &url, &format!("{dir}/status-page-groups.png"));
     }
 
-    // Kill nav's Primary: nav's section follows, act's does not change.
+    // Kill nav's Primary once the open page shows both formations (Chromium's start is not
+    // the page's to answer for): nav's section follows, act's does not change.
     let page = OpenPage::open(&browser, &url);
+    let both_formed = |leds: &std::collections::BTreeMap<(String, u8, u8), String>| {
+        ["act", "nav"].iter().all(|group| {
+            (1..=3u8).all(|id| {
+                (1..=4u8).all(|n| {
+                    leds.get(&(group.to_string(), id, n)).map(String::as_str)
+                        == Some(expected(id, n))
+                })
+            })
+        })
+    };
+    let opened = Instant::now() + Duration::from_secs(15);
+    while !page.group_leds().as_ref().is_some_and(both_formed) {
+        assert!(
+            Instant::now() < opened,
+            "the open page never showed both groups formed: {:?}",
+            page.group_leds()
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
     nav.fleet.kill(1).expect("kill -9 nav's C1");
     let killed = Instant::now();
     let nav_follows = |leds: &std::collections::BTreeMap<(String, u8, u8), String>| {
