@@ -244,7 +244,15 @@ struct Alignment {
     votes: Option<VoteFeed<ServoControl, ServoRule>>,
     /// The vote accepted a command in this life.
     voted_in_life: bool,
+    /// The peers' answers on the voted topic, by input and controller, the newest
+    /// [`ANSWERS_KEPT`] inputs: before the vote works, the owner's answer to the frame this
+    /// controller answered last is where it takes the gimbal's position from.
+    answers:
+        std::collections::BTreeMap<u64, std::collections::BTreeMap<ControllerId, ServoControl>>,
 }
+
+/// Inputs whose answers [`Alignment`] keeps.
+const ANSWERS_KEPT: usize = 8;
 
 impl Alignment {
     fn open(rl: &Redundancy, config: &Config) -> Result<Alignment, crate::Error> {
@@ -269,6 +277,7 @@ impl Alignment {
             own_participant: rl.session().participant_key(),
             votes,
             voted_in_life: false,
+            answers: std::collections::BTreeMap::new(),
         })
     }
 
@@ -287,9 +296,17 @@ impl Alignment {
         let owner = self.owner_commands.take(rl.session(), now_ms);
         let mut voted = None;
         if let Some(votes) = self.votes.as_mut() {
+            let answers = &mut self.answers;
             let events = votes.take_seeing(now_ms, |answer| {
                 cross_check.peer_answer(answer.from, answer.input, answer.value);
+                answers
+                    .entry(answer.input)
+                    .or_default()
+                    .insert(answer.from, answer.value);
             });
+            while self.answers.len() > ANSWERS_KEPT {
+                self.answers.pop_first();
+            }
             for event in events {
                 if let VoteEvent::Accepted {
                     input,
@@ -315,8 +332,18 @@ impl Alignment {
                 if !self.voted_in_life
                     && rl_layer::dds::participant_key(writer) != self.own_participant =>
             {
-                // Not in step for the cross-check: the exclusive topic does not say which
-                // frame the owner's command answers, so it may be a frame behind.
+                // Not in step for the cross-check. With a voted topic, the owner's own answer
+                // to the frame this controller answered last: the exclusive topic does not say
+                // which frame its command answers, and a command answering a frame this
+                // controller has not taken yet would have it step twice for that frame (two
+                // standbys doing so agree with each other and not with a right Primary).
+                let command = match self.votes {
+                    Some(_) => {
+                        let owner = self.owner_commands.controller_of(writer)?;
+                        *self.answers.get(&frame)?.get(&owner)?
+                    }
+                    None => command,
+                };
                 pan_tilt.align(command.pan, command.tilt);
                 Some((command.pan, command.tilt))
             }
