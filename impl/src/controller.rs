@@ -5,8 +5,9 @@
 //! Each command also goes out on the voted command topic as this controller's own answer,
 //! tagged with the camera frame it answers, for a receiver that votes (`rl servo --vote`,
 //! rl_layer::vote_reader). It takes the gimbal's position from the voted commands, so that a
-//! takeover is bumpless; until the vote has accepted one in this life (or without a voted
-//! topic), from the commanding controller's commands.
+//! takeover is bumpless; until the vote has accepted one in this life, from the commanding
+//! controller's own answer to the frame it answered last (without a voted topic, from the
+//! commanding controller's commands).
 //! Under `architecture = "pair"` it computes every frame's answer twice, in both
 //! implementations of the law, and leaves on a mismatch before writing (crate::tracker::lockstep).
 //! It cross-checks its own answers with the two others' (rl_layer::cross_check): the odd one
@@ -232,8 +233,9 @@ fn track(
 /// Bumpless transfer: where the tracker takes the gimbal's position from. From the voted
 /// topic's accepted commands (every controller, the commanding one too), so that a controller
 /// computing wrong commands does not pull the others' state after it; until the vote has
-/// accepted a command in this life (formation, a new life, no voted topic), from the owner's
-/// commands while another controller commands (crate::tracker, `align`). Once the vote has
+/// accepted a command in this life (formation, a new life), from the owner's voted answer to
+/// the frame it answered last while another controller commands (without a voted topic, the
+/// owner's commands; crate::tracker, `align`). Once the vote has
 /// worked, never from the owner again in this life: without a majority (two wrong that
 /// disagree) the owner may be a wrong Primary, and a correct controller aligned to it would
 /// agree with it at the next frame, making a wrong majority and the other wrong one the odd

@@ -20,23 +20,9 @@ use support::Cluster;
 
 const FORM: Duration = Duration::from_secs(20);
 
-/// A cluster whose configuration begins with `head` (the architecture must come before the
-/// file's first section).
-fn cluster_with(tag: &str, domain: u16, head: &str) -> Cluster {
-    let cluster = Cluster::new(tag, domain, "");
-    let config = cluster
-        .fleet
-        .config()
-        .expect("a configuration")
-        .to_path_buf();
-    let text = std::fs::read_to_string(&config).expect("the test configuration");
-    std::fs::write(&config, format!("{head}{text}")).expect("written");
-    cluster
-}
-
 fn duplex(tag: &str, domain: u16, preempt: bool) -> Cluster {
     let head = format!("architecture = \"duplex\"\n[duplex]\npreempt = {preempt}\n");
-    let mut cluster = cluster_with(tag, domain, &head);
+    let mut cluster = Cluster::with_head(tag, domain, &head);
     cluster.start(1);
     cluster.start(2);
     cluster.start_servo();
@@ -173,7 +159,7 @@ fn a_duplex_without_preemption_keeps_the_standby_in_command_when_the_primary_ret
 #[test]
 fn a_pair_controller_whose_implementations_disagree_leaves_and_its_partner_alarms() {
     use std::io::Write;
-    let mut cluster = cluster_with("pair", 169, "architecture = \"pair\"\n");
+    let mut cluster = Cluster::with_head("pair", 169, "architecture = \"pair\"\n");
     let mut pipes = Vec::new();
     for id in 1..=2u8 {
         let (_, stdin) = cluster

@@ -69,14 +69,7 @@ impl Duplex {
 #[ignore = "needs python3 with rticonnextdds-connector (pip install rticonnextdds-connector==1.2.4)"]
 fn the_connext_reader_follows_a_duplex_owner_through_a_kill_and_the_return() {
     require_peer("rticonnextdds_connector", CONNEXT_PACKAGE);
-    let mut cluster = Cluster::new("duplex-connext", DOMAIN, "");
-    let config = cluster
-        .fleet
-        .config()
-        .expect("a configuration")
-        .to_path_buf();
-    let text = std::fs::read_to_string(&config).expect("the test configuration");
-    std::fs::write(&config, format!("architecture = \"duplex\"\n{text}")).expect("written");
+    let mut cluster = Cluster::with_head("duplex-connext", DOMAIN, "architecture = \"duplex\"\n");
     let lives = Lives::new(DOMAIN);
     cluster.start_servo();
     cluster.start(1);

@@ -66,6 +66,20 @@ impl Cluster {
         }
     }
 
+    /// As [`Cluster::new`], its configuration beginning with `head`: plain values such as
+    /// `architecture = "duplex"` must come before the file's first section.
+    pub fn with_head(tag: &str, domain: u16, head: &str) -> Cluster {
+        let cluster = Cluster::new(tag, domain, "");
+        let config = cluster
+            .fleet
+            .config()
+            .expect("a configuration")
+            .to_path_buf();
+        let text = std::fs::read_to_string(&config).expect("the test configuration");
+        std::fs::write(&config, format!("{head}{text}")).expect("written");
+        cluster
+    }
+
     pub fn start(&mut self, id: u8) -> u32 {
         self.fleet
             .start_controller_with(id, &["--json-events"])
