@@ -207,11 +207,21 @@ fn track(
         let mut fresh = None;
         for shape in camera.take() {
             if shape.value.color == config.tracker.color {
+                let input = shape.source_timestamp.map_or(0, |t| t.to_ticks());
+                let skipped = alignment.before_frame(
+                    input,
+                    frame,
+                    pan_tilt.as_mut(),
+                    &mut outputs.cross_check,
+                );
+                if let (Some((pan, tilt)), Some(lockstep)) = (skipped, lockstep.as_mut()) {
+                    lockstep.align(pan, tilt);
+                }
                 fresh = Some(pan_tilt.update(shape.value.x, shape.value.y));
                 second_answer = lockstep
                     .as_mut()
                     .map(|lockstep| lockstep.update(shape.value.x, shape.value.y));
-                frame = shape.source_timestamp.map_or(0, |t| t.to_ticks());
+                frame = input;
                 answer = fresh;
             }
         }
@@ -251,6 +261,13 @@ struct Alignment {
     /// controller answered last is where it takes the gimbal's position from.
     answers:
         std::collections::BTreeMap<u64, std::collections::BTreeMap<ControllerId, ServoControl>>,
+    /// The vote's accepted answers to inputs this controller has not answered yet, the newest
+    /// [`ANSWERS_KEPT`]: a loaded controller hears the others' answers to a frame before the
+    /// frame itself, and taking that position first would step twice for the frame (its answer
+    /// then unlike the group's, and its state too, frame after frame while it lags). Applied
+    /// once it has answered that input, or, for an input it never got (a lost frame), before
+    /// it answers the next one.
+    accepted_ahead: std::collections::BTreeMap<u64, ServoControl>,
 }
 
 /// Inputs whose answers [`Alignment`] keeps.
@@ -280,12 +297,32 @@ impl Alignment {
             votes,
             voted_in_life: false,
             answers: std::collections::BTreeMap::new(),
+            accepted_ahead: std::collections::BTreeMap::new(),
         })
     }
 
+    /// Before it answers camera frame `input` (having answered `frame` last): when the vote
+    /// accepted an input between the two (a frame lost to this controller), the group's
+    /// position at the newest of them is where it steps from. Returns that position, if any.
+    fn before_frame(
+        &mut self,
+        input: u64,
+        frame: u64,
+        pan_tilt: &mut dyn ControlLaw,
+        cross_check: &mut CrossCheck<ServoControl, ServoRule>,
+    ) -> Option<(u16, u16)> {
+        let later = self.accepted_ahead.split_off(&input);
+        let skipped = std::mem::replace(&mut self.accepted_ahead, later);
+        let (&skipped_input, command) = skipped.range(frame.saturating_add(1)..).next_back()?;
+        pan_tilt.align(command.pan, command.tilt);
+        cross_check.aligned(skipped_input);
+        Some((command.pan, command.tilt))
+    }
+
     /// Aligns `pan_tilt` to what arrived: a voted command for the frame it last answered
-    /// (`frame`; one for an older frame would set it back), else, until the vote has worked in
-    /// this life, the owner's command. The answers that arrived go to `cross_check`, and so
+    /// (`frame`; one for an older frame would set it back, and one for a frame it has not
+    /// answered yet waits for it, [`Alignment::before_frame`]), else, until the vote has worked
+    /// in this life, the owner's command. The answers that arrived go to `cross_check`, and so
     /// does the alignment. Returns the position it aligned to, if it did.
     fn align(
         &mut self,
@@ -319,15 +356,26 @@ impl Alignment {
                     if agreeing.len() >= rl_layer::core::types::ROLE_COUNT {
                         cross_check.all_agreed();
                     }
-                    voted = (input >= frame).then_some((input, value)).or(voted);
+                    self.voted_in_life = true;
+                    if input > frame {
+                        self.accepted_ahead.insert(input, value);
+                    }
+                    voted = (input == frame).then_some((input, value)).or(voted);
                 }
             }
+            while self.accepted_ahead.len() > ANSWERS_KEPT {
+                self.accepted_ahead.pop_first();
+            }
         }
+        // An acceptance that came ahead of its frame, now answered.
+        if let Some(value) = self.accepted_ahead.remove(&frame) {
+            voted = voted.or(Some((frame, value)));
+        }
+        self.accepted_ahead = self.accepted_ahead.split_off(&frame);
         match (voted, owner) {
             (Some((input, command)), _) => {
                 pan_tilt.align(command.pan, command.tilt);
                 cross_check.aligned(input);
-                self.voted_in_life = true;
                 Some((command.pan, command.tilt))
             }
             (None, Some((command, writer)))

@@ -255,7 +255,7 @@ fn metrics_parse_with_the_prometheus_client() {
     cluster.fleet.kill(primary).expect("kill -9");
     let about = primary.to_string();
     let deadline = Instant::now() + Duration::from_secs(10);
-    let samples = loop {
+    let (samples, text) = loop {
         let (_, text) = get(port, "/metrics").expect("an answer");
         let samples = prometheus_samples(&text);
         let alarmed = value_of(
@@ -265,7 +265,7 @@ fn metrics_parse_with_the_prometheus_client() {
         );
         let commander = value_of(&samples, "rl_commander", &[]);
         if alarmed == Some(1.0) && commander.is_some_and(|c| c != f64::from(primary)) {
-            break samples;
+            break (samples, text);
         }
         assert!(
             Instant::now() < deadline,
@@ -286,8 +286,14 @@ fn metrics_parse_with_the_prometheus_client() {
             "the killed C{primary} still exports {family}"
         );
     }
-    assert!(value_of(&samples, "rl_commander_changes_total", &[]).is_some_and(|n| n >= 1.0));
-    assert!(value_of(&samples, "rl_commander_last_gap_ms", &[]).is_some());
+    assert!(
+        value_of(&samples, "rl_commander_changes_total", &[]).is_some_and(|n| n >= 1.0),
+        "{text}"
+    );
+    assert!(
+        value_of(&samples, "rl_commander_last_gap_ms", &[]).is_some(),
+        "{text}"
+    );
     cluster.pump(Duration::from_millis(10));
 }
 

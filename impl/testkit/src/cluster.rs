@@ -238,8 +238,39 @@ pub fn without_terminal_colours(text: &str) -> String {
     plain
 }
 
+/// How many of the children's last lines a failing test prints.
+const LINES_ON_FAILURE: usize = 300;
+
 impl Drop for Cluster {
     fn drop(&mut self) {
         self.fleet.stop_all();
+        // A failing test shows what its processes said last (a stall, a new life, an error).
+        // Their whole transcript goes to a file named there (status lines are most of it).
+        if std::thread::panicking() {
+            while let Ok(line) = self.lines.try_recv() {
+                self.take(line);
+            }
+            let events: Vec<&String> = self
+                .transcript
+                .iter()
+                .filter(|line| !line.contains(r#""event":"status""#))
+                .collect();
+            let from = events.len().saturating_sub(LINES_ON_FAILURE);
+            eprintln!(
+                "--- the processes' last {} lines but status:",
+                events.len() - from
+            );
+            for line in &events[from..] {
+                eprintln!("{line}");
+            }
+            let kept = std::env::temp_dir().join(format!(
+                "rl-failed-test-{}-{}.log",
+                std::process::id(),
+                self.started.elapsed().as_millis()
+            ));
+            if std::fs::write(&kept, self.transcript.join("\n")).is_ok() {
+                eprintln!("--- the whole transcript: {}", kept.display());
+            }
+        }
     }
 }

@@ -374,6 +374,21 @@ fn two_wrong_controllers_must_leave_the_voting_reader_holding_and_nobody_out() {
         "{failed:?}"
     );
     observed.outputs.accepted.clear();
+    // A frame taken just before the first heal, answered after it by a healed controller and
+    // the right one: the right value, taken. Without the right one, it fails.
+    let before_heal = two
+        .injections
+        .iter()
+        .filter_map(|i| i.healed_ms)
+        .fold(f64::MAX, f64::min);
+    observed.outputs.accepted.push(Accepted {
+        input_at_ms: before_heal - 10.0,
+        ..accepted(before_heal + 5.0, &[2, 3], 554)
+    });
+    assert_eq!(judged(&two, &observed, &running), Vec::<String>::new());
+    observed.outputs.accepted[0].agreeing = vec![1, 2];
+    assert_eq!(judged(&two, &observed, &running).len(), 1);
+    observed.outputs.accepted.clear();
     observed.outputs.odd_one_out.push(OddOneOut {
         life: "C1".into(),
         at_ms: 2070.0,

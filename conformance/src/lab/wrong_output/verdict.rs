@@ -30,7 +30,9 @@
 //!   wrong sample.
 //! - **Two wrong that never agree** (`two-wrong`): the voting reader holds (`no_majority`)
 //!   and accepts nothing for the frames taken while both are wrong (no two of the three
-//!   answers agree: the output model's "a voting receiver holds"), and accepts again after the
+//!   answers agree: the output model's "a voting receiver holds"; a frame taken just before
+//!   the heal may be answered after it, and is taken only with the right controller among the
+//!   agreeing), and accepts again after the
 //!   heal; nobody is the odd one out (each
 //!   sees the two others disagree), so nobody leaves; the exclusive readers follow the wrong
 //!   Primary throughout: only the voting reader fails safe (recorded, not bounded).
@@ -300,13 +302,23 @@ fn two_wrong(report: &OutputReport, recorded: &Recorded) -> Vec<String> {
     // Frames taken from a moment after the later asking (the slack: a frame taken just before
     // may be answered before the fault took) until the first heal: every answer to them is
     // wrong but the right controller's, and no wrong one is within the tolerance of the right
-    // one or of the other wrong one, so no two agree and nothing may be accepted.
+    // one or of the other wrong one, so no two agree and nothing may be accepted. A frame
+    // taken less than a camera period and the slack before the heal may be answered after it
+    // by a healed controller, rightly: accepted, its value must then be the right
+    // controller's (it is among the agreeing), never a wrong one's.
+    let answered_after_heal_from = first_heal - super::delivered::reference_window_ms();
+    let right_one = |a: &&super::readings::Accepted| {
+        a.agreeing
+            .iter()
+            .any(|id| report.injections.iter().all(|i| i.id != *id))
+    };
     let while_both: Vec<&super::readings::Accepted> = recorded
         .observed
         .outputs
         .accepted
         .iter()
         .filter(|a| a.input_at_ms >= both_from + GAP_SLACK_MS && a.input_at_ms < first_heal)
+        .filter(|a| a.input_at_ms < answered_after_heal_from || !right_one(a))
         .collect();
     if let Some(first) = while_both.first() {
         let agreeing: Vec<String> = first.agreeing.iter().map(|id| format!("C{id}")).collect();

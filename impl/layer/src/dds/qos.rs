@@ -201,13 +201,23 @@ fn voted_reader_with(timing: &Timing, reliability: Reliability) -> QosPolicies {
         .build()
 }
 
-/// Camera reader (`Circle`): best effort, keep last 1 per colour. A best-effort reader
-/// matches both best-effort and reliable shapes writers (RTI Shapes Demo, PixyShapes).
+/// Camera reader history per colour: about a quarter second of frames at 30 Hz. A tracker
+/// whose loop runs late takes every frame since it last ran, in order, rather than only the
+/// newest: its control law's memory (the PD's previous error) stays the group's, where a
+/// frame lost to one controller alone made its answers to the next frames unlike its peers'
+/// (no two agreeing at a voting actuator while another controller was wrong).
+pub const CAMERA_READER_HISTORY_DEPTH: i32 = 8;
+
+/// Camera reader (`Circle`): best effort, keep last [`CAMERA_READER_HISTORY_DEPTH`] per
+/// colour. A best-effort reader matches both best-effort and reliable shapes writers (RTI
+/// Shapes Demo, PixyShapes).
 pub fn camera_reader() -> QosPolicies {
     QosPolicyBuilder::new()
         .reliability(Reliability::BestEffort)
         .durability(Durability::Volatile)
-        .history(History::KeepLast { depth: 1 })
+        .history(History::KeepLast {
+            depth: CAMERA_READER_HISTORY_DEPTH,
+        })
         .build()
 }
 
