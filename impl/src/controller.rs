@@ -18,22 +18,23 @@
 
 use crate::cli::{load_config, stop_on_signals};
 use crate::tracker::lockstep::Lockstep;
-use crate::tracker::{control_law, ControlLaw};
-use rl_layer::api::{Options, Redundancy, RoleWriter, VoteFeed, VotedWriter};
-use rl_layer::config::{ArchitectureName, Config};
+use rl_layer::api::{Options, Redundancy, RoleWriter, VotedWriter};
+use rl_layer::config::Config;
 use rl_layer::core::types::ControllerId;
 use rl_layer::core::Incarnation;
 use rl_layer::cross_check::{CrossCheck, Judgement};
 use rl_layer::network_monitor::{MonitorOptions, NetworkMonitor};
-use rl_layer::owner_feed::OwnerFeed;
 use rl_layer::service::{LoopProgress, Notifier};
-use rl_layer::vote_reader::{ServoRule, VoteEvent, VoteSettings};
-use rl_layer::wire::{ServoControl, VOTED_SERVO_CONTROL_TYPE_NAME};
+use rl_layer::vote_reader::ServoRule;
+use rl_layer::wire::ServoControl;
 use rustdds::mio::{Events, Poll, PollOpt, Ready, Token};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use tracing::warn;
+use tracking::{Alignment, Tracker};
+
+mod tracking;
 
 /// Arguments of `rl controller`.
 #[derive(clap::Args, Debug)]
@@ -145,41 +146,17 @@ fn track(
     let dds = |e: rl_layer::dds::DdsError| crate::Error::dds(e);
     let mut camera = rl.session().camera_reader().map_err(dds)?;
     let mut alignment = Alignment::open(rl, config)?;
-    let mut outputs = Outputs {
-        commands: rl.command_writer()?,
-        voted: without_voting_if_refused("writer", rl.voted_command_writer()),
-        write_errors: 0,
-        cross_check: CrossCheck::new(
-            rl.status().report.id,
-            ServoRule::default(),
-            config.tracker.odd_limit,
-        ),
-        life: rl.status().report.incarnation,
-        left: false,
-        wrong: WrongOutput::default(),
-    };
+    let mut outputs = Outputs::open(rl, config)?;
     let poll = Poll::new().map_err(|e| crate::Error::io("creating the event poll", e))?;
     poll.register(&camera, CAMERA, Ready::readable(), PollOpt::edge())
         .map_err(|e| crate::Error::io("registering the camera reader", e))?;
     let mut events = Events::with_capacity(8);
-    let mut pan_tilt = control_law(config.tracker.law, config.tracker.servo_frequency_hz);
-    // A lockstep pair's controller runs the other implementation beside it and compares.
-    let mut lockstep = (config.architecture == ArchitectureName::Pair)
-        .then(|| Lockstep::beside(config.tracker.law, config.tracker.servo_frequency_hz));
+    let mut tracker = Tracker::new(config);
     let republish = Duration::from_millis(config.timing.command_republish_ms);
     let started = Instant::now();
     // The gimbal starts centred; the command is held (re-published before the deadline) so
     // the actuator never falls to a weaker writer while this one lives.
     let mut last_written = started - republish;
-    // The camera frame the commands answer (its source timestamp), for the voted topic.
-    let mut frame: u64 = 0;
-    // Its answer to that frame: a re-publication repeats it. The tracker's state, aligned to
-    // the group since, is for the next frame; a re-publication computed from it would be a
-    // second, different answer to the same frame (two wrong values per frame from a wrong
-    // controller at an exclusive reader, where the model bounds wrong answers per input).
-    let mut answer = None;
-    // The second implementation's answer to the same frame (a lockstep pair only).
-    let mut second_answer = None;
     notifier.ready();
     loop {
         if stop.load(Ordering::SeqCst) || rl.is_finished() {
@@ -196,39 +173,23 @@ fn track(
         }
         let aligned = alignment.align(
             rl,
-            pan_tilt.as_mut(),
-            frame,
+            tracker.pan_tilt.as_mut(),
+            tracker.frame,
             now_ms,
             &mut outputs.cross_check,
         );
-        if let (Some((pan, tilt)), Some(lockstep)) = (aligned, lockstep.as_mut()) {
-            lockstep.align(pan, tilt);
-        }
-        let mut fresh = None;
+        tracker.align_second(aligned);
+        let mut fresh = false;
         for shape in camera.take() {
             if shape.value.color == config.tracker.color {
                 let input = shape.source_timestamp.map_or(0, |t| t.to_ticks());
-                let skipped = alignment.before_frame(
-                    input,
-                    frame,
-                    pan_tilt.as_mut(),
-                    &mut outputs.cross_check,
-                );
-                if let (Some((pan, tilt)), Some(lockstep)) = (skipped, lockstep.as_mut()) {
-                    lockstep.align(pan, tilt);
-                }
-                fresh = Some(pan_tilt.update(shape.value.x, shape.value.y));
-                second_answer = lockstep
-                    .as_mut()
-                    .map(|lockstep| lockstep.update(shape.value.x, shape.value.y));
-                frame = input;
-                answer = fresh;
+                let ball = (shape.value.x, shape.value.y);
+                tracker.answer_frame(input, ball, &mut alignment, &mut outputs.cross_check);
+                fresh = true;
             }
         }
-        if fresh.is_some() || last_written.elapsed() >= republish {
-            let command = answer.unwrap_or_else(|| pan_tilt.command());
-            let compare = lockstep.as_ref().zip(second_answer);
-            outputs.write(rl, frame, command, compare);
+        if fresh || last_written.elapsed() >= republish {
+            outputs.write(rl, tracker.frame, tracker.command(), tracker.compare());
             last_written = Instant::now();
         }
         let wait = republish.saturating_sub(last_written.elapsed());
@@ -236,168 +197,6 @@ fn track(
             Ok(_) => {}
             Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
             Err(e) => return Err(crate::Error::io("waiting for camera samples", e)),
-        }
-    }
-}
-
-/// Bumpless transfer: where the tracker takes the gimbal's position from. From the voted
-/// topic's accepted commands (every controller, the commanding one too), so that a controller
-/// computing wrong commands does not pull the others' state after it; until the vote has
-/// accepted a command in this life (formation, a new life), from the owner's voted answer to
-/// the frame it answered last while another controller commands (without a voted topic, the
-/// owner's commands; crate::tracker, `align`). Once the vote has
-/// worked, never from the owner again in this life: without a majority (two wrong that
-/// disagree) the owner may be a wrong Primary, and a correct controller aligned to it would
-/// agree with it at the next frame, making a wrong majority and the other wrong one the odd
-/// one out. It keeps its own state then, which is the group's while all compute alike.
-struct Alignment {
-    owner_commands: OwnerFeed<ServoControl>,
-    own_participant: rl_layer::dds::ParticipantKey,
-    votes: Option<VoteFeed<ServoControl, ServoRule>>,
-    /// The vote accepted a command in this life.
-    voted_in_life: bool,
-    /// The peers' answers on the voted topic, by input and controller, the newest
-    /// [`ANSWERS_KEPT`] inputs: before the vote works, the owner's answer to the frame this
-    /// controller answered last is where it takes the gimbal's position from.
-    answers:
-        std::collections::BTreeMap<u64, std::collections::BTreeMap<ControllerId, ServoControl>>,
-    /// The vote's accepted answers to inputs this controller has not answered yet, the newest
-    /// [`ANSWERS_KEPT`]: a loaded controller hears the others' answers to a frame before the
-    /// frame itself, and taking that position first would step twice for the frame (its answer
-    /// then unlike the group's, and its state too, frame after frame while it lags). Applied
-    /// once it has answered that input, or, for an input it never got (a lost frame), before
-    /// it answers the next one.
-    accepted_ahead: std::collections::BTreeMap<u64, ServoControl>,
-}
-
-/// Inputs whose answers [`Alignment`] keeps.
-const ANSWERS_KEPT: usize = 8;
-
-impl Alignment {
-    fn open(rl: &Redundancy, config: &Config) -> Result<Alignment, crate::Error> {
-        let dds = |e: rl_layer::dds::DdsError| crate::Error::dds(e);
-        // The commanding controller's commands, to follow while standing by.
-        let owner_commands = OwnerFeed::open(
-            rl.session(),
-            rl.session().command_follower_reader().map_err(dds)?,
-            config.timing.command_deadline_ms,
-            config.timing.peer_deadline_ms,
-        )
-        .map_err(dds)?;
-        let votes = rl.vote_feed(
-            &config.dds.voted_topic_name(),
-            VOTED_SERVO_CONTROL_TYPE_NAME,
-            ServoRule::default(),
-            VoteSettings::holding(config.timing.command_deadline_ms),
-        );
-        let votes = without_voting_if_refused("reader", votes);
-        Ok(Alignment {
-            owner_commands,
-            own_participant: rl.session().participant_key(),
-            votes,
-            voted_in_life: false,
-            answers: std::collections::BTreeMap::new(),
-            accepted_ahead: std::collections::BTreeMap::new(),
-        })
-    }
-
-    /// Before it answers camera frame `input` (having answered `frame` last): when the vote
-    /// accepted an input between the two (a frame lost to this controller), the group's
-    /// position at the newest of them is where it steps from. Returns that position, if any.
-    fn before_frame(
-        &mut self,
-        input: u64,
-        frame: u64,
-        pan_tilt: &mut dyn ControlLaw,
-        cross_check: &mut CrossCheck<ServoControl, ServoRule>,
-    ) -> Option<(u16, u16)> {
-        let later = self.accepted_ahead.split_off(&input);
-        let skipped = std::mem::replace(&mut self.accepted_ahead, later);
-        let (&skipped_input, command) = skipped.range(frame.saturating_add(1)..).next_back()?;
-        pan_tilt.align(command.pan, command.tilt);
-        cross_check.aligned(skipped_input);
-        Some((command.pan, command.tilt))
-    }
-
-    /// Aligns `pan_tilt` to what arrived: a voted command for the frame it last answered
-    /// (`frame`; one for an older frame would set it back, and one for a frame it has not
-    /// answered yet waits for it, [`Alignment::before_frame`]), else, until the vote has worked
-    /// in this life, the owner's command. The answers that arrived go to `cross_check`, and so
-    /// does the alignment. Returns the position it aligned to, if it did.
-    fn align(
-        &mut self,
-        rl: &Redundancy,
-        pan_tilt: &mut dyn ControlLaw,
-        frame: u64,
-        now_ms: u64,
-        cross_check: &mut CrossCheck<ServoControl, ServoRule>,
-    ) -> Option<(u16, u16)> {
-        let owner = self.owner_commands.take(rl.session(), now_ms);
-        let mut voted = None;
-        if let Some(votes) = self.votes.as_mut() {
-            let answers = &mut self.answers;
-            let events = votes.take_seeing(now_ms, |answer| {
-                cross_check.peer_answer(answer.from, answer.input, answer.value);
-                answers
-                    .entry(answer.input)
-                    .or_default()
-                    .insert(answer.from, answer.value);
-            });
-            while self.answers.len() > ANSWERS_KEPT {
-                self.answers.pop_first();
-            }
-            for event in events {
-                if let VoteEvent::Accepted {
-                    input,
-                    value,
-                    agreeing,
-                } = event
-                {
-                    if agreeing.len() >= rl_layer::core::types::ROLE_COUNT {
-                        cross_check.all_agreed();
-                    }
-                    self.voted_in_life = true;
-                    if input > frame {
-                        self.accepted_ahead.insert(input, value);
-                    }
-                    voted = (input == frame).then_some((input, value)).or(voted);
-                }
-            }
-            while self.accepted_ahead.len() > ANSWERS_KEPT {
-                self.accepted_ahead.pop_first();
-            }
-        }
-        // An acceptance that came ahead of its frame, now answered.
-        if let Some(value) = self.accepted_ahead.remove(&frame) {
-            voted = voted.or(Some((frame, value)));
-        }
-        self.accepted_ahead = self.accepted_ahead.split_off(&frame);
-        match (voted, owner) {
-            (Some((input, command)), _) => {
-                pan_tilt.align(command.pan, command.tilt);
-                cross_check.aligned(input);
-                Some((command.pan, command.tilt))
-            }
-            (None, Some((command, writer)))
-                if !self.voted_in_life
-                    && rl_layer::dds::participant_key(writer) != self.own_participant =>
-            {
-                // Not in step for the cross-check. With a voted topic, the owner's own answer
-                // to the frame this controller answered last: the exclusive topic does not say
-                // which frame its command answers, and a command answering a frame this
-                // controller has not taken yet would have it step twice for that frame (two
-                // standbys doing so agree with each other and not with a right Primary).
-                let command = match self.votes {
-                    Some(_) => {
-                        let owner = self.owner_commands.controller_of(writer)?;
-                        *self.answers.get(&frame)?.get(&owner)?
-                    }
-                    None => command,
-                };
-                pan_tilt.align(command.pan, command.tilt);
-                Some((command.pan, command.tilt))
-            }
-            _ => None,
         }
     }
 }
@@ -418,6 +217,22 @@ struct Outputs {
 }
 
 impl Outputs {
+    fn open(rl: &Redundancy, config: &Config) -> Result<Outputs, crate::Error> {
+        Ok(Outputs {
+            commands: rl.command_writer()?,
+            voted: without_voting_if_refused("writer", rl.voted_command_writer()),
+            write_errors: 0,
+            cross_check: CrossCheck::new(
+                rl.status().report.id,
+                ServoRule::default(),
+                config.tracker.odd_limit,
+            ),
+            life: rl.status().report.incarnation,
+            left: false,
+            wrong: WrongOutput::default(),
+        })
+    }
+
     /// A new life (the layer started it again: resumed, detached, deposed) counts its odd
     /// inputs from zero; returns whether one began.
     fn follow_life(&mut self, rl: &Redundancy) -> bool {

@@ -79,7 +79,7 @@ pub fn dropped(from: u8) -> bool {
 }
 
 /// The thread name (as the kernel keeps it, 15 bytes) of a RustDDS participant's event loop,
-/// "RustDDS Participant <n> event loop".
+/// "RustDDS Participant `<n>` event loop".
 const DDS_EVENT_LOOP_COMM: &str = "RustDDS Partici";
 
 /// The epoll descriptor a thread of this process waits on now, if it is blocked in
