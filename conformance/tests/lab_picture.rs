@@ -80,6 +80,7 @@ fn sample_run(picture: &Path) -> (Outcome, Observations, Vec<Life>) {
         scenario: "kill-primary".into(),
         about: "a drawn example".into(),
         seed: 1,
+        architecture: "voting",
         mutation: None,
         faults: vec![FaultRecord {
             label: "kill -9 C1, restart".into(),

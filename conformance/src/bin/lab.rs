@@ -48,6 +48,9 @@ use std::process::ExitCode;
 ///   lab run kill-primary --mutation failback   (rl built with --features mutation)
 ///   lab run wrong-primary --vote-mutation accept-single-source
 ///   lab matrix --ci
+///   lab run kill-primary --architecture duplex
+///   lab matrix --architecture pair
+///   lab traffic --architecture duplex --seconds 10
 ///   lab soak --minutes 30
 ///   lab figure --to tracking.svg OUT/wrong-primary-seed1 OUT/wrong-primary-vote-camera-seed1
 #[derive(Parser)]
@@ -99,11 +102,20 @@ enum Command {
         /// it: the run must FAIL. Needs an rl built with the `mutation` feature.
         #[arg(long, value_name = "NAME", value_parser = PossibleValuesParser::new(lab::mutation::VOTE_NAMES), conflicts_with = "mutation")]
         vote_mutation: Option<String>,
+        /// The redundancy architecture the controllers run: voting (three controllers), duplex
+        /// (C1 Primary, C2 Standby, the paper's preemption) or pair (the lockstep pair, C1 and
+        /// C2), each judged on what its own rules let a fault cause (docs/architectures.md).
+        /// The wrong-output scenarios and two-groups run under voting only.
+        #[arg(long, value_name = "A", default_value = "voting", value_parser = lab::architecture::parse)]
+        architecture: lab::architecture::Architecture,
     },
     /// Every scenario and random seeds 1, 2, 3, 7, 8, as a table (--ci: the short subset CI runs).
     Matrix {
         #[arg(long)]
         ci: bool,
+        /// The architecture every run's controllers run (as for `run`).
+        #[arg(long, value_name = "A", default_value = "voting", value_parser = lab::architecture::parse)]
+        architecture: lab::architecture::Architecture,
     },
     /// One system under random faults for M minutes, memory and descriptors sampled.
     Soak {
@@ -123,6 +135,18 @@ enum Command {
         seconds: f64,
         #[arg(required = true, value_name = "RUN_DIR")]
         runs: Vec<PathBuf>,
+    },
+    /// Forms a system and measures each controller's traffic (both nets, from its links'
+    /// kernel counters) over a fault-free window, as a Markdown table (--json: JSON).
+    Traffic {
+        /// The window's length.
+        #[arg(long, value_name = "S", default_value_t = 10)]
+        seconds: u64,
+        /// The architecture the controllers run (as for `run`).
+        #[arg(long, value_name = "A", default_value = "voting", value_parser = lab::architecture::parse)]
+        architecture: lab::architecture::Architecture,
+        #[arg(long)]
+        json: bool,
     },
     /// Removes every lab LAN left on this host (after a run killed with SIGKILL), other
     /// runs' included.
@@ -161,6 +185,18 @@ fn execute(cli: &Cli) -> Result<ExitCode, LabError> {
     let setup = setup(cli)?;
     std::fs::create_dir_all(&cli.out).map_err(|e| LabError::output(&cli.out, e))?;
     let passed = match &cli.command {
+        Command::Run {
+            scenario,
+            architecture,
+            ..
+        } if scenario == lab::two_groups::NAME
+            && *architecture != lab::architecture::Architecture::Voting =>
+        {
+            return Err(LabError::NotUnderArchitecture {
+                scenario: scenario.clone(),
+                architecture: lab::architecture::name(*architecture),
+            });
+        }
         Command::Run { scenario, seed, .. } if scenario == lab::two_groups::NAME => {
             let outcome = lab::two_groups::run(*seed, &setup, &cli.out)?;
             print!("{}", lab::two_groups::summary(&outcome));
@@ -175,7 +211,7 @@ fn execute(cli: &Cli) -> Result<ExitCode, LabError> {
             print!("{}", run::summary(&outcome));
             outcome.passed()
         }
-        Command::Matrix { ci } => {
+        Command::Matrix { ci, .. } => {
             let outcomes = matrix::run_matrix(*ci, &setup, &cli.out)?;
             let failed: Vec<&run::Outcome> = outcomes.iter().filter(|o| !o.passed()).collect();
             for o in &failed {
@@ -204,6 +240,18 @@ fn execute(cli: &Cli) -> Result<ExitCode, LabError> {
                 );
             }
             failures.is_empty()
+        }
+        Command::Traffic { seconds, json, .. } => {
+            let traffic = lab::traffic::measure(&setup, std::time::Duration::from_secs(*seconds))?;
+            if *json {
+                println!(
+                    "{}",
+                    serde_json::to_string_pretty(&traffic).unwrap_or_default()
+                );
+            } else {
+                print!("{}", lab::traffic::table(&traffic));
+            }
+            true
         }
         Command::List { .. } | Command::Clean | Command::Figure { .. } => true,
     };
@@ -278,13 +326,17 @@ fn setup(cli: &Cli) -> Result<Setup, LabError> {
         }
         eprintln!("lab: {fix}: the Connext judge is skipped (--lenient)");
     }
-    let (mutation, vote_mutation) = match &cli.command {
+    let (mutation, vote_mutation, architecture) = match &cli.command {
         Command::Run {
             mutation,
             vote_mutation,
+            architecture,
             ..
-        } => (mutation.clone(), vote_mutation.clone()),
-        _ => (None, None),
+        } => (mutation.clone(), vote_mutation.clone(), *architecture),
+        Command::Matrix { architecture, .. } | Command::Traffic { architecture, .. } => {
+            (None, None, *architecture)
+        }
+        _ => (None, None, Default::default()),
     };
     Ok(Setup {
         rl,
@@ -295,5 +347,6 @@ fn setup(cli: &Cli) -> Result<Setup, LabError> {
         vote_mutation,
         output_readers: false,
         camera: Default::default(),
+        architecture,
     })
 }

@@ -48,6 +48,12 @@ pub enum LabError {
     #[error(transparent)]
     NoExpectations(#[from] super::expect::UnknownScenario),
     /// The system did not form before faults were due (P, S, T steady, the actuator following).
+    #[error("{scenario} is not run under the {architecture}: its judges read the voted topic, which only voting controllers publish")]
+    NotUnderArchitecture {
+        scenario: String,
+        architecture: &'static str,
+    },
+
     #[error("no formation within {waited_s} s: {detail}")]
     NoFormation { waited_s: u64, detail: String },
     /// `--mutation NAME`, and a controller's `rl` exited saying it knows no such mutation.

@@ -10,7 +10,9 @@
 //! every process alive with no panic. Each bound is argued from the protocol, the model or the
 //! readers' deadlines, not from a run; a run that misses one fails, and the bound stays.
 
+use super::architecture::Architecture;
 use super::faults::{Fault, Target};
+use super::scenario::Step;
 use super::session::CONNEXT_DEADLINE_MS;
 use rl_layer::config::Timing;
 
@@ -32,6 +34,9 @@ pub enum OwnerChanges {
     /// is a provisional Primary of its own side, and the model does not bound owner changes
     /// between provisional Primaries (docs/findings.md F9, "Protocol v2").
     OnlyWhileMerging,
+    /// Measured, not bounded, for the reason given: random loss or a starved link at the
+    /// owner under the duplex or the pair (`architectures`).
+    Unbounded(&'static str),
 }
 
 /// What one fault, on its own, may cause.
@@ -308,5 +313,41 @@ pub fn for_scenario(name: &str, faults: &[Fault]) -> Result<Expected, UnknownSce
     }
 }
 
+/// The expectations of scenario `name` with schedule `steps` under `architecture`: voting's
+/// are [`for_scenario`]'s; the other two architectures' each fault's own
+/// ([`architectures::for_fault`]), with the net scenarios' faults taken together as voting
+/// takes them, and the pair's top strength shared by design.
+pub fn for_scenario_in(
+    architecture: Architecture,
+    name: &str,
+    steps: &[Step],
+) -> Result<Expected, UnknownScenario> {
+    let faults: Vec<Fault> = steps.iter().map(|s| s.fault.clone()).collect();
+    let voting = for_scenario(name, &faults)?;
+    if architecture == Architecture::Voting {
+        return Ok(voting);
+    }
+    let each =
+        |fault: &Fault, lasts_ms: u64| architectures::for_fault(architecture, fault, lasts_ms);
+    let faults: Vec<FaultExpected> = match name {
+        // C2's two links down together: C2 alone, the actuator with the other controller.
+        "c2-both-links-down" => {
+            let alone = Fault::Partition {
+                alone: Target::Id(2),
+                actuator_with_alone: false,
+            };
+            vec![each(&alone, 0); steps.len()]
+        }
+        // Nobody hears anybody: as under voting, changes only between the fault and settled.
+        "both-networks-down" => voting.faults.clone(),
+        _ => steps.iter().map(|s| each(&s.fault, s.lasts_ms)).collect(),
+    };
+    let mut expected = from_each(faults);
+    expected.silent_while_all_hold = voting.silent_while_all_hold;
+    expected.two_at_top_ms += architectures::two_at_top_by_design(architecture);
+    Ok(expected)
+}
+
+pub mod architectures;
 #[cfg(test)]
 mod tests;

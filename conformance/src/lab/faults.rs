@@ -447,15 +447,42 @@ fn rate_limit_link(lan: &Lan, node: Node, net: Net, kbit: Option<u32>) -> Result
     Ok(())
 }
 
+/// How long each state of a flapping link lasts, in order from the first (up, as applied):
+/// 0.5 to 3 s, drawn from `seed`. The flapping thread and the judges' count of its downs
+/// ([`flap_downs`]) draw the same.
+fn flap_holds(seed: u64) -> impl Iterator<Item = Duration> {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    std::iter::repeat_with(move || Duration::from_millis(rng.random_range(500..=3000)))
+}
+
+/// How many times a link flapping with `seed` goes down within `lasts_ms` (a down begun
+/// then counts, however short the heal leaves it).
+pub fn flap_downs(seed: u64, lasts_ms: u64) -> usize {
+    let mut elapsed = Duration::ZERO;
+    let mut downs = 0;
+    let mut up = true;
+    for hold in flap_holds(seed) {
+        elapsed += hold;
+        if elapsed >= Duration::from_millis(lasts_ms) {
+            return downs;
+        }
+        up = !up;
+        if !up {
+            downs += 1;
+        }
+    }
+    downs
+}
+
 /// A thread that takes `links` down and up together, each state lasting 0.5 to 3 s (seeded).
 fn start_flapping(links: Vec<String>, seed: u64) -> (Arc<AtomicBool>, JoinHandle<()>) {
     let stop = Arc::new(AtomicBool::new(false));
     let stopped = Arc::clone(&stop);
     let thread = std::thread::spawn(move || {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let mut holds = flap_holds(seed);
         let mut up = true;
         while !stopped.load(Ordering::Relaxed) {
-            let hold = Duration::from_millis(rng.random_range(500..=3000));
+            let hold = holds.next().unwrap_or(Duration::from_millis(500));
             let until = std::time::Instant::now() + hold;
             while std::time::Instant::now() < until && !stopped.load(Ordering::Relaxed) {
                 std::thread::sleep(Duration::from_millis(20));

@@ -4,10 +4,11 @@
 //! (Trace validation against the model is `super::validation`.) Each judge is a pure function
 //! of the observations, so tests drive them with literal timelines.
 
+use super::architecture::{self, Architecture};
 use super::expect::{Expected, OwnerChanges, SETTLE_ROUNDS};
 use super::observe::{largest_gap, owner_spans, ActuatorSample, Observations, OwnerSpan};
 use super::procs::Life;
-use rl_layer::core::{Phase, Status, Strength};
+use rl_layer::core::{Status, Strength};
 use rl_layer::event::Event;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -207,27 +208,18 @@ pub fn overlap_ms(intervals: &[Vec<(f64, f64)>], from_ms: f64) -> f64 {
     total
 }
 
-/// Whether the live lives' statuses are settled: every one steady with a role at its
-/// strength, all agreeing on one result that names exactly them.
-fn settled(statuses: &BTreeMap<String, Status>, live: &[&Life]) -> bool {
+/// Whether the controllers of `live` have all reported and settled as `architecture` settles
+/// ([`architecture::settled`]).
+fn settled(
+    architecture: Architecture,
+    statuses: &BTreeMap<String, Status>,
+    live: &[&Life],
+) -> bool {
     let reports: Vec<&Status> = live
         .iter()
         .filter_map(|l| statuses.get(&l.label()))
         .collect();
-    if reports.len() != live.len() || reports.is_empty() {
-        return false;
-    }
-    let agreed = reports[0].report.agreed;
-    reports.iter().all(|s| {
-        let r = &s.report;
-        r.phase == Phase::Steady
-            && r.agreed == agreed
-            && r.role
-                .is_some_and(|role| Some(role.strength()) == r.strength)
-            && agreed
-                .as_ref()
-                .is_some_and(|a| a.role_of(r.id) == r.role && a.len() == live.len())
-    })
+    reports.len() == live.len() && architecture::settled(architecture, &reports)
 }
 
 /// Where the fault-free rounds the settle bound counts begin: the last heal, or a controller
@@ -248,7 +240,12 @@ pub fn rounds_between(healed_ms: f64, settled_ms: f64, period_ms: f64) -> u64 {
 }
 
 /// When, from `healed_ms` on, the live lives settled for good (`None`: not by the end).
-pub fn settled_since(observed: &Observations, lives: &[Life], healed_ms: f64) -> Option<f64> {
+pub fn settled_since(
+    architecture: Architecture,
+    observed: &Observations,
+    lives: &[Life],
+    healed_ms: f64,
+) -> Option<f64> {
     let live: Vec<&Life> = lives.iter().filter(|l| l.ended_ms.is_none()).collect();
     let mut statuses: BTreeMap<String, Status> = BTreeMap::new();
     let mut events: Vec<_> = observed.controller.iter().collect();
@@ -259,7 +256,7 @@ pub fn settled_since(observed: &Observations, lives: &[Life], healed_ms: f64) ->
         if let Some(status) = event.line.status() {
             statuses.insert(event.life.clone(), status.clone());
         }
-        let now = settled(&statuses, &live);
+        let now = settled(architecture, &statuses, &live);
         if now && !was_settled {
             settled_since = Some(event.at_ms.max(healed_ms));
         }
@@ -286,9 +283,12 @@ pub fn measure(
     faults: &[FaultRecord],
     judged_from_ms: f64,
     end_ms: f64,
-    period_ms: f64,
+    architecture: Architecture,
     connext_judged: bool,
 ) -> Metrics {
+    let period_ms = rl_layer::config::Config::default()
+        .timing
+        .heartbeat_period_ms as f64;
     let name = |p: &str, at: f64| observed.owner_name(p, at, lives);
     // What the actuators saw while the processes were being stopped is not judged.
     let until_end = |samples: &[ActuatorSample]| -> Vec<ActuatorSample> {
@@ -309,7 +309,7 @@ pub fn measure(
         .map(|l| top_strength_intervals(observed, l, end_ms))
         .collect();
     let healed_ms = quiet_from_ms(faults, lives, judged_from_ms);
-    let settled_ms = settled_since(observed, lives, healed_ms);
+    let settled_ms = settled_since(architecture, observed, lives, healed_ms);
     let final_roles = lives
         .iter()
         .filter(|l| l.ended_ms.is_none())
@@ -419,6 +419,8 @@ fn owner_change_failures(metrics: &Metrics, expected: &Expected) -> Vec<String> 
                     ));
                 }
             }
+            // Measured (the table and the summary show it), not judged.
+            OwnerChanges::Unbounded(_) => {}
         }
     }
     failed

@@ -21,13 +21,16 @@
 //!   expects; [`validation`]: the recorded events against the model;
 //! - [`run`]: one run start to verdict and its output; [`plot`]: its picture; [`matrix`]:
 //!   many runs and the table; [`soak`]: long runs with resource sampling; [`mutation`]: runs
-//!   against a deliberately broken `rl`, which must fail;
+//!   against a deliberately broken `rl`, which must fail; [`traffic`]: what each controller
+//!   sends and receives, fault-free;
+//! - [`architecture`]: what differs when the controllers run the duplex or the pair;
 //! - [`wrong_output`]: controllers whose commands go wrong while their roles stay, judged at
 //!   the exclusive readers and a voting one, with the camera's tracking error;
 //! - [`two_groups`]: two redundancy groups on one LAN, each host running a controller of
 //!   each, both Primaries killed at once, each group judged as one run and, by
 //!   [`cross_talk`], against the other.
 
+pub mod architecture;
 pub mod clock;
 pub mod cross_talk;
 pub mod error;
@@ -47,6 +50,7 @@ pub mod run;
 pub mod scenario;
 pub mod session;
 pub mod soak;
+pub mod traffic;
 pub mod two_groups;
 pub mod validation;
 pub mod wrong_output;

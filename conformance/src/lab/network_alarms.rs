@@ -144,6 +144,19 @@ pub struct NapExpected {
     pub roles_unchanged: bool,
 }
 
+/// What a net scenario expects of two monitors (the duplex's or the pair's), from what it
+/// expects of three: a controller's transceiver on one net is a net's failure to them. Its
+/// two links on that net are then all the links there are on it, so a net down and the
+/// transceiver fail the same ones (the paper's table, rows 5 and 6, for one pair; the core's
+/// `network::tests::table`): they alarm the net, concluded, as the paper's duplex does.
+pub fn for_two_members(expected: &mut NapExpected) {
+    for (subject, _) in &mut expected.alarms {
+        if let Subject::Transceiver { network, .. } = *subject {
+            *subject = Subject::Network(network);
+        }
+    }
+}
+
 /// What net scenario `name` expects (`None`: not a net scenario).
 pub fn for_scenario(name: &str) -> Option<NapExpected> {
     let nothing = NapExpected {

@@ -8,6 +8,7 @@
 //! result and summary. A wrong-output run (`super::wrong_output`) is judged at the voting
 //! reader too, and draws its tracking error to `DIR/NAME-seedN-tracking.svg`.
 
+use super::architecture::{self, Architecture};
 use super::error::LabError;
 use super::expect::SETTLE_ROUNDS;
 use super::judge::{self, FaultRecord, Metrics};
@@ -35,6 +36,8 @@ pub struct Outcome {
     pub scenario: String,
     pub about: String,
     pub seed: u64,
+    /// The architecture the controllers ran (`super::architecture`).
+    pub architecture: &'static str,
     /// The deliberately broken rule the controllers ran (`--mutation`), or `vote-NAME` for the
     /// voting reader's (`--vote-mutation`); `None`: RL's rules.
     pub mutation: Option<String>,
@@ -65,8 +68,13 @@ impl Outcome {
 /// The command that replays scenario `name` with `seed` (and `setup`'s mutation, with its
 /// `rl`, which must be a `mutation` build).
 pub fn replay_command(name: &str, seed: u64, setup: &Setup) -> String {
-    let command =
-        format!("cargo run --release -p conformance --bin lab -- run {name} --seed {seed}");
+    let architecture = match setup.architecture {
+        Architecture::Voting => String::new(),
+        other => format!(" --architecture {}", architecture::name(other)),
+    };
+    let command = format!(
+        "cargo run --release -p conformance --bin lab -- run {name} --seed {seed}{architecture}"
+    );
     match (&setup.mutation, &setup.vote_mutation) {
         (Some(mutation), _) => format!(
             "{command} --rl {} --mutation {mutation}",
@@ -88,9 +96,31 @@ pub fn output_name(name: &str, seed: u64, mutation: Option<&str>) -> String {
     }
 }
 
+/// [`output_name`] of a run under `architecture`: `NAME-seedN-duplex`, `NAME-seedN-pair`
+/// (voting's has no suffix).
+fn output_name_in(
+    architecture: Architecture,
+    name: &str,
+    seed: u64,
+    mutation: Option<&str>,
+) -> String {
+    let base = output_name(name, seed, mutation);
+    match architecture {
+        Architecture::Voting => base,
+        other => format!("{base}-{}", architecture::name(other)),
+    }
+}
+
 /// Runs `scenario` (seed `seed`) and writes its output under `out`.
 pub fn run(scenario: &Scenario, seed: u64, setup: &Setup, out: &Path) -> Result<Outcome, LabError> {
-    let expected = scenario.expected()?;
+    let scenario =
+        &scenario
+            .under(setup.architecture)
+            .ok_or_else(|| LabError::NotUnderArchitecture {
+                scenario: scenario.name.clone(),
+                architecture: architecture::name(setup.architecture),
+            })?;
+    let expected = scenario.expected_in(setup.architecture)?;
     let setup = &scenario.session_setup(setup);
     let mut session = start(scenario, seed, setup)?;
     session.play(&scenario.steps)?;
@@ -106,26 +136,42 @@ pub fn run(scenario: &Scenario, seed: u64, setup: &Setup, out: &Path) -> Result<
         &setup.rl,
         &session.observed.stderr,
     )?;
-    let period_ms = rl_layer::config::Config::default()
-        .timing
-        .heartbeat_period_ms as f64;
     let mut metrics = judge::measure(
         &session.observed,
         &lives,
         &session.faults,
         session.judged_from_ms,
         end_ms,
-        period_ms,
+        setup.architecture,
         setup.connext,
     );
     metrics.dead = dead;
-    let name = output_name(&scenario.name, seed, setup.mutation_label().as_deref());
+    let name = output_name_in(
+        setup.architecture,
+        &scenario.name,
+        seed,
+        setup.mutation_label().as_deref(),
+    );
     let dir = out.join(&name);
     let _ = std::fs::remove_dir_all(&dir);
     let events = dir.join("events");
     validation::write_recording(&events, &session.observed, &lives)?;
-    let validation = validate_with_timeout(events);
-    let mut failures = judge::failures(&metrics, &expected, validation.as_ref().map(|_| ()));
+    // The model's trace validation is of the voting rules; the duplex's and the pair's are
+    // checked by `model check --architecture`, and their runs by the judges alone.
+    let (validation, judged) = match setup.architecture {
+        Architecture::Voting => {
+            let validation = validate_with_timeout(events);
+            let judged = validation.as_ref().map(|_| ()).map_err(Clone::clone);
+            (validation, judged)
+        }
+        other => (
+            Err(validation::NotAccepted::NotVoting(architecture::name(
+                other,
+            ))),
+            Ok(()),
+        ),
+    };
+    let mut failures = judge::failures(&metrics, &expected, judged.as_ref().map(|_| ()));
     let network = network_report(scenario, &session, &lives, setup);
     if let Some(report) = &network {
         failures.extend(report.failures.iter().cloned());
@@ -151,6 +197,7 @@ pub fn run(scenario: &Scenario, seed: u64, setup: &Setup, out: &Path) -> Result<
         scenario: scenario.name.clone(),
         about: scenario.about.clone(),
         seed,
+        architecture: architecture::name(setup.architecture),
         mutation: setup.mutation_label(),
         faults: session.faults.clone(),
         metrics,
@@ -332,9 +379,12 @@ pub fn timeline_of(faults: &[FaultRecord], m: &Metrics) -> String {
 pub fn summary(outcome: &Outcome) -> String {
     let m = &outcome.metrics;
     let gap = |g: Option<(f64, f64)>| g.map_or("-".into(), |(ms, _)| format!("{ms:.0} ms"));
-    let broken = outcome.mutation.as_ref().map_or(String::new(), |m| {
+    let mut broken = outcome.mutation.as_ref().map_or(String::new(), |m| {
         format!(", mutation {m}: a deliberately broken rl")
     });
+    if outcome.architecture != "voting" {
+        broken.push_str(&format!(", under the {}", outcome.architecture));
+    }
     let mut text = format!(
         "{} (seed {}{broken}): {}\n  owner changes per fault (servo/connext): {}\n  largest gap: servo {}, connext {}\n  two at top strength: {:.0} ms\n  settled: {}\n  model: {}\n  final roles: {}\n  picture: {}\n",
         outcome.scenario,

@@ -4,6 +4,7 @@
 //! heals it `lasts_ms` later; after the last heal a fault-free liveness phase must settle.
 //! The wrong-output scenarios are `super::wrong_output`'s.
 
+use super::architecture::{self, Architecture};
 use super::expect::{self, Expected, UnknownScenario};
 use super::faults::{Direction, Fault, Target};
 use super::lan::Net;
@@ -54,6 +55,42 @@ impl Scenario {
     /// refused.
     pub fn expected(&self) -> Result<Expected, UnknownScenario> {
         expect::for_scenario(&self.name, &self.faults())
+    }
+
+    /// What its judges accept under `architecture` (`expect::for_scenario_in`).
+    pub fn expected_in(&self, architecture: Architecture) -> Result<Expected, UnknownScenario> {
+        expect::for_scenario_in(architecture, &self.name, &self.steps)
+    }
+
+    /// The scenario as `architecture` runs it: a fault aimed at a controller it does not run
+    /// falls on [`architecture::controller_for`]'s, and the network alarm judge expects
+    /// controller alarms only between the controllers it runs. `None`: a wrong-output
+    /// scenario under the duplex or the pair, which the lab does not run (its judges read the
+    /// voted topic, which only voting controllers publish; docs/architectures.md says what
+    /// a wrong controller does to each).
+    pub fn under(&self, architecture: Architecture) -> Option<Scenario> {
+        if architecture == Architecture::Voting {
+            return Some(self.clone());
+        }
+        if self.output.is_some() {
+            return None;
+        }
+        let ids = architecture::controller_ids(architecture);
+        let mut scenario = self.clone();
+        for step in &mut scenario.steps {
+            if let Some(Target::Id(id)) = step.fault.target() {
+                step.fault = step
+                    .fault
+                    .at(architecture::controller_for(architecture, id));
+            }
+        }
+        if let Some(network) = &mut scenario.network {
+            network
+                .controller_alarms
+                .retain(|(observer, about)| ids.contains(observer) && ids.contains(about));
+            network_alarms::for_two_members(network);
+        }
+        Some(scenario)
     }
 
     /// `setup` with the readers this scenario needs: a wrong-output one adds the voting
@@ -470,6 +507,37 @@ mod tests {
                 assert!(!s.in_ci, "{}", s.name);
             }
         }
+    }
+
+    #[test]
+    fn the_two_controller_architectures_run_c3_s_faults_on_c2_and_no_wrong_output() {
+        for architecture in [Architecture::Duplex, Architecture::Pair] {
+            let clock = find("clock-drift", 1).and_then(|s| s.under(architecture));
+            let clock = clock.expect("a clock scenario runs under both");
+            assert!(clock
+                .steps
+                .iter()
+                .all(|step| step.fault.target() != Some(Target::Id(3))));
+            assert!(clock
+                .steps
+                .iter()
+                .any(|step| step.fault.target() == Some(Target::Id(2))));
+            let both = find("c2-both-links-down", 1).and_then(|s| s.under(architecture));
+            let alarms = both.and_then(|s| s.network).map(|n| n.controller_alarms);
+            assert_eq!(alarms, Some(vec![(1, 2), (2, 1)]));
+            assert!(find("wrong-primary", 1)
+                .and_then(|s| s.under(architecture))
+                .is_none());
+            // Every scenario it runs has expectations of its own under it.
+            for s in named().into_iter().filter_map(|s| s.under(architecture)) {
+                assert!(s.expected_in(architecture).is_ok(), "{}", s.name);
+            }
+        }
+        let voting = find("clock-drift", 1).and_then(|s| s.under(Architecture::Voting));
+        assert!(voting.is_some_and(|s| s
+            .steps
+            .iter()
+            .any(|step| step.fault.target() == Some(Target::Id(3)))));
     }
 
     #[test]

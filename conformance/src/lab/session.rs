@@ -5,11 +5,12 @@
 //! wrong-output scenarios add a voting reader beside the exclusive ones and have the camera
 //! print its frames ([`Setup::output_readers`]).
 
+use super::architecture::{self, Architecture};
 use super::clock::LabClock;
 use super::error::LabError;
 use super::faults::{self, Applied, Target};
 use super::judge::FaultRecord;
-use super::lan::{Lan, Node, CONTROLLER_IDS};
+use super::lan::{Lan, Node};
 use super::observe::Observations;
 use super::procs::{Line, Procs};
 use super::scenario::Step;
@@ -42,6 +43,8 @@ pub struct Setup {
     pub output_readers: bool,
     /// What the camera's gimbal follows.
     pub camera: Camera,
+    /// The redundancy architecture the controllers run (`super::architecture`).
+    pub architecture: Architecture,
 }
 
 /// What the camera's gimbal follows: the exclusive command topic's owner (`rl shapes`, the
@@ -159,6 +162,9 @@ pub struct Session {
     connext: bool,
     /// The voting reader runs, and judging waits for it to be steady too.
     output_readers: bool,
+    pub architecture: Architecture,
+    /// The controllers' configuration file, removed when the session stops.
+    config_file: Option<PathBuf>,
 }
 
 impl Session {
@@ -169,6 +175,8 @@ impl Session {
         let (sender, lines) = mpsc::channel();
         let mut procs = Procs::new(setup.rl.clone(), setup.domain, &lan, clock, sender);
         procs.mutation = setup.mutation.clone();
+        let config_file = write_config(setup.architecture, &lan.prefix)?;
+        procs.config = config_file.clone();
         let domain = setup.domain.to_string();
         procs.start_helper(
             "servo",
@@ -180,8 +188,8 @@ impl Session {
         if setup.output_readers {
             start_voting_reader(&mut procs, setup)?;
         }
-        for id in CONTROLLER_IDS {
-            procs.start_controller(id)?;
+        for id in architecture::controller_ids(setup.architecture) {
+            procs.start_controller(*id)?;
         }
         if setup.connext {
             start_connext(&mut procs, None)?;
@@ -199,6 +207,8 @@ impl Session {
             primary_steps: Default::default(),
             connext: setup.connext,
             output_readers: setup.output_readers,
+            architecture: setup.architecture,
+            config_file,
         };
         session.await_formation()?;
         session.judged_from_ms = session.clock.now_ms();
@@ -228,18 +238,37 @@ impl Session {
         status_of(&self.procs, &self.observed, id)
     }
 
-    /// Which controller a target names now (the role's holder; C1 if nobody claims it).
+    /// Which controller a target names now: the role's holder (C1 if nobody claims it); in
+    /// a pair, whose members both claim the Primary's role, the Primary is the member whose
+    /// commands `rl servo` took last and the Secondary the other. An id the architecture does
+    /// not run is [`architecture::controller_for`]'s.
     pub fn resolve(&self, target: Target) -> u8 {
+        let ids = architecture::controller_ids(self.architecture);
         let holder = |role: Role| {
-            CONTROLLER_IDS.into_iter().find(|id| {
+            ids.iter().copied().find(|id| {
                 self.status(*id)
                     .is_some_and(|s| s.report.role == Some(role))
             })
         };
-        match target {
-            Target::Id(id) => id,
-            Target::Primary => holder(Role::Primary).unwrap_or(1),
-            Target::Secondary => holder(Role::Secondary).unwrap_or(2),
+        let owner = || {
+            let last = self.observed.servo_commands.last()?;
+            self.observed
+                .participant_ids
+                .get(&last.participant)
+                .copied()
+        };
+        match (target, self.architecture) {
+            (Target::Id(id), architecture) => architecture::controller_for(architecture, id),
+            (Target::Primary, Architecture::Pair) => owner().unwrap_or(1),
+            (Target::Secondary, Architecture::Pair) => {
+                if owner() == Some(2) {
+                    1
+                } else {
+                    2
+                }
+            }
+            (Target::Primary, _) => holder(Role::Primary).unwrap_or(1),
+            (Target::Secondary, _) => holder(Role::Secondary).unwrap_or(2),
         }
     }
 
@@ -252,8 +281,13 @@ impl Session {
         let started = Instant::now();
         loop {
             let now_ms = self.clock.now_ms();
-            let formed = formed(&self.procs, &self.observed, now_ms, self.connext)
-                && (!self.output_readers || self.observed.outputs.voter_steady(now_ms));
+            let formed = formed_as(
+                self.architecture,
+                &self.procs,
+                &self.observed,
+                now_ms,
+                self.connext,
+            ) && (!self.output_readers || self.observed.outputs.voter_steady(now_ms));
             if let Some(refused) = self.mutation_refused(formed) {
                 return Err(refused);
             }
@@ -273,7 +307,7 @@ impl Session {
                     "formed: {formed}; servo commands {}, Connext samples {}; dead: {:?}; exited: {left:?}; odd one out: {:?}; stderr: {:?}",
                     self.observed.servo_commands.len(),
                     self.observed.connext.len(),
-                    self.procs.dead(&CONTROLLER_IDS),
+                    self.dead(),
                     self.observed.outputs.odd_one_out,
                     self.observed.stderr.iter().rev().take(5).collect::<Vec<_>>()
                 );
@@ -376,20 +410,14 @@ impl Session {
             .is_some_and(|applied| applied.fault.is_wrong_output())
     }
 
-    /// Whether the controllers have settled: all three steady, one in each role, and the
-    /// actuators following the Primary.
+    /// Whether the controllers have settled: every one running and settled as its
+    /// architecture settles ([`architecture::settled`]: voting's three steady, one in each
+    /// role), and the actuators following the Primary.
     fn settled(&self) -> bool {
-        let roles: Vec<Option<Role>> = CONTROLLER_IDS
-            .iter()
-            .map(|id| {
-                self.status(*id)
-                    .filter(|s| s.report.phase == Phase::Steady)
-                    .and_then(|s| s.report.role)
-            })
-            .collect();
-        [Role::Primary, Role::Secondary, Role::Tertiary]
-            .iter()
-            .all(|role| roles.iter().filter(|r| **r == Some(*role)).count() == 1)
+        let ids = architecture::controller_ids(self.architecture);
+        let reports: Vec<&Status> = ids.iter().filter_map(|id| self.status(*id)).collect();
+        reports.len() == ids.len()
+            && architecture::settled(self.architecture, &reports)
             && self.actuators_follow(self.resolve(Target::Primary))
     }
 
@@ -425,18 +453,27 @@ impl Session {
 
     /// The processes that should run and do not, now.
     pub fn dead(&self) -> Vec<String> {
-        self.procs.dead(&CONTROLLER_IDS)
+        self.procs
+            .dead(architecture::controller_ids(self.architecture))
     }
 
     /// Stops every process (controllers with SIGTERM) and takes in their last lines.
     pub fn stop(&mut self) -> Result<(), LabError> {
         self.procs.stop_all();
+        if let Some(path) = self.config_file.take() {
+            let _ = std::fs::remove_file(path);
+        }
         self.pump(Duration::from_millis(300))
     }
 
     /// The LAN's prefix (names of its namespaces and links).
     pub fn prefix(&self) -> &str {
         &self.lan.prefix
+    }
+
+    /// The LAN the session runs on.
+    pub fn lan(&self) -> &Lan {
+        &self.lan
     }
 }
 
@@ -474,15 +511,42 @@ pub fn actuators_follow(observed: &Observations, now_ms: f64, id: u8, connext: b
 
 /// The formation judging waits for: P=C1 S=C2 T=C3 steady, the actuators following C1.
 pub fn formed(procs: &Procs, observed: &Observations, now_ms: f64, connext: bool) -> bool {
-    let roles = [
-        (1, Role::Primary),
-        (2, Role::Secondary),
-        (3, Role::Tertiary),
-    ];
-    roles.iter().all(|(id, role)| {
-        status_of(procs, observed, *id)
-            .is_some_and(|s| s.report.phase == Phase::Steady && s.report.role == Some(*role))
-    }) && actuators_follow(observed, now_ms, 1, connext)
+    formed_as(Architecture::Voting, procs, observed, now_ms, connext)
+}
+
+/// The formation judging waits for under `architecture` ([`architecture::formation`]): each
+/// controller steady in its role at that role's strength, the actuators following one of
+/// [`architecture::formed_owners`].
+pub fn formed_as(
+    architecture: Architecture,
+    procs: &Procs,
+    observed: &Observations,
+    now_ms: f64,
+    connext: bool,
+) -> bool {
+    architecture::formation(architecture)
+        .iter()
+        .all(|(id, role)| {
+            status_of(procs, observed, *id).is_some_and(|s| {
+                s.report.phase == Phase::Steady
+                    && s.report.role == Some(*role)
+                    && s.report.strength == Some(role.strength())
+            })
+        })
+        && architecture::formed_owners(architecture)
+            .iter()
+            .any(|id| actuators_follow(observed, now_ms, *id, connext))
+}
+
+/// Writes `architecture`'s configuration for the controllers of LAN `prefix` to a file of
+/// its own in the temporary directory (`None`: voting, which runs on the defaults).
+fn write_config(architecture: Architecture, prefix: &str) -> Result<Option<PathBuf>, LabError> {
+    let Some(text) = architecture::config_text(architecture) else {
+        return Ok(None);
+    };
+    let path = std::env::temp_dir().join(format!("rl-lab-{prefix}.toml"));
+    std::fs::write(&path, text).map_err(|e| LabError::output(&path, e))?;
+    Ok(Some(path))
 }
 
 /// Orders the safety phase's events by time, a heal before an apply at the same time.

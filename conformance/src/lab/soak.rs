@@ -79,9 +79,6 @@ pub fn soak(minutes: u64, seed: u64, setup: &Setup, out: &Path) -> Result<Vec<St
     let mut failures = Vec::new();
     // Each failed cycle's timeline, written beside the recording at the end.
     let mut failed_cycles: Vec<(u64, String)> = Vec::new();
-    let period_ms = rl_layer::config::Config::default()
-        .timing
-        .heartbeat_period_ms as f64;
     let mut cycle = 0u64;
     while started.elapsed() < total {
         let mut schedule = scenario::random(seed.wrapping_add(cycle));
@@ -107,7 +104,7 @@ pub fn soak(minutes: u64, seed: u64, setup: &Setup, out: &Path) -> Result<Vec<St
             faults,
             cycle_from_ms,
             session.clock.now_ms(),
-            period_ms,
+            setup.architecture,
             setup.connext,
         );
         metrics.dead = session.dead();

@@ -39,6 +39,10 @@ pub enum NotAccepted {
     /// The search did not finish in time.
     #[error("did not finish within {} s", .0.as_secs())]
     TimedOut(Duration),
+    /// Not checked: the run's controllers ran another architecture than the voting rules the
+    /// trace validation knows (its rules are checked by `model check --architecture`).
+    #[error("not checked: the {0}'s rules are the model's `check --architecture {0}`, the trace validation is voting's")]
+    NotVoting(&'static str),
 }
 
 /// The verdict in `result.json`: `{"accepted": summary}` or `{"rejected": why}`.

@@ -11,6 +11,7 @@
 //! comes by lease expiry only, and the heartbeat deadline is the one every architecture
 //! shares, so their failover figures compare like with like.
 
+use crate::network::Members;
 use crate::state::ControllerState;
 use crate::types::{AlarmReason, ControllerId, Phase, Role, Strength};
 use crate::{CoreConfig, Heartbeat};
@@ -45,6 +46,20 @@ pub enum Architecture {
     Duplex(Duplex),
     /// The lockstep pair: two controllers without roles to agree on, both commanding.
     Pair(Pair),
+}
+
+impl Architecture {
+    /// The like controllers the network alarm participants watch: the three voters, or the
+    /// duplex's or the pair's two. A monitor that counted on a third controller that never
+    /// runs would take its silence on both nets for a fault and blame the nets for what one
+    /// partner's link does.
+    pub fn network_members(&self) -> Members {
+        match self {
+            Architecture::Voting => Members::ALL,
+            Architecture::Duplex(duplex) => Members::of(&[duplex.primary, duplex.standby]),
+            Architecture::Pair(pair) => Members::of(&pair.members),
+        }
+    }
 }
 
 /// A simple duplex's configuration: who is Primary (strength 30) and who Standby (20).
@@ -180,7 +195,12 @@ pub(crate) fn pair_round_end(
 
 /// The partner's dead-man count and alarm: heard, it is alive (an alarm clears, or says
 /// `failed` while it announces its own failure); silent for the deadline, it is lost and
-/// alarmed. Heartbeats from any other id are not this architecture's and are left alone.
+/// alarmed. A partner silent since this controller started is lost only once the
+/// initialization window has closed, as voting waits it: a process just started may not have
+/// discovered its partner yet, and taking that silence for a loss made a restarted pair
+/// member command at the pair's strength beside its commanding partner (and take the
+/// actuator when its writer had the lower GUID: a second switch for one fault). Heartbeats
+/// from any other id are not this architecture's and are left alone.
 fn watch_partner(
     config: &CoreConfig,
     c: &mut ControllerState,
@@ -188,6 +208,9 @@ fn watch_partner(
     heard: &[Heartbeat],
 ) -> PartnerRound {
     let heartbeat = heard.iter().find(|h| h.id == partner_id).cloned();
+    // Under these architectures the window counts every round since the start.
+    c.window_quiet_rounds = (c.window_quiet_rounds + 1).min(config.rounds.window_rounds);
+    let in_window = c.window_quiet_rounds < config.rounds.window_rounds;
     let peer = c.peers.entry(partner_id).or_default();
     match &heartbeat {
         Some(h) => {
@@ -200,7 +223,10 @@ fn watch_partner(
         }
         None => {
             peer.silent_rounds = peer.silent_rounds.saturating_add(1);
-            if peer.silent_rounds >= config.rounds.dead_after_rounds {
+            let silent_since_start = peer.silent_rounds >= c.window_quiet_rounds;
+            if peer.silent_rounds >= config.rounds.dead_after_rounds
+                && !(in_window && silent_since_start)
+            {
                 peer.alive = None;
                 peer.heard_strength = None;
                 peer.claims_primary = false;
@@ -211,7 +237,9 @@ fn watch_partner(
         }
     }
     PartnerRound {
-        lost: peer.alive.is_none() && peer.silent_rounds >= config.rounds.dead_after_rounds,
+        lost: peer.alive.is_none()
+            && peer.silent_rounds >= config.rounds.dead_after_rounds
+            && !(in_window && peer.silent_rounds >= c.window_quiet_rounds),
         heard: heartbeat,
     }
 }

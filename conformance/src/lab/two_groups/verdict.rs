@@ -99,9 +99,6 @@ fn judge_group(
     let group = &lab.groups[i];
     let name = group.group.name;
     let faults: Vec<FaultRecord> = group.kill.iter().cloned().collect();
-    let period_ms = rl_layer::config::Config::default()
-        .timing
-        .heartbeat_period_ms as f64;
     let (observed, own_lives) = (&group.observed, &lives[i]);
     let mut metrics = judge::measure(
         observed,
@@ -109,7 +106,7 @@ fn judge_group(
         &faults,
         lab.judged_from_ms,
         judging.end_ms,
-        period_ms,
+        super::super::architecture::Architecture::Voting,
         judging.setup.connext,
     );
     metrics.dead = dead;
@@ -135,6 +132,7 @@ fn judge_group(
         scenario: format!("{NAME}, group {name}"),
         about: about(),
         seed: judging.seed,
+        architecture: "voting",
         mutation: judging.setup.mutation.clone(),
         faults,
         metrics,

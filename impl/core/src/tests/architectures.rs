@@ -208,3 +208,56 @@ fn a_pair_controller_alarms_a_failed_partner_and_a_local_fault_silences_it() {
     assert_eq!(outputs(&commands), vec![None]);
     assert_eq!(c2.status().report.phase, Phase::Failed);
 }
+
+#[test]
+fn the_network_monitors_watch_the_architectures_own_controllers() {
+    use crate::network::Members;
+    let duplex = Architecture::Duplex(Duplex {
+        primary: 2,
+        standby: 3,
+        preempt: true,
+    });
+    assert_eq!(duplex.network_members(), Members::of(&[2, 3]));
+    let pair = Architecture::Pair(Pair { members: [1, 3] });
+    assert_eq!(pair.network_members(), Members::of(&[1, 3]));
+    assert!(!pair.network_members().contains(2));
+    assert_eq!(Architecture::Voting.network_members(), Members::ALL);
+}
+
+/// A pair member with a longer initialization window than the dead-man deadline, as the
+/// defaults have (2 s against 0.5 s).
+fn pair_core_with_window(id: ControllerId, window_rounds: u32) -> Core {
+    let pair = Pair { members: [1, 2] };
+    let rounds = Rounds {
+        dead_after_rounds: 2,
+        window_rounds,
+    };
+    let config =
+        CoreConfig::new(id, 0, PERIOD_MS, rounds).with_architecture(Architecture::Pair(pair));
+    Core::new(config, 0)
+}
+
+#[test]
+fn a_partner_silent_since_the_start_is_lost_only_when_the_window_closes() {
+    // Not yet discovered is not lost: the member stays below its partner for the window.
+    let mut c2 = pair_core_with_window(2, 6);
+    let strengths: Vec<Option<Strength>> = (1..=6u64)
+        .map(|round_number| {
+            round(&mut c2, &[], round_number * PERIOD_MS);
+            c2.status().report.strength
+        })
+        .collect();
+    let (yielded, commanding) = (Some(PAIR_YIELDED_STRENGTH), Some(PAIR_STRENGTH));
+    assert_eq!(
+        strengths,
+        vec![yielded, yielded, yielded, yielded, yielded, commanding],
+        "yielded through the window, the pair's strength at its close (round 6)"
+    );
+    assert!(c2.status().alarms.iter().any(|(id, _)| *id == 1));
+    // A partner heard once, then silent: lost at the deadline, window or not.
+    let mut c1 = pair_core_with_window(1, 6);
+    round(&mut c1, &[partner(2, Some(PAIR_STRENGTH.0))], PERIOD_MS);
+    round(&mut c1, &[], 2 * PERIOD_MS);
+    let lost = outputs(&round(&mut c1, &[], 3 * PERIOD_MS));
+    assert_eq!(lost, vec![Some(PAIR_STRENGTH)]);
+}

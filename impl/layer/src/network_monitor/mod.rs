@@ -186,6 +186,7 @@ fn monitor(
         deadline_periods: config.networks.deadline_periods,
         raise_after_ms: config.networks.raise_after_ms,
         clear_after_periods: config.networks.clear_after_periods,
+        members: config.core_architecture().network_members(),
         ..NapConfig::new(reporter.id)
     };
     let mut nap = Nap::new(nap_config, clock.now_ms());
