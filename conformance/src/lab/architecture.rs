@@ -94,7 +94,10 @@ pub fn formed_owners(architecture: Architecture) -> &'static [u8] {
 /// every one steady, one agreed assignment naming them all, each at its role's strength. The
 /// duplex: every one steady at its configured role's strength (the Primary back at 30: the
 /// paper's preemption). The pair: every one steady at its role's strength (the pair's, or
-/// yielded below a partner that commands) and at least one commanding at the pair's.
+/// yielded below a partner that commands) and at least one commanding at the pair's. Under
+/// both, each also hears the other: they are steady from their first round, before a
+/// restarted one has discovered its partner, and a fault then would meet a controller not yet
+/// back (voting's agreed assignment already says every one hears the others).
 pub fn settled(architecture: Architecture, reports: &[&Status]) -> bool {
     if reports.is_empty() {
         return false;
@@ -116,19 +119,32 @@ pub fn settled(architecture: Architecture, reports: &[&Status]) -> bool {
                     })
             })
         }
-        Architecture::Duplex => reports.iter().all(|s| {
-            steady_at_role(s)
-                && formation(architecture)
-                    .iter()
-                    .any(|(id, role)| *id == s.report.id && s.report.role == Some(*role))
-        }),
+        Architecture::Duplex => {
+            hear_each_other(reports)
+                && reports.iter().all(|s| {
+                    steady_at_role(s)
+                        && formation(architecture)
+                            .iter()
+                            .any(|(id, role)| *id == s.report.id && s.report.role == Some(*role))
+                })
+        }
         Architecture::Pair => {
-            reports.iter().all(|s| steady_at_role(s))
+            hear_each_other(reports)
+                && reports.iter().all(|s| steady_at_role(s))
                 && reports
                     .iter()
                     .any(|s| s.report.strength == Some(Strength(30)))
         }
     }
+}
+
+/// Whether every one of `reports` sees every other alive.
+fn hear_each_other(reports: &[&Status]) -> bool {
+    reports.iter().all(|s| {
+        reports
+            .iter()
+            .all(|other| other.report.id == s.report.id || s.sees.contains(&other.report.id))
+    })
 }
 
 #[cfg(test)]
@@ -145,8 +161,12 @@ mod tests {
 
     #[test]
     fn a_duplex_has_settled_only_with_its_primary_back_at_30() {
-        let primary = status(1, Role::Primary, 30);
-        let standby = status(2, Role::Secondary, 20);
+        let mut primary = status(1, Role::Primary, 30);
+        let mut standby = status(2, Role::Secondary, 20);
+        // Steady from the first round, before they have heard each other: not yet.
+        assert!(!settled(Architecture::Duplex, &[&primary, &standby]));
+        primary.sees = vec![2];
+        standby.sees = vec![1];
         assert!(settled(Architecture::Duplex, &[&primary, &standby]));
         // The Primary back without preemption, or yielded: not the paper's duplex settled.
         let yielded = status(1, Role::Secondary, 20);
@@ -155,13 +175,18 @@ mod tests {
 
     #[test]
     fn a_pair_has_settled_with_one_member_commanding_and_the_other_at_its_role() {
-        let commanding = status(1, Role::Primary, 30);
-        let yielded = status(2, Role::Secondary, 20);
+        let mut commanding = status(1, Role::Primary, 30);
+        let mut yielded = status(2, Role::Secondary, 20);
+        commanding.sees = vec![2];
+        yielded.sees = vec![1];
         assert!(settled(Architecture::Pair, &[&commanding, &yielded]));
         assert!(!settled(Architecture::Pair, &[&yielded]));
         let mut starting = status(2, Role::Primary, 30);
         starting.report.phase = Phase::Initializing;
+        starting.sees = vec![1];
         assert!(!settled(Architecture::Pair, &[&commanding, &starting]));
+        let deaf = status(2, Role::Secondary, 20);
+        assert!(!settled(Architecture::Pair, &[&commanding, &deaf]));
     }
 
     #[test]

@@ -19,6 +19,9 @@ use std::path::PathBuf;
 use std::sync::mpsc::{self, Receiver};
 use std::time::{Duration, Instant};
 
+mod schedule;
+use schedule::{defer_after_heals, sort_due};
+
 /// How a session is set up.
 #[derive(Clone, Debug)]
 pub struct Setup {
@@ -363,7 +366,9 @@ impl Session {
                     if i > 0 || base > 0 {
                         origin += self.await_settled()?;
                     }
-                } else if self.overlap_involves_the_primary(&steps[i], base, &active) {
+                } else if !self.parts_of_one_fault(steps, i, base, &active)
+                    && self.overlap_involves_the_primary(&steps[i], base, &active)
+                {
                     defer_after_heals(&mut due, at_ms, i, &active);
                     continue;
                 }
@@ -400,6 +405,24 @@ impl Session {
             || active
                 .iter()
                 .any(|k| self.primary_steps.contains(&(base + k)))
+    }
+
+    /// Whether step `i` and every `active` step were scheduled at the same moment on the same
+    /// controller: one fault of that controller applied in parts (its links into both nets,
+    /// `c2-both-links-down`), which must start together whatever role the controller holds,
+    /// and not two faults of which one waits. (Under voting that controller is a standby at
+    /// formation; in a pair it may be the member the actuator follows.)
+    fn parts_of_one_fault(&self, steps: &[Step], i: usize, base: usize, active: &[usize]) -> bool {
+        let id = steps[i].fault.target().map(|t| self.resolve(t));
+        id.is_some()
+            && active.iter().all(|k| {
+                let applied_id = self
+                    .applied
+                    .get(base + k)
+                    .and_then(Option::as_ref)
+                    .and_then(|applied| applied.id);
+                steps[*k].at_ms == steps[i].at_ms && applied_id == id
+            })
     }
 
     /// Whether the applied step at `index` is a wrong output.
@@ -547,57 +570,4 @@ fn write_config(architecture: Architecture, prefix: &str) -> Result<Option<PathB
     let path = std::env::temp_dir().join(format!("rl-lab-{prefix}.toml"));
     std::fs::write(&path, text).map_err(|e| LabError::output(&path, e))?;
     Ok(Some(path))
-}
-
-/// Orders the safety phase's events by time, a heal before an apply at the same time.
-fn sort_due(due: &mut [(f64, bool, usize)]) {
-    due.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-}
-
-/// Moves step `i`, due to apply at `at_ms`, to just after the last heal of the `active`
-/// steps, with every later event of the schedule but those heals moved by as much, so the
-/// schedule keeps its spacing.
-fn defer_after_heals(due: &mut Vec<(f64, bool, usize)>, at_ms: f64, i: usize, active: &[usize]) {
-    let last_heal = due
-        .iter()
-        .filter(|(_, apply, k)| !apply && active.contains(k))
-        .map(|(at, ..)| *at)
-        .fold(at_ms, f64::max);
-    let shift = last_heal - at_ms + 1.0;
-    for event in due.iter_mut() {
-        let heal_of_active = !event.1 && active.contains(&event.2);
-        if !heal_of_active {
-            event.0 += shift;
-        }
-    }
-    due.push((at_ms + shift, true, i));
-    sort_due(due);
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn a_deferred_step_follows_the_active_heals_and_the_rest_keeps_its_spacing() {
-        // Step 0 active until 5000; step 1 due at 3000 (heal 4000) is deferred; step 2 at
-        // 6000 (heal 7000) moves by as much.
-        let mut due = vec![
-            (4000.0, false, 1),
-            (5000.0, false, 0),
-            (6000.0, true, 2),
-            (7000.0, false, 2),
-        ];
-        defer_after_heals(&mut due, 3000.0, 1, &[0]);
-        assert_eq!(
-            due,
-            vec![
-                (5000.0, false, 0),
-                (5001.0, true, 1),
-                (6001.0, false, 1),
-                (8001.0, true, 2),
-                (9001.0, false, 2),
-            ]
-        );
-    }
 }
