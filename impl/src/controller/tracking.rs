@@ -211,7 +211,8 @@ impl Alignment {
         if let Some(value) = self.accepted_ahead.remove(&frame) {
             voted = voted.or(Some((frame, value)));
         }
-        self.accepted_ahead = self.accepted_ahead.split_off(&frame);
+        // What is left for this frame or before it will never be answered.
+        self.accepted_ahead.retain(|input, _| *input > frame);
         match (voted, owner) {
             (Some((input, command)), _) => {
                 pan_tilt.align(command.pan, command.tilt);
