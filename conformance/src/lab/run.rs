@@ -113,13 +113,7 @@ fn output_name_in(
 
 /// Runs `scenario` (seed `seed`) and writes its output under `out`.
 pub fn run(scenario: &Scenario, seed: u64, setup: &Setup, out: &Path) -> Result<Outcome, LabError> {
-    let scenario =
-        &scenario
-            .under(setup.architecture)
-            .ok_or_else(|| LabError::NotUnderArchitecture {
-                scenario: scenario.name.clone(),
-                architecture: architecture::name(setup.architecture),
-            })?;
+    let scenario = &under(scenario, setup.architecture)?;
     let expected = scenario.expected_in(setup.architecture)?;
     let setup = &scenario.session_setup(setup);
     let mut session = start(scenario, seed, setup)?;
@@ -156,22 +150,13 @@ pub fn run(scenario: &Scenario, seed: u64, setup: &Setup, out: &Path) -> Result<
     let _ = std::fs::remove_dir_all(&dir);
     let events = dir.join("events");
     validation::write_recording(&events, &session.observed, &lives)?;
-    // The model's trace validation is of the voting rules; the duplex's and the pair's are
-    // checked by `model check --architecture`, and their runs by the judges alone.
-    let (validation, judged) = match setup.architecture {
-        Architecture::Voting => {
-            let validation = validate_with_timeout(events);
-            let judged = validation.as_ref().map(|_| ()).map_err(Clone::clone);
-            (validation, judged)
-        }
-        other => (
-            Err(validation::NotAccepted::NotVoting(architecture::name(
-                other,
-            ))),
-            Ok(()),
-        ),
+    let validation = validate_in(setup.architecture, events);
+    // A recording the trace validation does not check is judged by the judges alone.
+    let judged = match &validation {
+        Err(validation::NotAccepted::NotVoting(_)) => Ok(()),
+        other => other.as_ref().map(|_| ()),
     };
-    let mut failures = judge::failures(&metrics, &expected, judged.as_ref().map(|_| ()));
+    let mut failures = judge::failures(&metrics, &expected, judged);
     let network = network_report(scenario, &session, &lives, setup);
     if let Some(report) = &network {
         failures.extend(report.failures.iter().cloned());
@@ -217,6 +202,28 @@ pub fn run(scenario: &Scenario, seed: u64, setup: &Setup, out: &Path) -> Result<
         wrong_output::files::write_outputs(&dir, &tracking, &outcome, &session.observed)?;
     }
     Ok(outcome)
+}
+
+/// `scenario` as `architecture` runs it, or why it does not.
+fn under(scenario: &Scenario, architecture: Architecture) -> Result<Scenario, LabError> {
+    scenario
+        .under(architecture)
+        .ok_or_else(|| LabError::NotUnderArchitecture {
+            scenario: scenario.name.clone(),
+            architecture: architecture::name(architecture),
+        })
+}
+
+/// The recording in `events` against the model: the trace validation is of the voting rules,
+/// so the duplex's and the pair's are not checked here (`model check --architecture` checks
+/// their rules).
+fn validate_in(architecture: Architecture, events: PathBuf) -> Verdict {
+    match architecture {
+        Architecture::Voting => validate_with_timeout(events),
+        other => Err(validation::NotAccepted::NotVoting(architecture::name(
+            other,
+        ))),
+    }
 }
 
 /// A formed session for `scenario`, announced on stderr; refused when its network alarm judge

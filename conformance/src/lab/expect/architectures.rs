@@ -176,63 +176,63 @@ mod tests {
         for_fault(architecture, &fault, 3000).owner_changes
     }
 
+    /// Each fault with what `architecture` may let it cause.
+    fn check(architecture: Architecture, cases: Vec<(Fault, OwnerChanges)>) {
+        for (fault, expected) in cases {
+            let label = fault.to_string();
+            assert_eq!(changes(architecture, fault), expected, "{label}");
+        }
+    }
+
     #[test]
     fn the_duplex_bounces_for_its_primary_and_not_for_its_standby() {
-        let d = Architecture::Duplex;
-        assert_eq!(
-            changes(d, Fault::Kill(Target::Primary)),
-            OwnerChanges::AtMost(2)
-        );
-        assert_eq!(
-            changes(d, Fault::Kill(Target::Id(2))),
-            OwnerChanges::AtMost(0)
-        );
-        assert_eq!(
-            changes(d, Fault::ClockOffset(Target::Id(2), 10.0)),
-            OwnerChanges::AtMost(0)
-        );
-        assert_eq!(
-            changes(d, Fault::Cut(Target::Primary)),
-            OwnerChanges::AtMost(0)
-        );
-        let clock = Fault::ClockOffset(Target::Id(1), 0.1);
-        assert_eq!(changes(d, clock), OwnerChanges::AtMost(4));
         let with_two = Fault::Partition {
             alone: Target::Primary,
             actuator_with_alone: false,
         };
-        assert_eq!(changes(d, with_two), OwnerChanges::AtMost(2));
+        check(
+            Architecture::Duplex,
+            vec![
+                (Fault::Kill(Target::Primary), OwnerChanges::AtMost(2)),
+                (Fault::Kill(Target::Id(2)), OwnerChanges::AtMost(0)),
+                (
+                    Fault::ClockOffset(Target::Id(2), 10.0),
+                    OwnerChanges::AtMost(0),
+                ),
+                (Fault::Cut(Target::Primary), OwnerChanges::AtMost(0)),
+                (
+                    Fault::ClockOffset(Target::Id(1), 0.1),
+                    OwnerChanges::AtMost(4),
+                ),
+                (with_two, OwnerChanges::AtMost(2)),
+                (Fault::Loss(Target::Primary, 20), OwnerChanges::AtMost(0)),
+            ],
+        );
         assert!(matches!(
-            changes(d, Fault::Loss(Target::Primary, 40)),
+            changes(Architecture::Duplex, Fault::Loss(Target::Primary, 40)),
             OwnerChanges::Unbounded(_)
         ));
-        assert_eq!(
-            changes(d, Fault::Loss(Target::Primary, 20)),
-            OwnerChanges::AtMost(0)
-        );
     }
 
     #[test]
     fn the_pair_moves_once_for_a_new_process_and_bounces_for_a_cut_off_owner() {
-        let p = Architecture::Pair;
-        assert_eq!(
-            changes(p, Fault::Kill(Target::Primary)),
-            OwnerChanges::AtMost(1)
-        );
-        assert_eq!(
-            changes(p, Fault::Pause(Target::Secondary)),
-            OwnerChanges::AtMost(0)
-        );
         let owner_alone = Fault::Partition {
             alone: Target::Primary,
             actuator_with_alone: false,
         };
-        assert_eq!(changes(p, owner_alone), OwnerChanges::AtMost(2));
-        assert_eq!(
-            changes(p, Fault::OneWay(Target::Primary, Direction::Out)),
-            OwnerChanges::AtMost(0)
+        check(
+            Architecture::Pair,
+            vec![
+                (Fault::Kill(Target::Primary), OwnerChanges::AtMost(1)),
+                (Fault::Pause(Target::Secondary), OwnerChanges::AtMost(0)),
+                (owner_alone, OwnerChanges::AtMost(2)),
+                (
+                    Fault::OneWay(Target::Primary, Direction::Out),
+                    OwnerChanges::AtMost(0),
+                ),
+            ],
         );
-        assert_eq!(two_at_top_by_design(p), f64::INFINITY);
+        assert_eq!(two_at_top_by_design(Architecture::Pair), f64::INFINITY);
     }
 
     #[test]
