@@ -105,7 +105,9 @@ enum Command {
         /// The redundancy architecture the controllers run: voting (three controllers), duplex
         /// (C1 Primary, C2 Standby, the paper's preemption) or pair (the lockstep pair, C1 and
         /// C2), each judged on what its own rules let a fault cause (docs/architectures.md).
-        /// The wrong-output scenarios and two-groups run under voting only.
+        /// two-groups runs under voting only, two-wrong not under the pair (both members
+        /// leave: two failures); under the other two a wrong-output scenario's voting reader
+        /// is only the reference for the right commands.
         #[arg(long, value_name = "A", default_value = "voting", value_parser = lab::architecture::parse)]
         architecture: lab::architecture::Architecture,
     },
@@ -195,6 +197,7 @@ fn execute(cli: &Cli) -> Result<ExitCode, LabError> {
             return Err(LabError::NotUnderArchitecture {
                 scenario: scenario.clone(),
                 architecture: lab::architecture::name(*architecture),
+                reason: lab::two_groups::ONLY_VOTING,
             });
         }
         Command::Run { scenario, seed, .. } if scenario == lab::two_groups::NAME => {

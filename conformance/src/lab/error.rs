@@ -48,10 +48,11 @@ pub enum LabError {
     #[error(transparent)]
     NoExpectations(#[from] super::expect::UnknownScenario),
     /// The system did not form before faults were due (P, S, T steady, the actuator following).
-    #[error("{scenario} is not run under the {architecture}: its judges read the voted topic, which only voting controllers publish")]
+    #[error("{scenario} is not run under the {architecture}: {reason}")]
     NotUnderArchitecture {
         scenario: String,
         architecture: &'static str,
+        reason: &'static str,
     },
 
     #[error("no formation within {waited_s} s: {detail}")]

@@ -163,6 +163,7 @@ pub fn run(scenario: &Scenario, seed: u64, setup: &Setup, out: &Path) -> Result<
     }
     let output = scenario.output.map(|output| {
         let recorded = wrong_output::Recorded {
+            architecture: setup.architecture,
             observed: &session.observed,
             lives: &lives,
             injections: &injections,
@@ -208,9 +209,10 @@ pub fn run(scenario: &Scenario, seed: u64, setup: &Setup, out: &Path) -> Result<
 fn under(scenario: &Scenario, architecture: Architecture) -> Result<Scenario, LabError> {
     scenario
         .under(architecture)
-        .ok_or_else(|| LabError::NotUnderArchitecture {
+        .map_err(|reason| LabError::NotUnderArchitecture {
             scenario: scenario.name.clone(),
             architecture: architecture::name(architecture),
+            reason,
         })
 }
 
@@ -320,7 +322,7 @@ pub fn write_outputs(
 
 /// Every sample both actuators took, in time order: lab seconds, the reader, the writer's
 /// participant (the controller id where known) and entity id, so a switch can be traced to
-/// the very writer (a controller re-creates its writer at each new strength).
+/// the very writer (a controller re-creates its writer at each new strength), and the command.
 fn actuator_samples(observed: &super::observe::Observations) -> String {
     let mut lines: Vec<(f64, String)> = Vec::new();
     for (reader, samples) in [
@@ -332,10 +334,13 @@ fn actuator_samples(observed: &super::observe::Observations) -> String {
                 .participant_ids
                 .get(&sample.participant)
                 .map_or_else(|| sample.participant.clone(), |id| format!("C{id}"));
+            let command = sample.pan_tilt.map_or(String::new(), |(pan, tilt)| {
+                format!(" pan {pan} tilt {tilt}")
+            });
             lines.push((
                 sample.at_ms,
                 format!(
-                    "{:9.3} s  {reader:<8} {who} writer {}\n",
+                    "{:9.3} s  {reader:<8} {who} writer {}{command}\n",
                     sample.at_ms / 1000.0,
                     sample.writer_entity
                 ),

@@ -64,16 +64,18 @@ impl Scenario {
 
     /// The scenario as `architecture` runs it: a fault aimed at a controller it does not run
     /// falls on [`architecture::controller_for`]'s, and the network alarm judge expects
-    /// controller alarms only between the controllers it runs. `None`: a wrong-output
-    /// scenario under the duplex or the pair, which the lab does not run (its judges read the
-    /// voted topic, which only voting controllers publish; docs/architectures.md says what
-    /// a wrong controller does to each).
-    pub fn under(&self, architecture: Architecture) -> Option<Scenario> {
+    /// controller alarms only between the controllers it runs. A wrong-output scenario runs
+    /// under all three, judged by `wrong_output::architectures` under the other two; the
+    /// error says why one is not run.
+    pub fn under(&self, architecture: Architecture) -> Result<Scenario, &'static str> {
         if architecture == Architecture::Voting {
-            return Some(self.clone());
+            return Ok(self.clone());
         }
-        if self.output.is_some() {
-            return None;
+        if let Some(why) = self
+            .output
+            .and_then(|o| wrong_output::not_run_under(o, architecture))
+        {
+            return Err(why);
         }
         let ids = architecture::controller_ids(architecture);
         let mut scenario = self.clone();
@@ -90,7 +92,7 @@ impl Scenario {
                 .retain(|(observer, about)| ids.contains(observer) && ids.contains(about));
             network_alarms::for_two_members(network);
         }
-        Some(scenario)
+        Ok(scenario)
     }
 
     /// `setup` with the readers this scenario needs: a wrong-output one adds the voting
@@ -510,9 +512,9 @@ mod tests {
     }
 
     #[test]
-    fn the_two_controller_architectures_run_c3_s_faults_on_c2_and_no_wrong_output() {
+    fn the_two_controller_architectures_run_c3_s_faults_on_c2_and_one_wrong_output_at_a_time() {
         for architecture in [Architecture::Duplex, Architecture::Pair] {
-            let clock = find("clock-drift", 1).and_then(|s| s.under(architecture));
+            let clock = find("clock-drift", 1).and_then(|s| s.under(architecture).ok());
             let clock = clock.expect("a clock scenario runs under both");
             assert!(clock
                 .steps
@@ -522,18 +524,21 @@ mod tests {
                 .steps
                 .iter()
                 .any(|step| step.fault.target() == Some(Target::Id(2))));
-            let both = find("c2-both-links-down", 1).and_then(|s| s.under(architecture));
+            let both = find("c2-both-links-down", 1).and_then(|s| s.under(architecture).ok());
             let alarms = both.and_then(|s| s.network).map(|n| n.controller_alarms);
             assert_eq!(alarms, Some(vec![(1, 2), (2, 1)]));
-            assert!(find("wrong-primary", 1)
-                .and_then(|s| s.under(architecture))
-                .is_none());
+            assert!(find("wrong-primary", 1).is_some_and(|s| s.under(architecture).is_ok()));
+            let two_wrong = find("two-wrong", 1).map(|s| s.under(architecture).is_ok());
+            assert_eq!(two_wrong, Some(architecture == Architecture::Duplex));
             // Every scenario it runs has expectations of its own under it.
-            for s in named().into_iter().filter_map(|s| s.under(architecture)) {
+            for s in named()
+                .into_iter()
+                .filter_map(|s| s.under(architecture).ok())
+            {
                 assert!(s.expected_in(architecture).is_ok(), "{}", s.name);
             }
         }
-        let voting = find("clock-drift", 1).and_then(|s| s.under(Architecture::Voting));
+        let voting = find("clock-drift", 1).and_then(|s| s.under(Architecture::Voting).ok());
         assert!(voting.is_some_and(|s| s
             .steps
             .iter()

@@ -290,7 +290,11 @@ impl Session {
                 &self.observed,
                 now_ms,
                 self.connext,
-            ) && (!self.output_readers || self.observed.outputs.voter_steady(now_ms));
+            ) && (!self.output_readers
+                || self.observed.outputs.voter_steady(
+                    now_ms,
+                    architecture::controller_ids(self.architecture).len(),
+                ));
             if let Some(refused) = self.mutation_refused(formed) {
                 return Err(refused);
             }

@@ -43,6 +43,11 @@ pub mod verdict;
 /// The scenario's name in `lab list` and `lab run`.
 pub const NAME: &str = "two-groups";
 
+/// Why it runs under voting only: its judges (`super::cross_talk`, the network monitors'
+/// groups) are of three-controller groups, and each group's bounds are `kill-primary`'s.
+pub const ONLY_VOTING: &str =
+    "its two groups are voting groups of three, judged by kill-primary's bounds under voting";
+
 /// One redundancy group of the scenario.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Group {

@@ -12,14 +12,18 @@
 //! controllers agree). Which sample is wrong, and how many reached each reader:
 //! [`delivered`]; what each scenario promises: [`verdict`]; the ball's tracking error at the
 //! camera: [`tracking`]; the lines they read: [`readings`]; what a run leaves beside the
-//! lab's usual output: [`files`].
+//! lab's usual output: [`files`]. Under the duplex and the pair the same runs are judged on
+//! what those architectures promise instead ([`architectures`]): the voting reader is then
+//! only the judges' reference for the right commands.
 
+pub mod architectures;
 pub mod delivered;
 pub mod files;
 pub mod readings;
 pub mod tracking;
 pub mod verdict;
 
+use super::architecture::Architecture;
 use super::error::LabError;
 use super::expect::GAP_SLACK_MS;
 use super::faults::{Fault, Target, WrongOutput};
@@ -193,8 +197,20 @@ pub fn scenarios() -> Vec<Scenario> {
     ]
 }
 
+/// Why a wrong-output scenario is not run under `architecture`, if it is not: both members
+/// of a pair wrong at once (`two-wrong`). Each member's compare takes it off the bus at its
+/// first wrong frame, so the actuator has no writer until one is restarted and has waited out
+/// its initialization window: a silence no gap bound covers. The pair promises a right writer
+/// after one failure (the model's pair property), not after two; docs/architectures.md.
+pub fn not_run_under(scenario: OutputScenario, architecture: Architecture) -> Option<&'static str> {
+    (scenario.kind == Kind::TwoWrong && architecture == Architecture::Pair).then_some(
+        "both members wrong at once are two failures: both leave the bus, and the actuator has no writer until one is restarted (the pair promises a right writer after one failure)",
+    )
+}
+
 /// What the wrong-output judges read of a run.
 pub struct Recorded<'a> {
+    pub architecture: Architecture,
     pub observed: &'a Observations,
     pub lives: &'a [Life],
     pub injections: &'a [Injection],
@@ -211,6 +227,8 @@ pub struct OutAndBack {
     pub life: String,
     /// Its odd-one-out decision.
     pub decided_after_ms: Option<f64>,
+    /// Its lockstep mismatch (a pair member's: it leaves the bus at once).
+    pub mismatch_after_ms: Option<f64>,
     /// The inputs its decision counted that were camera frames taken after the fault (its
     /// wrong answers the voting reader heard), and before it (a right answer of this life
     /// found odd: a glitch the per-life count keeps); `None` without its `odd_one_out` event.
@@ -263,6 +281,17 @@ pub struct OutputReport {
     pub out_and_back: Vec<OutAndBack>,
     pub tracking: tracking::Tracking,
     pub failures: Vec<String>,
+}
+
+impl OutputReport {
+    /// The exclusive readers that ran: each with the wrong commands it took and its owners.
+    pub fn exclusive_readers(&self) -> Vec<(&'static str, &Delivered, &[String])> {
+        let mut readers = vec![("rl servo", &self.servo, self.servo_owner_path.as_slice())];
+        if let (Some(delivered), Some(path)) = (&self.connext, &self.connext_owner_path) {
+            readers.push(("Connext", delivered, path.as_slice()));
+        }
+        readers
+    }
 }
 
 /// The owners of `spans` in the judged window, in order, each once per span.
@@ -324,7 +353,10 @@ pub fn judge(recorded: &Recorded, scenario: OutputScenario) -> OutputReport {
         tracking,
         failures: Vec::new(),
     };
-    report.failures = verdict::failures(&report, recorded);
+    report.failures = match recorded.architecture {
+        Architecture::Voting => verdict::failures(&report, recorded),
+        other => architectures::failures(other, &report, recorded),
+    };
     report
 }
 
@@ -422,6 +454,11 @@ fn out_and_back(recorded: &Recorded, injection: &Injection) -> OutAndBack {
     OutAndBack {
         life: injection.life.clone(),
         decided_after_ms: decision.map(|o| after(o.at_ms)),
+        mismatch_after_ms: recorded
+            .observed
+            .outputs
+            .mismatch_of(&injection.life)
+            .map(after),
         odd_after_fault: odd_counts.map(|(after, _)| after),
         odd_before_fault: odd_counts.map(|(_, before)| before),
         late: decision.and_then(|o| o.late),
@@ -501,6 +538,17 @@ pub fn summary(report: &OutputReport) -> String {
                 path.join(" -> ")
             ));
         }
+    }
+    for o in report
+        .out_and_back
+        .iter()
+        .filter(|o| o.mismatch_after_ms.is_some())
+    {
+        text.push_str(&format!(
+            "  {}: lockstep mismatch {} after the fault\n",
+            o.life,
+            ms(o.mismatch_after_ms)
+        ));
     }
     for o in &report.out_and_back {
         text.push_str(&format!(

@@ -12,9 +12,10 @@
 //! - The duplex (the paper's preemption, C1 Primary at 30, C2 Standby at 20): every time the
 //!   actuator stops hearing the Primary it moves to the Standby, and back as soon as it hears
 //!   the Primary again: a *bounce*, two changes (finding A1). A fault of the Standby moves
-//!   nothing. The Primary's commands at 30 are the only ones at top strength.
+//!   nothing, and so does a wrong output: nothing compares. The Primary's commands at 30 are
+//!   the only ones at top strength.
 //! - The pair (both members at 30): losing the owner moves the actuator once, to the other
-//!   member. A member that comes back as a new process (a restart, a resume, a replugged
+//!   member; a member whose two implementations disagree leaves the bus, as lost. A member that comes back as a new process (a restart, a resume, a replugged
 //!   cable) hears its partner commanding and writes at 20 beside it: no second change. One
 //!   that never stopped (it was only cut off) is still at 30, and if its writer has the lower
 //!   GUID it takes the actuator back at once: a bounce. Both members are at 30 by design, so
@@ -103,8 +104,9 @@ fn duplex(fault: &Fault) -> FaultExpected {
         }
         Fault::Loss(..) | Fault::RateLimit(..) if primary => not_bounded(),
         Fault::Loss(..) | Fault::RateLimit(..) => UNFELT,
-        // Refused by the lab under the duplex (`crate::lab::scenario`): nothing compares.
-        Fault::WrongCommands(..) => voting(fault),
+        // Nothing compares: a wrong controller keeps its role and its writers
+        // (`crate::lab::wrong_output::architectures`).
+        Fault::WrongCommands(..) => UNFELT,
     }
 }
 
@@ -147,7 +149,9 @@ fn pair(fault: &Fault) -> FaultExpected {
         },
         Fault::Loss(..) | Fault::RateLimit(..) if owner_or_either => not_bounded(),
         Fault::Loss(..) | Fault::RateLimit(..) => UNFELT,
-        Fault::WrongCommands(..) => voting(fault),
+        // Its compare takes the wrong member off the bus at its first wrong frame, and it
+        // comes back as a new process: as a crash of it.
+        Fault::WrongCommands(..) => if_owner(ONCE),
     }
 }
 
@@ -170,7 +174,7 @@ pub fn two_at_top_by_design(architecture: Architecture) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lab::faults::Direction;
+    use crate::lab::faults::{Direction, WrongOutput};
 
     fn changes(architecture: Architecture, fault: Fault) -> OwnerChanges {
         for_fault(architecture, &fault, 3000).owner_changes
@@ -206,6 +210,10 @@ mod tests {
                 ),
                 (with_two, OwnerChanges::AtMost(2)),
                 (Fault::Loss(Target::Primary, 20), OwnerChanges::AtMost(0)),
+                (
+                    Fault::WrongCommands(Target::Primary, WrongOutput::Offset(300)),
+                    OwnerChanges::AtMost(0),
+                ),
             ],
         );
         assert!(matches!(
@@ -228,6 +236,14 @@ mod tests {
                 (owner_alone, OwnerChanges::AtMost(2)),
                 (
                     Fault::OneWay(Target::Primary, Direction::Out),
+                    OwnerChanges::AtMost(0),
+                ),
+                (
+                    Fault::WrongCommands(Target::Primary, WrongOutput::Random),
+                    OwnerChanges::AtMost(1),
+                ),
+                (
+                    Fault::WrongCommands(Target::Secondary, WrongOutput::Frozen),
                     OwnerChanges::AtMost(0),
                 ),
             ],

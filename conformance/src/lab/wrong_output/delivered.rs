@@ -10,7 +10,10 @@
 //! - At an exclusive reader (`rl servo`, Connext) a sample is judged only when its writer's
 //!   participant is a life asked for wrong commands and it arrived after the asking: a right
 //!   controller's sample is right by definition, and a frozen controller's is right while the
-//!   ball has not moved the tolerance away.
+//!   ball has not moved the tolerance away. A life that lives on past its heal (under the
+//!   duplex, or `two-wrong`) answers rightly from the first frame taken after the heal, but
+//!   re-publishes its last wrong answer until then: its samples are judged until the voting
+//!   reader has accepted an answer to such a frame, and right from then on.
 //! - At the voting reader an accepted command is judged only when every agreeing controller
 //!   was wrong at that moment: one right controller in the set makes it right by definition.
 //!
@@ -112,11 +115,21 @@ impl<'a> Judging<'a> {
         })
     }
 
-    /// Whether life `life` had been asked for wrong commands by `at_ms`.
-    fn asked_by(&self, life: &str, at_ms: f64) -> bool {
+    /// The latest asking of life `life` for wrong commands by `at_ms`, if any.
+    fn asked_of(&self, life: &str, at_ms: f64) -> Option<&Injection> {
         self.injections
             .iter()
-            .any(|i| i.life == life && i.from_ms <= at_ms)
+            .filter(|i| i.life == life && i.from_ms <= at_ms)
+            .max_by(|a, b| a.from_ms.total_cmp(&b.from_ms))
+    }
+
+    /// When the voting reader first accepted a right answer to a camera frame taken at or
+    /// after `from_ms`.
+    fn answered_after(&self, from_ms: f64) -> Option<f64> {
+        self.reference
+            .iter()
+            .find(|r| r.input_at_ms >= from_ms)
+            .map(|r| r.at_ms)
     }
 
     /// Whether `command` at `at_ms` agrees with a reference command within the window.
@@ -140,7 +153,14 @@ impl<'a> Judging<'a> {
         let mut distinct = BTreeSet::new();
         for sample in samples {
             let life = life_of(&sample.participant, sample.at_ms);
-            if !self.asked_by(&life, sample.at_ms) {
+            let Some(asked) = self.asked_of(&life, sample.at_ms) else {
+                continue;
+            };
+            if asked
+                .healed_ms
+                .and_then(|healed| self.answered_after(healed))
+                .is_some_and(|at| sample.at_ms >= at)
+            {
                 continue;
             }
             let right = sample

@@ -1,7 +1,8 @@
 //! The lines the wrong-output judges read, on the lab clock: the voting reader's decisions
 //! (`rl servo --vote --json`: `voted_command`, `dissent`, `no_majority`), the camera's frames
 //! (`rl shapes --json`: where the ball was seen, how far off centre) and each controller life's
-//! odd-one-out decision (its `odd_one_out` event, or the stderr line that says `odd one out`).
+//! odd-one-out decision (its `odd_one_out` event, or the stderr line that says `odd one out`),
+//! or, in a lockstep pair, its mismatch (the stderr line that says `lockstep mismatch`).
 //! Kept apart from `super::super::observe`, which reads what every scenario reads.
 
 use crate::lab::clock::LabClock;
@@ -15,6 +16,10 @@ use std::collections::BTreeSet;
 pub const VOTER: &str = "voter";
 /// The camera's helper name.
 pub const CAMERA: &str = "camera";
+
+/// What a lockstep pair member logs when its two implementations disagree
+/// (`rl::tracker::lockstep::Mismatch`, logged as it leaves the bus).
+const LOCKSTEP_MISMATCH: &str = "lockstep mismatch";
 
 /// The camera frames a steady voting reader has decided in a second, at least: half the
 /// camera's rate, so a reader that heard only the first few frames is not yet steady.
@@ -85,6 +90,9 @@ pub struct Readings {
     pub no_majority: Vec<NoMajority>,
     pub frames: Vec<Frame>,
     pub odd_one_out: Vec<OddOneOut>,
+    /// A lockstep pair member's mismatches between its two implementations (it leaves the
+    /// bus at its first): the life and when its log line was read.
+    pub mismatches: Vec<(String, f64)>,
     /// Each helper's clock origin on the lab clock: the smallest read time minus its own time
     /// (its lines carry milliseconds since it started).
     voter_origin_ms: Option<f64>,
@@ -179,7 +187,7 @@ impl Readings {
     }
 
     /// A line of controller life `life` (stdout: its JSON event; stderr: its log), kept when
-    /// it says the life is the odd one out. The JSON event's time is its own wall clock (the
+    /// it says the life is the odd one out or found a lockstep mismatch. The JSON event's time is its own wall clock (the
     /// life's clock correction taken off, as every event's); a log line's is when it was read.
     pub fn ingest_controller(
         &mut self,
@@ -190,6 +198,10 @@ impl Readings {
         lives: &[Life],
     ) {
         if stderr {
+            if line.text.contains(LOCKSTEP_MISMATCH) && !self.mismatches.iter().any(|m| m.0 == life)
+            {
+                self.mismatches.push((life.to_string(), line.at_ms));
+            }
             if line.text.contains("odd one out") && !self.odd_one_out.iter().any(|o| o.life == life)
             {
                 self.odd_one_out.push(OddOneOut {
@@ -238,13 +250,13 @@ impl Readings {
     }
 
     /// Whether the voting reader has been steady for the second before `now_ms`: every camera
-    /// frame it decided in that second, but the newest (its third answer may be on its way),
-    /// agreed to by all three controllers (over its acceptances of that frame: the whole rule
+    /// frame it decided in that second, but the newest (its last answer may be on its way),
+    /// agreed to by all `controllers` (three, two under the duplex and the pair) (over its acceptances of that frame: the whole rule
     /// grows one set; a broken reader of a mutation run, taking each answer alone, names one
     /// controller at a time), and no dissent alarm raised, cleared or up. Judging
     /// starts only then: a controller that began tracking a frame after the others is a frame
     /// out of step until it aligns, and the reader may name it for that at formation.
-    pub fn voter_steady(&self, now_ms: f64) -> bool {
+    pub fn voter_steady(&self, now_ms: f64, controllers: usize) -> bool {
         let recent = |at_ms: f64| at_ms >= now_ms - 1000.0;
         let mut agreeing_by_input: std::collections::BTreeMap<u64, BTreeSet<u8>> =
             Default::default();
@@ -253,8 +265,10 @@ impl Readings {
             agreeing.extend(a.agreeing.iter().copied());
         }
         agreeing_by_input.pop_last();
-        let all_three = agreeing_by_input.len() >= MIN_STEADY_FRAMES
-            && agreeing_by_input.values().all(|ids| ids.len() == 3);
+        let all_agree = agreeing_by_input.len() >= MIN_STEADY_FRAMES
+            && agreeing_by_input
+                .values()
+                .all(|ids| ids.len() == controllers);
         let changing = self.dissents.iter().any(|d| recent(d.at_ms));
         let mut up = std::collections::BTreeSet::new();
         for change in &self.dissents {
@@ -264,7 +278,12 @@ impl Readings {
                 up.remove(&change.id);
             }
         }
-        all_three && !changing && up.is_empty()
+        all_agree && !changing && up.is_empty()
+    }
+
+    /// When life `life` logged a lockstep mismatch, if it did.
+    pub fn mismatch_of(&self, life: &str) -> Option<f64> {
+        self.mismatches.iter().find(|m| m.0 == life).map(|m| m.1)
     }
 
     /// When life `life` decided it was the odd one out, if it did.

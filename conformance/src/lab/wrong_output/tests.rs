@@ -8,7 +8,13 @@ use crate::lab::clock::LabClock;
 use crate::lab::observe::ActuatorSample;
 use crate::lab::procs::Line;
 
-fn life(id: u8, number: u32, started_ms: f64, ended_ms: Option<f64>, exit: Option<&str>) -> Life {
+pub(super) fn life(
+    id: u8,
+    number: u32,
+    started_ms: f64,
+    ended_ms: Option<f64>,
+    exit: Option<&str>,
+) -> Life {
     Life {
         id,
         number,
@@ -117,6 +123,27 @@ fn with_no_right_command_near_a_wrong_controllers_sample_counts_as_wrong() {
 }
 
 #[test]
+fn after_the_heal_a_sample_is_judged_until_a_frame_taken_after_it_is_answered() {
+    // C1 lives on past its heal at 5000 ms (the duplex): right answers from frames taken
+    // from 5010 ms, accepted from 5015 ms, pan 500, and one more a second later, pan 560.
+    let mut votes: Vec<Accepted> = (0..4)
+        .map(|frame| accepted(5015.0 + f64::from(frame) * camera_period_ms(), &[1, 2], 500))
+        .collect();
+    votes.push(accepted(6200.0, &[1, 2], 560));
+    let injections = c1_wrong();
+    let lives = vec![life(1, 1, 0.0, None, None), life(2, 1, 0.0, None, None)];
+    let judging = Judging::new(&votes, &injections, &lives);
+    // Its last wrong answer re-published after the heal, before the first answer to a frame
+    // taken after it; then a right answer re-published long after, beside the next frame's.
+    let samples = [sample(5005.0, "p1", 800), sample(6190.0, "p1", 500)];
+    let wrong = judging.exclusive(&samples, life_of);
+    assert_eq!((wrong.samples, wrong.first_ms), (1, Some(5005.0)));
+    // Before the heal, a sample no reference is near counts as wrong (as ever).
+    let early = judging.exclusive(&[sample(3000.0, "p1", 800)], life_of);
+    assert_eq!(early.samples, 1);
+}
+
+#[test]
 fn the_voting_reader_is_wrong_only_on_a_command_no_right_controller_agreed_to() {
     let mut votes = right_votes();
     // A broken reader's: C1's value alone, and C1's with a right one (within the tolerance of
@@ -159,7 +186,7 @@ fn the_bounds_in_figures() {
     assert_eq!(TOLERANCE, 25);
 }
 
-fn report(kind: Kind) -> OutputReport {
+pub(super) fn report(kind: Kind) -> OutputReport {
     OutputReport {
         scenario: OutputScenario {
             kind,
@@ -184,6 +211,7 @@ fn report(kind: Kind) -> OutputReport {
         out_and_back: vec![OutAndBack {
             life: "C1".into(),
             decided_after_ms: Some(75.0),
+            mismatch_after_ms: None,
             odd_after_fault: Some(2),
             odd_before_fault: Some(0),
             late: Some(0),
@@ -200,8 +228,16 @@ fn report(kind: Kind) -> OutputReport {
     }
 }
 
-fn judged(report: &OutputReport, observed: &Observations, lives: &[Life]) -> Vec<String> {
-    let recorded = Recorded {
+/// What the judges read of a run of `report`'s scenario under `architecture`, with no fault
+/// but the wrong output and no owners recorded.
+pub(super) fn recorded<'a>(
+    architecture: crate::lab::architecture::Architecture,
+    report: &'a OutputReport,
+    observed: &'a Observations,
+    lives: &'a [Life],
+) -> Recorded<'a> {
+    Recorded {
+        architecture,
         observed,
         lives,
         injections: &report.injections,
@@ -210,8 +246,12 @@ fn judged(report: &OutputReport, observed: &Observations, lives: &[Life]) -> Vec
         connext_owners: None,
         judged_from_ms: 1000.0,
         end_ms: 15000.0,
-    };
-    failures(report, &recorded)
+    }
+}
+
+fn judged(report: &OutputReport, observed: &Observations, lives: &[Life]) -> Vec<String> {
+    let architecture = crate::lab::architecture::Architecture::Voting;
+    failures(report, &recorded(architecture, report, observed, lives))
 }
 
 #[test]

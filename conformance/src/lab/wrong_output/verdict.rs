@@ -90,22 +90,7 @@ pub fn failures(report: &OutputReport, recorded: &Recorded) -> Vec<String> {
         );
         failed.extend(leaves(out, timed));
     }
-    let readers = [
-        (
-            "rl servo",
-            Some(&report.servo),
-            Some(&report.servo_owner_path),
-        ),
-        (
-            "Connext",
-            report.connext.as_ref(),
-            report.connext_owner_path.as_ref(),
-        ),
-    ];
-    for (reader, delivered, path) in readers {
-        let (Some(delivered), Some(path)) = (delivered, path) else {
-            continue;
-        };
+    for (reader, delivered, path) in report.exclusive_readers() {
         if kind.primary_alone() {
             failed.extend(primary_left(reader, delivered, path, report));
         } else {
@@ -116,7 +101,7 @@ pub fn failures(report: &OutputReport, recorded: &Recorded) -> Vec<String> {
 }
 
 /// The voting reader took none.
-fn wrong_accepted(wrong: &Delivered) -> Option<String> {
+pub(super) fn wrong_accepted(wrong: &Delivered) -> Option<String> {
     (wrong.samples > 0).then(|| {
         format!(
             "the voting reader accepted {} wrong commands ({} distinct, from {}, the first at {:.2} s) (expected none: it takes a command only when two controllers agree)",
