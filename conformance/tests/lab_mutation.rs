@@ -27,6 +27,13 @@
 //! never does with the rule whole (every run of `wrong-primary` measured 0); nothing else in the run depends on that reader, so every other
 //! judge passes and the failure is the mutation's, in one run.
 //!
+//! The fourth is the lockstep pair's order: `wrong-primary` under the pair with its members
+//! writing each output before comparing it (`write-before-compare`, the pair model's
+//! mutation). The wrong member still finds the mismatch and leaves, but its first wrong answer
+//! has gone out, and it owns the actuator: `rl servo` takes it in every run, where the rule
+//! whole lets none through (`lab run wrong-primary --architecture pair` measured 0). The same
+//! scenario and build without the mutation passes.
+//!
 //! The lab runs need root (namespaces, links, nftables) and nft and libfaketime installed, as
 //! `lab` itself does: they are ignored by default and CI runs them (as root, the tools
 //! installed) with the other ignored tests. Each run takes about 30 s; the `rl` with the
@@ -49,6 +56,7 @@ const UNPLUG_SCENARIO: &str = "unplug-primary";
 const UNPLUG_MUTATION: &str = "stay-when-unplugged";
 const VOTE_SCENARIO: &str = "wrong-primary";
 const VOTE_MUTATION: &str = "accept-single-source";
+const PAIR_MUTATION: &str = "write-before-compare";
 
 fn out_dir() -> PathBuf {
     Path::new(env!("CARGO_TARGET_TMPDIR")).join("lab-mutation")
@@ -238,6 +246,58 @@ fn a_voting_reader_that_takes_one_source_fails_wrong_primary_on_wrong_commands_a
     assert!(
         lines.iter().all(|f| f.starts_with("the voting reader")),
         "only the voting reader fails: {lines:#?}"
+    );
+}
+
+/// `lab run wrong-primary --architecture pair [--mutation write-before-compare]`.
+fn pair_run(mutation: Option<&str>) -> (Output, Value) {
+    let mut args = vec!["--architecture", "pair"];
+    let mut result_dir = format!("{VOTE_SCENARIO}-seed1");
+    if let Some(name) = mutation {
+        args.extend(["--mutation", name]);
+        result_dir.push_str(&format!("-mutation-{name}"));
+    }
+    lab_run_with(VOTE_SCENARIO, "1", &args, &format!("{result_dir}-pair"))
+}
+
+#[test]
+#[ignore = "needs root, nft and faketime (the fault lab's namespaces and firewall rules); CI runs it"]
+fn a_pair_that_writes_before_it_compares_fails_wrong_primary_on_wrong_commands_delivered() {
+    let (output, result) = pair_run(Some(PAIR_MUTATION));
+    assert_eq!(output.status.code(), Some(1), "lab's exit status");
+    assert_eq!(
+        result["mutation"], PAIR_MUTATION,
+        "result.json marks the run"
+    );
+    let failures = failures(&result);
+    let lines = first_lines(&failures);
+    assert!(
+        lines
+            .iter()
+            .any(|f| f.starts_with("rl servo took") && f.contains("wrong samples")),
+        "the exclusive servo is caught taking the wrong member's command: {lines:#?}"
+    );
+    // The compare itself still works, after the write: the member leaves as it should.
+    assert!(
+        !lines.iter().any(|f| f.contains("lockstep mismatch")),
+        "the wrong member still finds its mismatch in time: {lines:#?}"
+    );
+}
+
+#[test]
+#[ignore = "needs root, nft and faketime (the fault lab's namespaces and firewall rules); CI runs it"]
+fn the_same_build_without_a_mutation_passes_wrong_primary_under_the_pair() {
+    let (output, result) = pair_run(None);
+    assert_eq!(
+        first_lines(&failures(&result)),
+        Vec::<&str>::new(),
+        "the pair compares before it writes: nothing wrong reaches a reader"
+    );
+    assert_eq!(output.status.code(), Some(0));
+    assert_eq!(
+        servo_changes(&result),
+        vec![1],
+        "one owner change: from the wrong member to its partner"
     );
 }
 

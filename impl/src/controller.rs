@@ -270,12 +270,8 @@ impl Outputs {
         if self.left {
             return;
         }
-        if let Some(Err(mismatch)) =
-            compare.map(|(lockstep, second)| lockstep.compare(frame, sample, second))
-        {
-            self.left = true;
-            warn!("{mismatch}: leaving the bus");
-            rl.report_fault();
+        let write_first = writes_before_comparing(rl);
+        if !write_first && self.leaves_on_mismatch(rl, frame, sample, compare) {
             return;
         }
         if let Judgement::Leave(reason) = self.cross_check.answer(frame, sample) {
@@ -299,7 +295,44 @@ impl Outputs {
                 }
             }
         }
+        if write_first {
+            self.leaves_on_mismatch(rl, frame, sample, compare);
+        }
     }
+
+    /// A lockstep pair's compare (`compare`, none otherwise) of `sample`, the answer to
+    /// `frame`, with the second implementation's: on a mismatch this controller leaves the
+    /// bus, reports a local fault (FAILED, then exit) and says so.
+    fn leaves_on_mismatch(
+        &mut self,
+        rl: &Redundancy,
+        frame: u64,
+        sample: ServoControl,
+        compare: Option<(&Lockstep, crate::tracker::ServoCommand)>,
+    ) -> bool {
+        let Some(Err(mismatch)) =
+            compare.map(|(lockstep, second)| lockstep.compare(frame, sample, second))
+        else {
+            return false;
+        };
+        self.left = true;
+        warn!("{mismatch}: leaving the bus");
+        rl.report_fault();
+        true
+    }
+}
+
+/// Whether this controller writes each output before its lockstep compare: the deliberately
+/// broken order of `RL_MUTATION=write-before-compare` (a `mutation` build only), which the
+/// fault lab must catch delivering a wrong command.
+#[cfg(feature = "mutation")]
+fn writes_before_comparing(rl: &Redundancy) -> bool {
+    rl.mutation() == Some(rl_layer::core::mutation::Mutation::WriteBeforeCompare)
+}
+
+#[cfg(not(feature = "mutation"))]
+fn writes_before_comparing(_: &Redundancy) -> bool {
+    false
 }
 
 /// The voted topic's endpoint `made`, or none, with a warning, when it cannot be made (a

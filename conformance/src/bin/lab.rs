@@ -50,6 +50,7 @@ use std::process::ExitCode;
 ///   lab matrix --ci
 ///   lab run kill-primary --architecture duplex
 ///   lab matrix --architecture pair
+///   lab run wrong-primary --architecture pair --mutation write-before-compare
 ///   lab traffic --architecture duplex --seconds 10
 ///   lab soak --minutes 30
 ///   lab figure --to tracking.svg OUT/wrong-primary-seed1 OUT/wrong-primary-vote-camera-seed1
@@ -90,8 +91,9 @@ enum Command {
         /// The seed: picks a random schedule's faults and times, a flapping link's intervals.
         #[arg(long, default_value_t = 1)]
         seed: u64,
-        /// Run the controllers with a deliberately broken voting rule (RL_MUTATION=NAME, set
-        /// for the controllers only), to see the lab catch it: the run must FAIL. Needs an rl
+        /// Run the controllers with a deliberately broken rule (RL_MUTATION=NAME, set for the
+        /// controllers only: a voting rule, or write-before-compare, the lockstep pair's order
+        /// broken), to see the lab catch it: the run must FAIL. Needs an rl
         /// built with the `mutation` feature (the workspace's test build, --all-features, or
         /// cargo build --release -p rl --features mutation); with any other rl the run stops
         /// with an error.

@@ -20,12 +20,13 @@ pub const VARIABLE: &str = "RL_MUTATION";
 
 /// The names a `mutation` build of `rl` knows (`rl_layer::core::mutation::Mutation::name`). The
 /// lab's own `rl` dependency is built without that feature, so a test keeps the two equal.
-pub const NAMES: [&str; 5] = [
+pub const NAMES: [&str; 6] = [
     "promote-without-failure",
     "ignore-minority-vote",
     "failback",
     "admit-fourth",
     "stay-when-unplugged",
+    "write-before-compare",
 ];
 
 /// The environment variable a `mutation` build of `rl servo --vote` reads.

@@ -1,4 +1,5 @@
-//! Deliberately broken voting rules, compiled only with the `mutation` feature.
+//! Deliberately broken rules, compiled only with the `mutation` feature: the voting rules, and
+//! the lockstep pair's compare-before-write, which the controller application applies.
 //!
 //! The conformance suite replays the model's traces against the core, and the DDS-level
 //! replay runs real controllers; a suite that cannot fail proves nothing, so its mutation
@@ -26,16 +27,22 @@ pub enum Mutation {
     /// A controller whose links all lose their carrier goes on as it was (the model's F16
     /// reverted): [`CoreConfig::restarts_when_unplugged`] says no.
     StayWhenUnplugged,
+    /// A lockstep pair's member writes each output before comparing it with its second
+    /// implementation's (the pair model's `write_before_compare`): a mismatch still takes it
+    /// off the bus, but after the wrong output went out. No rule of this crate changes: the
+    /// application that compares reads it (`rl controller`).
+    WriteBeforeCompare,
 }
 
 impl Mutation {
     /// Every mutation.
-    pub const ALL: [Mutation; 5] = [
+    pub const ALL: [Mutation; 6] = [
         Mutation::PromoteWithoutFailure,
         Mutation::IgnoreMinorityVote,
         Mutation::Failback,
         Mutation::AdmitFourth,
         Mutation::StayWhenUnplugged,
+        Mutation::WriteBeforeCompare,
     ];
 
     /// Its name on a command line or in an environment variable (`promote-without-failure`).
@@ -46,6 +53,7 @@ impl Mutation {
             Mutation::Failback => "failback",
             Mutation::AdmitFourth => "admit-fourth",
             Mutation::StayWhenUnplugged => "stay-when-unplugged",
+            Mutation::WriteBeforeCompare => "write-before-compare",
         }
     }
 

@@ -282,6 +282,14 @@ impl Redundancy {
         runtime::injected_output_fault()
     }
 
+    /// With the `mutation` feature: the deliberately broken rule this controller runs
+    /// (`RL_MUTATION`), if any; the application reads it for the rules it applies itself (a
+    /// lockstep pair's compare before writing).
+    #[cfg(feature = "mutation")]
+    pub fn mutation(&self) -> Option<crate::core::mutation::Mutation> {
+        self.shared.mutation
+    }
+
     /// The owner feed of `topic` whose controllers are those `heartbeats` announce.
     fn owner_feed_by<T>(
         &self,

@@ -109,7 +109,9 @@ pub(crate) fn spawn(
         .with_failed_exit_delay_ms(timing.failed_exit_delay_ms)
         .with_architecture(config.core_architecture());
     #[cfg(feature = "mutation")]
-    let core_config = core_config.with_mutation(mutation_from_environment()?);
+    let mutation = mutation_from_environment()?;
+    #[cfg(feature = "mutation")]
+    let core_config = core_config.with_mutation(mutation);
     let core = Core::new(core_config, clock.now_ms());
     let shared = Arc::new(Shared {
         status: Mutex::new(core.status()),
@@ -120,6 +122,8 @@ pub(crate) fn spawn(
         stop: AtomicBool::new(false),
         loop_clock: crate::stall::LoopClock::new(timing.peer_deadline_ms),
         subscribers: Mutex::new(Vec::new()),
+        #[cfg(feature = "mutation")]
+        mutation,
     });
     let thread_shared = Arc::clone(&shared);
     let mut identities = crate::identity::Identities::new(timing.peer_deadline_ms);

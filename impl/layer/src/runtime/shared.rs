@@ -40,6 +40,10 @@ pub(crate) struct Shared {
     /// The application's subscriptions to the event lines (crate::api::Redundancy::events);
     /// one whose receiver is gone is dropped at the next event.
     pub subscribers: Mutex<Vec<Sender<EventLine>>>,
+    /// The deliberately broken rule `RL_MUTATION` names (a `mutation` build only), for the
+    /// application's own rules (crate::api::Redundancy::mutation).
+    #[cfg(feature = "mutation")]
+    pub mutation: Option<crate::core::mutation::Mutation>,
 }
 
 impl Shared {
