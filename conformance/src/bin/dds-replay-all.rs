@@ -1,10 +1,13 @@
 //! `dds-replay-all [--mutation NAME] [TRACE.jsonl ...]`: the DDS-level replay of every trace
 //! the plan can time on real processes, not only the curated subset `tests/dds_replay.rs`
-//! replays (105 traces, about 6.5 minutes), each recording then validated strictly
+//! replays (146 of the 350 traces, several minutes), each recording then validated strictly
 //! (docs/conformance.md, "DDS-level replay"). Given trace file names, only those.
 //! `--mutation NAME` runs the controllers with `RL_MUTATION=NAME` (a deliberately broken
 //! rule: `promote-without-failure`, `ignore-minority-vote`, `failback`, `admit-fourth`), to
 //! see which traces catch it; a failure then prints only what departed from the model.
+//! The traces real processes cannot take are counted by reason at the end (each reason is
+//! argued in docs/conformance.md); `--refusals` only plans, printing each refused trace with
+//! its reason and the counts, in a second.
 //!
 //! A command rather than a test: too long for every test run, and CI runs the ignored tests
 //! too. Domain 199, one trace after the other; the `rl` binary with the `fault-injection` and
@@ -16,6 +19,7 @@
 use clap::Parser;
 use conformance::dds_replay::{self, ReplayError, Setup};
 use conformance::trace::{self, Trace};
+use std::collections::BTreeMap;
 use std::path::Path;
 use std::process::ExitCode;
 use std::time::Instant;
@@ -31,6 +35,8 @@ const DOMAIN: u16 = 199;
 /// arguments, the trace set, the configuration or the `rl` build could not be had.
 ///
 /// Example: dds-replay-all --mutation failback 0001-formation-with-3-controllers.jsonl
+///
+/// Example: dds-replay-all --refusals
 #[derive(Parser)]
 #[command(name = "dds-replay-all")]
 struct Arguments {
@@ -38,6 +44,10 @@ struct Arguments {
     /// promote-without-failure, ignore-minority-vote, failback, admit-fourth.
     #[arg(long, value_name = "NAME")]
     mutation: Option<String>,
+    /// Replay nothing: print each trace real processes cannot take with the reason, and the
+    /// refusals counted by reason.
+    #[arg(long, conflicts_with = "mutation")]
+    refusals: bool,
     /// Trace files of traces/ to replay (default: every trace).
     #[arg(value_name = "TRACE.jsonl")]
     files: Vec<String>,
@@ -47,7 +57,12 @@ fn main() -> ExitCode {
     // Bad arguments exit 2 with clap's message naming them.
     let wanted = Arguments::parse();
     let setup = dds_replay::timing().and_then(|timing| {
-        let exe = dds_replay::fault_injection_rl()?;
+        // Planning needs no controllers: `--refusals` runs without the rl build.
+        let exe = if wanted.refusals {
+            None
+        } else {
+            Some(dds_replay::fault_injection_rl()?)
+        };
         let traces = trace::read_dir(&trace::default_dir()).map_err(ReplayError::Unreadable)?;
         Ok((timing, exe, traces))
     });
@@ -72,17 +87,28 @@ fn main() -> ExitCode {
         .join("tmp")
         .join("dds-replay-all");
     let started = Instant::now();
-    let (mut replayed, mut not_replayable, mut failures) = (0, 0, Vec::new());
+    let (mut replayed, mut replayable) = (0, 0);
+    let (mut refused, mut failures) = (Refusals::default(), Vec::new());
     for trace in traces
         .iter()
         .filter(|t| wanted.files.is_empty() || wanted.files.contains(&t.file))
     {
-        let Ok(plan) = dds_replay::plan(trace, &timing) else {
-            not_replayable += 1;
+        let plan = match dds_replay::plan(trace, &timing) {
+            Ok(plan) => plan,
+            Err(why) => {
+                if wanted.refusals {
+                    println!("{} refused: {why}", trace.file);
+                }
+                *refused.entry(why.reason()).or_default() += 1;
+                continue;
+            }
+        };
+        replayable += 1;
+        let Some(exe) = exe.as_deref() else {
             continue;
         };
         let record_dir = record_root.join(trace.file.trim_end_matches(".jsonl"));
-        match replay(trace, &plan, &exe, &record_dir, wanted.mutation.clone()) {
+        match replay(trace, &plan, exe, &record_dir, wanted.mutation.clone()) {
             Ok(report) => {
                 replayed += 1;
                 println!("{report}");
@@ -98,17 +124,39 @@ fn main() -> ExitCode {
         .mutation
         .as_ref()
         .map_or(String::new(), |m| format!(" with RL_MUTATION={m}"));
+    let not_replayable: usize = refused.values().sum();
+    if wanted.refusals {
+        println!(
+            "{replayable} traces replayable over DDS, {not_replayable} not replayable on real \
+             processes"
+        );
+        print_refusals(&refused);
+        return ExitCode::SUCCESS;
+    }
     println!(
         "{replayed} traces replayed over DDS{under}, {} failed, {not_replayable} not \
          replayable on real processes, in {:.0} s",
         failures.len(),
         started.elapsed().as_secs_f64()
     );
+    print_refusals(&refused);
     if failures.is_empty() {
         ExitCode::SUCCESS
     } else {
         println!("failed: {}", failures.join(" "));
         ExitCode::from(1)
+    }
+}
+
+/// The traces real processes cannot take, counted by [`dds_replay::PlanError::reason`].
+type Refusals = BTreeMap<String, usize>;
+
+/// The refusals by reason, the most common first.
+fn print_refusals(refused: &Refusals) {
+    let mut by_count: Vec<(&String, &usize)> = refused.iter().collect();
+    by_count.sort_by(|a, b| b.1.cmp(a.1).then(a.0.cmp(b.0)));
+    for (reason, count) in by_count {
+        println!("  refused, {reason}: {count}");
     }
 }
 

@@ -108,6 +108,44 @@ pub enum PlanError {
     },
 }
 
+impl PlanError {
+    /// The kind of refusal, without its step, round or controllers: what `dds-replay-all`
+    /// counts refusals by, each kind argued in docs/conformance.md ("What real processes
+    /// cannot take").
+    pub fn reason(&self) -> String {
+        let kind = match self {
+            PlanError::NotDefaultVariant => "not a default-variant trace",
+            PlanError::UnknownInitialState { .. } => "an initial state the model does not have",
+            PlanError::InitialStateDiffers => {
+                "its initial state differs under the run's round lengths"
+            }
+            PlanError::NotAllowed { .. } => "a step the model does not allow",
+            PlanError::StateDiffers { .. } => {
+                "a step reaches another state under the run's round lengths"
+            }
+            PlanError::WindowAfterOtherAction { .. } => {
+                "a window expires after another action of its round"
+            }
+            PlanError::PaperVariantAction => "durable-vote delivery (the paper variant)",
+            PlanError::PauseOrCut { .. } => "a pause or a cut",
+            PlanError::NoSettle { .. } => "no settled end",
+            PlanError::NoRoundEnds => "no round ends",
+            PlanError::NoFirstReport => "no report at the first round's end",
+            PlanError::FaultsAfterLateStart { .. } => {
+                "faults after a late start with no quiescent boundary"
+            }
+            PlanError::DiscoveryAtStart { .. } => "DDS discovery at start changes its states",
+            PlanError::DiscoveryAfterLateStart { .. } => {
+                "DDS discovery of a late process changes its settled end"
+            }
+            PlanError::LateDiscoveryRun { cause, .. } => {
+                return format!("with a late-discovered newcomer: {}", cause.reason())
+            }
+        };
+        kind.to_string()
+    }
+}
+
 /// What happens during one round of the plan.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct RoundPlan {
