@@ -28,7 +28,8 @@
 //! with fresh processes, up to [`ATTEMPTS`] times. Any other difference is a failure
 //! ([`ReplayError::Diverged`]), reported with the run's context.
 //!
-//! Modules: [`plan`](mod@plan) (a trace's plan, pure), [`checks`] (its timing assumptions, checked
+//! Modules: [`plan`](mod@plan) (a trace's plan, pure), [`refusal`] (why a trace cannot be
+//! planned, and the kind of each refusal), [`checks`] (its timing assumptions, checked
 //! against the model), [`curated`](mod@curated) (which traces), [`config`] (the `rl.toml` and the
 //! timing), [`binary`] (building `rl`), [`processes`] (the children), [`lives`] (a
 //! controller process's record and observation), [`servo`] (the actuator's owner),
@@ -44,6 +45,7 @@ pub mod error;
 pub mod lives;
 pub mod plan;
 pub mod processes;
+pub mod refusal;
 pub mod run;
 pub mod servo;
 pub mod transcript;
