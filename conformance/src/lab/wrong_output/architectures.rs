@@ -157,6 +157,7 @@ fn exited(recorded: &Recorded, judged: impl Fn(&Life) -> bool, expected: &str) -
     (!left.is_empty()).then(|| format!("{} exited (expected {expected})", left.join(", ")))
 }
 
+/// A pair's reader that took any wrong sample: the compare before the write let one through.
 fn nothing_wrong_taken(reader: &str, delivered: &Delivered) -> Option<String> {
     (delivered.samples > 0).then(|| {
         format!(
