@@ -1,6 +1,6 @@
 //! Why a trace cannot be replayed on real processes ([`PlanError`], the plan's refusal), and
 //! the kind of each refusal without its particulars ([`PlanError::reason`]), by which
-//! `dds-replay-all` counts them. Kept apart from [`super::plan`], which decides them.
+//! `dds-replay-all` counts them. Kept apart from [`mod@super::plan`], which decides them.
 
 use model::Action;
 
