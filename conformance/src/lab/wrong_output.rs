@@ -539,30 +539,31 @@ pub fn summary(report: &OutputReport) -> String {
             ));
         }
     }
-    for o in report
-        .out_and_back
-        .iter()
-        .filter(|o| o.mismatch_after_ms.is_some())
-    {
-        text.push_str(&format!(
-            "  {}: lockstep mismatch {} after the fault\n",
-            o.life,
-            ms(o.mismatch_after_ms)
-        ));
-    }
     for o in &report.out_and_back {
-        text.push_str(&format!(
-            "  {}: odd one out {} after the fault ({} odd inputs after it, {} before, {} late), exited {} ({}), back {} ({} {}); dissent raised {}, cleared {}\n",
-            o.life,
-            ms(o.decided_after_ms),
-            o.odd_after_fault.map_or("?".into(), |n| n.to_string()),
-            o.odd_before_fault.map_or("?".into(), |n| n.to_string()),
-            o.late.map_or("?".into(), |n| n.to_string()),
+        let exited_and_back = format!(
+            "exited {} ({}), back {} ({} {})",
             ms(o.exited_after_ms),
             o.exit.as_deref().unwrap_or("running"),
             ms(o.back_after_ms),
             o.back_life.as_deref().unwrap_or("-"),
             o.back_as.as_deref().unwrap_or("-"),
+        );
+        // A lockstep pair's member leaves on its own compare: no cross-check, no dissent.
+        if o.mismatch_after_ms.is_some() {
+            text.push_str(&format!(
+                "  {}: lockstep mismatch {} after the fault, {exited_and_back}\n",
+                o.life,
+                ms(o.mismatch_after_ms)
+            ));
+            continue;
+        }
+        text.push_str(&format!(
+            "  {}: odd one out {} after the fault ({} odd inputs after it, {} before, {} late), {exited_and_back}; dissent raised {}, cleared {}\n",
+            o.life,
+            ms(o.decided_after_ms),
+            o.odd_after_fault.map_or("?".into(), |n| n.to_string()),
+            o.odd_before_fault.map_or("?".into(), |n| n.to_string()),
+            o.late.map_or("?".into(), |n| n.to_string()),
             ms(o.dissent_raised_after_ms),
             ms(o.dissent_cleared_after_ms),
         ));

@@ -134,3 +134,21 @@ fn a_pair_member_that_did_not_own_the_actuator_leaves_it_where_it_was() {
     let failed = judged(Architecture::Pair, &other, &c1_restarted());
     assert!(any(&failed, "its owner throughout"), "{failed:?}");
 }
+
+#[test]
+fn the_summary_tells_a_lockstep_mismatch_from_an_odd_one_out() {
+    let mut caught = pair_report();
+    caught.out_and_back[0].exit = Some("exit status: 75".into());
+    let text = super::super::summary(&caught);
+    assert!(
+        text.contains("C1: lockstep mismatch 30 ms after the fault, exited"),
+        "{text}"
+    );
+    assert!(!text.contains("odd one out"), "{text}");
+    let voting = super::super::summary(&report(Kind::WrongPrimary));
+    assert!(
+        voting.contains("C1: odd one out 75 ms after the fault"),
+        "{voting}"
+    );
+    assert!(!voting.contains("lockstep mismatch"), "{voting}");
+}
