@@ -87,8 +87,7 @@ fn main() -> ExitCode {
         .join("tmp")
         .join("dds-replay-all");
     let started = Instant::now();
-    let (mut replayed, mut replayable) = (0, 0);
-    let (mut refused, mut failures) = (Refusals::default(), Vec::new());
+    let mut tally = Tally::default();
     for trace in traces
         .iter()
         .filter(|t| wanted.files.is_empty() || wanted.files.contains(&t.file))
@@ -99,51 +98,69 @@ fn main() -> ExitCode {
                 if wanted.refusals {
                     println!("{} refused: {why}", trace.file);
                 }
-                *refused.entry(why.reason()).or_default() += 1;
+                *tally.refused.entry(why.reason()).or_default() += 1;
                 continue;
             }
         };
-        replayable += 1;
+        tally.replayable += 1;
         let Some(exe) = exe.as_deref() else {
             continue;
         };
         let record_dir = record_root.join(trace.file.trim_end_matches(".jsonl"));
         match replay(trace, &plan, exe, &record_dir, wanted.mutation.clone()) {
             Ok(report) => {
-                replayed += 1;
+                tally.replayed += 1;
                 println!("{report}");
             }
             Err(error) => {
                 let message = failure_text(&error, wanted.mutation.is_some());
                 println!("{} FAILED\n{message}\n", trace.file);
-                failures.push(trace.file.clone());
+                tally.failures.push(trace.file.clone());
             }
         }
+    }
+    close(&tally, &wanted, started)
+}
+
+/// What a run of the whole set came to.
+#[derive(Default)]
+struct Tally {
+    /// Traces the plan can time on real processes.
+    replayable: usize,
+    /// Traces replayed and conforming.
+    replayed: usize,
+    /// Traces that did not conform.
+    failures: Vec<String>,
+    refused: Refusals,
+}
+
+/// The closing lines and the exit status: the counts, the refusals by reason, the failures.
+fn close(tally: &Tally, wanted: &Arguments, started: Instant) -> ExitCode {
+    let not_replayable: usize = tally.refused.values().sum();
+    if wanted.refusals {
+        println!(
+            "{} traces replayable over DDS, {not_replayable} not replayable on real processes",
+            tally.replayable
+        );
+        print_refusals(&tally.refused);
+        return ExitCode::SUCCESS;
     }
     let under = wanted
         .mutation
         .as_ref()
         .map_or(String::new(), |m| format!(" with RL_MUTATION={m}"));
-    let not_replayable: usize = refused.values().sum();
-    if wanted.refusals {
-        println!(
-            "{replayable} traces replayable over DDS, {not_replayable} not replayable on real \
-             processes"
-        );
-        print_refusals(&refused);
-        return ExitCode::SUCCESS;
-    }
     println!(
-        "{replayed} traces replayed over DDS{under}, {} failed, {not_replayable} not \
+        "{} traces replayed over DDS{under}, {} failed, {not_replayable} not \
          replayable on real processes, in {:.0} s",
-        failures.len(),
+        tally.replayed,
+        tally.failures.len(),
         started.elapsed().as_secs_f64()
     );
-    print_refusals(&refused);
-    if failures.is_empty() {
+    print_refusals(&tally.refused);
+    if tally.failures.is_empty() {
         ExitCode::SUCCESS
     } else {
-        println!("failed: {}", failures.join(" "));
+        println!("failed: {}", tally.failures.join(" "));
         ExitCode::from(1)
     }
 }
