@@ -1,12 +1,14 @@
 //! The DDS-level replay (docs/conformance.md, "DDS-level replay"): a curated subset of the
 //! model's traces, every fault kind at least once, replayed against real
 //! `rl controller --json-events` processes over DDS on loopback, with real faults (`kill -9`,
-//! new processes, heartbeats dropped by the fault-injection control) and the actuator's owner
+//! new processes, heartbeats dropped by the fault-injection control, SIGSTOP and SIGCONT;
+//! a trace with cuts runs on the lab's virtual LAN, a network namespace per process, its cuts
+//! nftables rules and its pulled cables links down) and the actuator's owner
 //! read from a real `rl servo --json`. Each run's recording is then validated strictly.
 //!
 //! The subset is `conformance::dds_replay::CURATED`, resolved by purpose from
-//! `traces/index.json`; each test has its own DDS domain (190-197 and 220, in that table; 199
-//! the broken replay; 221-224 the mutation checks) and the tests take turns (they are timed on
+//! `traces/index.json`; each test has its own DDS domain (186, 187, 190-197, 220 and 225, in
+//! that table; 199 the broken replay; 188, 189, 221-224 and 226 the mutation checks) and the tests take turns (they are timed on
 //! the wall clock, and this machine has 2 cores). The `rl` binary with the `fault-injection`
 //! and `mutation` features is the workspace build's (`target/release/rl`, `--all-features`);
 //! the recordings are
@@ -18,7 +20,7 @@
 //! the broken rule. The families no mutation can change are listed in docs/conformance.md
 //! with the reason.
 //!
-//! Every replayable trace, not only this subset, is a command, not a test (about 6.5 minutes):
+//! Every replayable trace, not only this subset, is a command, not a test (about 12 minutes):
 //! `cargo run --release -p conformance --bin dds-replay-all`.
 
 use conformance::dds_replay::{self, Need, Problem, ReplayError, Selected, Setup, CURATED};
@@ -213,6 +215,18 @@ fn lone_lost_heartbeat() {
     replay_curated("lone lost heartbeat");
 }
 
+// Domain 186: SIGSTOP for two rounds, SIGCONT, a new incarnation (F12).
+#[test]
+fn pause_and_resume() {
+    replay_curated("pause and resume");
+}
+
+// Domain 187: a cut by nftables on the virtual LAN, healed two rounds later (F11).
+#[test]
+fn cut_healed() {
+    replay_curated("cut healed");
+}
+
 /// Replays a curated family with the controllers running `mutation` on `domain`; the replay
 /// must fail, and some row of its diff must show `field` differing as `shows` accepts (model
 /// value, processes' value).
@@ -222,6 +236,23 @@ fn assert_caught(
     domain: u16,
     field: &str,
     shows: impl Fn(&str, &str) -> bool,
+) {
+    let expected = format!("a diff row showing the expected {field} difference");
+    assert_caught_where(family, mutation, domain, &expected, |problem| {
+        differing_rows(problem)
+            .iter()
+            .any(|(name, model_value, observed)| name == field && shows(model_value, observed))
+    });
+}
+
+/// Replays a curated family with the controllers running `mutation` on `domain`; the replay
+/// must fail with a problem that `shows` accepts (`expected` says what it looks for).
+fn assert_caught_where(
+    family: &str,
+    mutation: Mutation,
+    domain: u16,
+    expected: &str,
+    shows: impl Fn(&str) -> bool,
 ) {
     let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let selected = selected(family);
@@ -251,10 +282,8 @@ fn assert_caught(
         started.elapsed().as_secs_f64()
     );
     assert!(
-        differing_rows(&problem)
-            .iter()
-            .any(|(name, model_value, observed)| name == field && shows(model_value, observed)),
-        "{family} with RL_MUTATION={}: no diff row shows the expected {field} difference:\n{error}",
+        shows(&problem),
+        "{family} with RL_MUTATION={}: not {expected}:\n{error}",
         mutation.name()
     );
 }
@@ -317,5 +346,43 @@ fn ignore_minority_vote_breaks_the_minority_vote() {
         224,
         "failed",
         |model, processes| model != "{}" && processes == "{}",
+    );
+}
+
+/// The resumed controller goes on as the incarnation it was (F12 reverted): where the model
+/// has a new incarnation, silent until it has heard a round, it still holds its place, and
+/// speaks at once with what it knew before the stall. Which shows first depends on how soon
+/// after the SIGCONT its old writer reaches the servo: its stale commands take the actuator
+/// from the Primary in the resume round, or the next boundary shows its old incarnation.
+/// Domain 188.
+#[test]
+fn keep_incarnation_on_resume_breaks_the_pause_and_resume() {
+    assert_caught_where(
+        "pause and resume",
+        Mutation::KeepIncarnationOnResume,
+        188,
+        "C2's old incarnation (a diff row incarnation 1 against 0), or its stale commands \
+         owning the actuator",
+        |problem| {
+            let old_incarnation = differing_rows(problem)
+                .iter()
+                .any(|(name, model, processes)| {
+                    name == "incarnation" && model == "1" && processes == "0"
+                });
+            old_incarnation || problem.contains(">> actuator owner: model C1, processes C2")
+        },
+    );
+}
+
+/// Results are ranked without their epochs (F11 reverted): at the heal the result the cut-off
+/// controller agreed alone ranks with the majority's, and the votes differ. Domain 189.
+#[test]
+fn no_epoch_ranking_breaks_the_cut_healed() {
+    assert_caught(
+        "cut healed",
+        Mutation::NoEpochRanking,
+        189,
+        "vote",
+        |model, processes| model != processes,
     );
 }

@@ -134,6 +134,23 @@ fn stay_when_unplugged_is_caught() {
 }
 
 #[test]
+fn keep_incarnation_on_resume_is_caught() {
+    // The model's resumed controller starts again (initializing); the mutated one goes on.
+    assert_some_diff_shows(Mutation::KeepIncarnationOnResume, "phase", |model, core| {
+        model == "initializing" && core != "initializing"
+    });
+}
+
+#[test]
+fn no_epoch_ranking_is_caught() {
+    // After a healed cut the model's vote keeps the majority's roles; the mutated one ranks
+    // the result agreed alone with it and votes otherwise.
+    assert_some_diff_shows(Mutation::NoEpochRanking, "vote", |model, core| {
+        model != core
+    });
+}
+
+#[test]
 fn without_a_configured_mutation_the_hooks_are_inert() {
     let snapshots = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/snapshots");
     let traces = traces();

@@ -1,10 +1,12 @@
 //! `dds-replay-all [--mutation NAME] [TRACE.jsonl ...]`: the DDS-level replay of every trace
 //! the plan can time on real processes, not only the curated subset `tests/dds_replay.rs`
-//! replays (146 of the 350 traces, several minutes), each recording then validated strictly
-//! (docs/conformance.md, "DDS-level replay"). Given trace file names, only those.
+//! replays (174 of the 350 traces, several minutes), each recording then validated strictly
+//! (docs/conformance.md, "DDS-level replay"). Given trace file names, only those. A trace
+//! with cuts runs on the lab's virtual LAN (root: network namespaces and nftables), removed
+//! again at its end or on SIGINT, SIGTERM or SIGHUP.
 //! `--mutation NAME` runs the controllers with `RL_MUTATION=NAME` (a deliberately broken
-//! rule: `promote-without-failure`, `ignore-minority-vote`, `failback`, `admit-fourth`), to
-//! see which traces catch it; a failure then prints only what departed from the model.
+//! rule, one of `rl_layer::core::mutation::Mutation`), to see which traces catch it; a
+//! failure then prints only what departed from the model.
 //! The traces real processes cannot take are counted by reason at the end (each reason is
 //! argued in docs/conformance.md); `--refusals` only plans, printing each refused trace with
 //! its reason and the counts, in a second.
@@ -41,7 +43,8 @@ const DOMAIN: u16 = 199;
 #[command(name = "dds-replay-all")]
 struct Arguments {
     /// Run the controllers with this deliberately broken rule (`RL_MUTATION`):
-    /// promote-without-failure, ignore-minority-vote, failback, admit-fourth.
+    /// promote-without-failure, ignore-minority-vote, failback, admit-fourth,
+    /// stay-when-unplugged, keep-incarnation-on-resume, no-epoch-ranking.
     #[arg(long, value_name = "NAME")]
     mutation: Option<String>,
     /// Replay nothing: print each trace real processes cannot take with the reason, and the
@@ -56,6 +59,11 @@ struct Arguments {
 fn main() -> ExitCode {
     // Bad arguments exit 2 with clap's message naming them.
     let wanted = Arguments::parse();
+    // A trace with cuts builds a virtual LAN: interrupted, it is removed before exiting.
+    if let Err(error) = conformance::lab::lan::install_signal_cleanup() {
+        eprintln!("dds-replay-all: {error}");
+        return ExitCode::from(2);
+    }
     let setup = dds_replay::timing().and_then(|timing| {
         // Planning needs no controllers: `--refusals` runs without the rl build.
         let exe = if wanted.refusals {

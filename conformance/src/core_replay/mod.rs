@@ -19,18 +19,19 @@
 //!   starts at boundary + 10 ms, before the send slot, so its heartbeat is delivered at this
 //!   round's end and it hears this round's heartbeats, as in the model.
 //! - `Pause { controller }`: the core is not stepped and its heartbeats are not sent;
-//!   `Resume` starts a new core with the next incarnation, as the runtime does when it finds
-//!   its loop stalled for a peer deadline (impl/layer/src/stall.rs).
+//!   at `Resume` the stopped core is told `Input::StartAgain` with the next incarnation, as
+//!   the runtime does when it finds its loop stalled for a peer deadline
+//!   (impl/layer/src/stall.rs).
 //! - `Isolate` / `Heal { controller }`: every heartbeat to and from it is lost until healed.
-//!   `Unplug` cuts it off from the actuator too and starts a new core with the next
-//!   incarnation, as the runtime does when every link loses its carrier
+//!   `Unplug` cuts it off from the actuator too and tells the core `Input::StartAgain` with
+//!   the next incarnation, as the runtime does when every link loses its carrier
 //!   (impl/layer/src/link_watch.rs).
 //! - `Starve { controller }`: every live core learns that its commands arrive late, then
 //!   every other live peer's on time (`Input::Commands`, what the runtime measures,
 //!   impl/layer/src/runtime/arrival.rs); a takeover's writer is one every reader knows already.
 //!   `Lag` / `CatchUp`: the actuator stops and starts counting its writers. A core that says
-//!   `StartAgain` (deposed) is replaced by a new core with the next incarnation at the round's
-//!   end, as the runtime does.
+//!   `StartAgain` (deposed) is told `Input::StartAgain` with the next incarnation at the
+//!   round's end, as the runtime does.
 //! - `DiscoverWriter` / `TieBreak`: the actuator's events. The network runs the model's
 //!   actuator rule (`model::protocol::actuator::next_owner`) over the cores' writers (the
 //!   newest one once discovered, the retiring one for the round of a raise), so the owner

@@ -7,7 +7,9 @@ use crate::abstraction::{self, IncarnationNumbers, Observed};
 use model::traces::AbstractState;
 use model::{Action, Life};
 use rl_layer::core::types::{Arrival, TAKEOVER_STRENGTH};
-use rl_layer::core::{Command, ControllerId, Core, CoreConfig, Heartbeat, Input, Rounds, Timer};
+use rl_layer::core::{
+    Command, ControllerId, Core, CoreConfig, Heartbeat, Input, Restart, Rounds, Timer,
+};
 use std::collections::{BTreeMap, BTreeSet};
 
 /// Why a core was stepped.
@@ -52,6 +54,9 @@ struct Slot {
     incarnation: u8,
     /// The running core, while `life` is up.
     core: Option<Core>,
+    /// The stopped core, while `life` is paused: a resume continues it only under the
+    /// `KeepIncarnationOnResume` mutation.
+    paused: Option<Core>,
 }
 
 /// Real cores on a simulated clock and network, stepped by model actions.
@@ -126,6 +131,7 @@ impl<'a> CoreNetwork<'a> {
                 life: Life::NotStarted,
                 incarnation: c.incarnation,
                 core: None,
+                paused: None,
             });
             match c.life {
                 Life::Up => network.start_core(c.id, c.incarnation)?,
@@ -180,13 +186,51 @@ impl<'a> CoreNetwork<'a> {
         slot.life = Life::Up;
         slot.incarnation = incarnation;
         slot.core = Some(Core::new(config, start_ms));
+        self.forget_last_life(id);
+        Ok(())
+    }
+
+    /// A new life of `id`: the losses of its last life end, and its writers have new GUIDs,
+    /// so their tie order is not known yet.
+    fn forget_last_life(&mut self, id: ControllerId) {
         self.lost.retain(|&(from, to)| from != id && to != id);
-        // A new life's writers have new GUIDs: their tie order is not known yet.
         for other in self.slots.iter().map(|slot| slot.id) {
             let links = model::state::link_bit(id, other) | model::state::link_bit(other, id);
             self.actuator.tie_order &= !links;
         }
-        Ok(())
+    }
+
+    /// `Input::StartAgain` to a running core at `now_ms`, as the runtime sends it after a
+    /// stall, a lost carrier or a takeover from it, with the next incarnation; whether the
+    /// core started a new life (it does not under the `KeepIncarnationOnResume` and
+    /// `StayWhenUnplugged` mutations).
+    fn start_again(
+        &mut self,
+        id: ControllerId,
+        cause: Restart,
+        now_ms: u64,
+    ) -> Result<bool, Problem> {
+        let next = self.slot_mut(id)?.incarnation.saturating_add(1);
+        let stamp = u64::from(next);
+        let commands = self.live_core(id)?.step(
+            Input::StartAgain {
+                cause,
+                incarnation: stamp,
+            },
+            now_ms,
+        );
+        if commands.is_empty() {
+            return Ok(false);
+        }
+        let number = self.numbers.started(id, stamp);
+        if number != next {
+            return Err(Problem::Timing(format!(
+                "C{id} starts its life #{next}, but it is its start number {number}"
+            )));
+        }
+        self.slot_mut(id)?.incarnation = next;
+        self.forget_last_life(id);
+        Ok(true)
     }
 
     /// What an observer sees of every controller, in id order.
@@ -312,14 +356,29 @@ impl<'a> CoreNetwork<'a> {
             }
             // A stall restarts the controller as a new incarnation when it resumes (the
             // runtime's stall detection, impl/layer/src/stall.rs; the model's F12).
-            Action::Restart { controller } | Action::Resume { controller } => {
+            Action::Restart { controller } => {
                 let next = self.slot_mut(controller)?.incarnation.saturating_add(1);
                 self.start_core(controller, next)?;
                 log.insert(controller, vec![started()]);
             }
+            // The runtime finds its loop stalled for a peer deadline and tells the core to
+            // start again (impl/layer/src/stall.rs; the model's F12).
+            Action::Resume { controller } => {
+                let slot = self.slot_mut(controller)?;
+                let core = slot.paused.take().ok_or_else(|| {
+                    Problem::Timing(format!("C{controller} resumes but was not paused"))
+                })?;
+                slot.core = Some(core);
+                slot.life = Life::Up;
+                let stalled_ms = 2 * PERIOD_MS;
+                let now_ms = self.boundary_ms() + START_OFFSET_MS;
+                if self.start_again(controller, Restart::Stalled { stalled_ms }, now_ms)? {
+                    log.insert(controller, vec![started()]);
+                }
+            }
             Action::Pause { controller } => {
                 let slot = self.slot_mut(controller)?;
-                slot.core = None;
+                slot.paused = slot.core.take();
                 slot.life = Life::Paused;
             }
             Action::Isolate { controller } => {
@@ -330,13 +389,8 @@ impl<'a> CoreNetwork<'a> {
             Action::Unplug { controller } => {
                 self.isolated.insert(controller);
                 self.unplugged.insert(controller);
-                let restarts = self
-                    .live_core(controller)?
-                    .config()
-                    .restarts_when_unplugged();
-                if restarts {
-                    let next = self.slot_mut(controller)?.incarnation.saturating_add(1);
-                    self.start_core(controller, next)?;
+                let now_ms = self.boundary_ms() + START_OFFSET_MS;
+                if self.start_again(controller, Restart::Detached, now_ms)? {
                     log.insert(controller, vec![started()]);
                 }
             }
@@ -508,9 +562,9 @@ impl<'a> CoreNetwork<'a> {
         // A peer took over from it (F17): it starts again as a new incarnation at the round's
         // end, as the runtime does on `Command::StartAgain`.
         for id in deposed {
-            let next = self.slot_mut(id)?.incarnation.saturating_add(1);
-            self.start_core(id, next)?;
-            log.entry(id).or_default().push(started());
+            if self.start_again(id, Restart::Deposed, round_end)? {
+                log.entry(id).or_default().push(started());
+            }
         }
         Ok(())
     }

@@ -6,8 +6,8 @@
 //! - some controller reports a change at the first round's end (the replay aligns on it);
 //! - faults after a late start wait for a quiescent boundary;
 //! - a controller heard one round later at start (DDS discovery) changes nothing;
-//! - a process started after round 0 ends in the same settled state if discovery takes one or
-//!   two rounds more.
+//! - a process started after round 0, or a controller whose cables are plugged back in, ends
+//!   in the same settled state if it is heard one or two rounds later.
 
 use super::plan::{run_rounds, step, Mode, Plan, PlanError, RoundPlan};
 use model::traces::{abstract_state, AbstractState};
@@ -104,19 +104,13 @@ fn check_discovery_at_start(plan: &Plan) -> Result<(), PlanError> {
 }
 
 /// A process started after round 0 is heard once discovered: not in the round it starts (as
-/// the model's join is), but one or two rounds later; it must settle the same way.
+/// the model's join is), but one or two rounds later; it must settle the same way. So must a
+/// controller whose cables are plugged back in ([`Plan::newcomers`]).
 fn check_discovery_after_late_starts(plan: &Plan) -> Result<(), PlanError> {
     let config = &plan.config;
     let last = plan.expected(plan.last());
     for k in 1..plan.rounds.len() {
-        let newcomers: Vec<u8> = plan.rounds[k]
-            .lifecycle
-            .iter()
-            .filter_map(|a| match a {
-                Action::Join { controller } | Action::Restart { controller } => Some(*controller),
-                _ => None,
-            })
-            .collect();
+        let newcomers = plan.newcomers(k);
         if newcomers.is_empty() {
             continue;
         }

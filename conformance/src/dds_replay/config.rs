@@ -7,8 +7,10 @@
 //! ```text
 //!  +0     boundary: the controllers decide (status, output, strength) within milliseconds
 //!  +10    processes started at start
-//!  +20    the round's faults applied (kill -9, new processes, drop/accept control), at the
-//!         latest +50, before the heartbeats go out at +62 (a quarter period)
+//!  +20    the round's faults applied (kill -9, new processes, drop/accept control, SIGSTOP
+//!         and SIGCONT, nftables cuts and links down), at the latest +50, in force before
+//!         the heartbeats go out at +62 (a quarter period); SIGCONT no sooner than a peer
+//!         deadline after the SIGSTOP, the stall the model's resume stands for
 //!  +180   from here the servo's owner must be settled: a crash at +50 at the latest stops the
 //!         owner's commands, the servo gives up on it after the command deadline (100 ms) and
 //!         takes the next writer's command within a republish period (10 ms), plus 20 ms
@@ -31,6 +33,9 @@ pub const APPLY_LATEST_MS: u64 = 50;
 /// A boundary is observed this long after it: its reports are printed within milliseconds,
 /// and the servo's owner has settled (see [`RunTiming::owner_from_ms`]).
 pub const OBSERVE_OFFSET_MS: u64 = 230;
+/// A paused process is continued no sooner than this long after a peer deadline of standing
+/// still, so its loop surely finds the stall.
+pub const STALL_MARGIN_MS: u64 = 5;
 /// Scheduling slack added to the owner's settling time.
 pub const OWNER_MARGIN_MS: u64 = 20;
 /// The first reports must come within this long of the start.

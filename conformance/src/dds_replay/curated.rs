@@ -27,6 +27,12 @@ pub enum Need {
     LoneLoss,
     /// A controller is marked FAILED for a minority vote.
     MinorityVote,
+    /// A controller is stopped (SIGSTOP) for at least a stall and continued (SIGCONT): it
+    /// comes back as a new incarnation (F12).
+    PauseResumed,
+    /// A controller is cut off from its peers (nftables on the virtual LAN) and the cut is
+    /// healed later, in another round.
+    CutHealed,
 }
 
 /// Which scope of the trace set a curated entry takes its trace from.
@@ -36,6 +42,8 @@ pub enum Scope {
     Default,
     /// The persistent link failure (`model::Config::link_failure()`).
     LinkFailure,
+    /// Pauses and cuts of a running system (`model::Config::returns()`).
+    Returns,
 }
 
 impl Scope {
@@ -43,6 +51,7 @@ impl Scope {
         match self {
             Scope::Default => model::Config::default(),
             Scope::LinkFailure => model::Config::link_failure(),
+            Scope::Returns => model::Config::returns(),
         }
     }
 }
@@ -60,9 +69,9 @@ pub struct Curated {
     pub why: &'static str,
 }
 
-/// The curated subset: every fault kind at least once. Domains 190-197, 220 and 225 (198 is
-/// the recorded `rl demo` of trace validation, 199 the broken replay and `dds-replay-all`,
-/// 221-224 and 226 the mutation checks).
+/// The curated subset: every fault kind at least once. Domains 186, 187, 190-197, 220 and 225
+/// (198 is the recorded `rl demo` of trace validation, 199 the broken replay and
+/// `dds-replay-all`, 188, 189, 221-224 and 226 the mutation checks).
 pub const CURATED: &[Curated] = &[
     Curated {
         name: "crash of the Primary",
@@ -169,6 +178,32 @@ pub const CURATED: &[Curated] = &[
         why: "the link-failure scope's minority-voter witness: a link broken past the \
               minority grace, the minority voter marked FAILED and then failing itself",
     },
+    Curated {
+        name: "pause and resume",
+        need: Need::PauseResumed,
+        scope: Scope::Returns,
+        purposes: &[
+            "transition: tick by a voting controller (primary) -> voting (primary)",
+            "transition: tick by a voting controller (secondary) -> voting (secondary)",
+        ],
+        domain: 186,
+        why: "SIGSTOP of the steady Secondary for two rounds: its peers lose it and re-vote; \
+              SIGCONT, its loop finds itself stalled for a peer deadline and it comes back as \
+              a new incarnation, hearing the round it resumes in, and joins below the others",
+    },
+    Curated {
+        name: "cut healed",
+        need: Need::CutHealed,
+        scope: Scope::Returns,
+        purposes: &[
+            "transition: tick by a voting controller (primary) -> steady (tertiary)",
+            "witness: re-vote after heartbeat loss",
+        ],
+        domain: 187,
+        why: "nftables cut the Tertiary off from its peers (the actuator still hears it) for \
+              two rounds on the virtual LAN: it agrees alone meanwhile, and at the heal the \
+              majority's newer epoch ranks first (F11), so it comes back below them",
+    },
 ];
 
 /// The curated entry named `name`.
@@ -235,6 +270,15 @@ pub fn shows(plan: &Plan, need: Need) -> bool {
         Need::MinorityVote => plan.boundaries.iter().any(|s| {
             s.up()
                 .any(|c| c.phase == Phase::Failed || c.peers.iter().any(|p| p.failed))
+        }),
+        Need::PauseResumed => lifecycle().any(|(_, a)| matches!(a, Action::Resume { .. })),
+        Need::CutHealed => lifecycle().any(|(k, a)| match a {
+            Action::Heal { controller } => {
+                let state = &plan.boundaries[k];
+                state.isolated & 1 << (controller - 1) != 0
+                    && state.unplugged & 1 << (controller - 1) == 0
+            }
+            _ => false,
         }),
     }
 }

@@ -52,6 +52,9 @@ pub enum ReplayError {
         path: PathBuf,
         source: std::io::Error,
     },
+    /// The virtual LAN a trace with cuts runs on could not be built (it needs root).
+    #[error("building the virtual LAN for traces/{file}'s cuts: {error}")]
+    Lan { file: String, error: String },
     /// The processes did not do what the model says.
     #[error(transparent)]
     Diverged(Box<Diverged>),
@@ -237,6 +240,16 @@ pub enum Problem {
         id: ControllerId,
         source: std::io::Error,
     },
+    /// A controller could not be stopped or continued.
+    #[error("signal {signal} to C{id}: {source}")]
+    Signal {
+        id: ControllerId,
+        signal: i32,
+        source: std::io::Error,
+    },
+    /// A cut, a pulled cable or a heal could not be applied on the virtual LAN.
+    #[error("{action}: {why}")]
+    Cut { action: model::Action, why: String },
     /// The fault-injection control (the controller's stdin) could not be written.
     #[error("{source_name}'s fault-injection control (stdin): {source}")]
     Control {

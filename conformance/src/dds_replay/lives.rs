@@ -1,5 +1,7 @@
-//! The controller processes of one attempt, one [`Life`] per process (a restart is a new
-//! life), and what they reported at a round boundary, abstracted.
+//! The controller processes of one attempt, one [`Life`] per life of a process (a restart is
+//! a new process; a process that starts again as a new incarnation after a stall or a pulled
+//! cable has a new life too, [`Life::next_incarnation`]), and what they reported at a round
+//! boundary, abstracted.
 //!
 //! A life's state at a boundary is its last `status` event with the later `alarm` events
 //! applied ([`crate::record`]); its life (up, down, not started) comes from the harness,
@@ -26,6 +28,14 @@ pub struct Life {
     pub stamped: bool,
     /// Peers whose heartbeats it drops now.
     pub dropping: BTreeSet<ControllerId>,
+    /// The real round it was stopped in (SIGSTOP), and the one it was continued in
+    /// (SIGCONT): paused at the boundaries after the first up to the second.
+    pub paused_round: Option<u64>,
+    pub resumed_round: Option<u64>,
+    /// The wall-clock time of its SIGSTOP.
+    pub paused_wall_ms: Option<u64>,
+    /// Its process went on as a new incarnation: a later life.
+    pub replaced: bool,
 }
 
 impl Life {
@@ -44,11 +54,45 @@ impl Life {
             killed_round: None,
             stamped: false,
             dropping: BTreeSet::new(),
+            paused_round: None,
+            resumed_round: None,
+            paused_wall_ms: None,
+            replaced: false,
         }
     }
 
+    /// The life its process goes on with when it reports incarnation `incarnation` (a new
+    /// life after a stall or a pulled cable), first heard in real round `round`; this one is
+    /// marked replaced.
+    pub fn next_incarnation(&mut self, incarnation: u64, round: u64, wall_ms: u64) -> Life {
+        self.replaced = true;
+        Life {
+            log: LifeLog {
+                id: self.log.id,
+                incarnation,
+                source: self.log.source.clone(),
+                events: Vec::new(),
+            },
+            spawned_round: round,
+            started_wall_ms: wall_ms,
+            killed_round: None,
+            stamped: true,
+            dropping: self.dropping.clone(),
+            paused_round: None,
+            resumed_round: None,
+            paused_wall_ms: None,
+            replaced: false,
+        }
+    }
+
+    /// Whether it is stopped at the boundary of real round `real`.
+    pub fn paused_at(&self, real: u64) -> bool {
+        self.paused_round.is_some_and(|p| p < real) && self.resumed_round.is_none_or(|r| r >= real)
+    }
+
+    /// Its process runs (or is stopped) as this life.
     pub fn is_running(&self) -> bool {
-        self.killed_round.is_none()
+        self.killed_round.is_none() && !self.replaced
     }
 }
 
@@ -59,6 +103,11 @@ pub fn source_name(id: ControllerId, number: u8) -> String {
     } else {
         format!("C{id}#{number}")
     }
+}
+
+/// The life its process `source` runs as now.
+pub fn of_process_mut<'l>(lives: &'l mut [Life], source: &str) -> Option<&'l mut Life> {
+    lives.iter_mut().rev().find(|l| l.log.source == source)
 }
 
 /// The latest life of `id`.
@@ -92,6 +141,9 @@ pub fn observe(
             match life {
                 None => Observed::NotStarted,
                 Some(life) if life.killed_round.is_some_and(|k| k < real) => Observed::Down {
+                    incarnation: life.log.incarnation,
+                },
+                Some(life) if life.paused_at(real) => Observed::Paused {
                     incarnation: life.log.incarnation,
                 },
                 Some(life) => Observed::Up(Box::new(life.log.status_at_boundary(real, period_ms))),

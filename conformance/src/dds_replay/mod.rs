@@ -3,7 +3,9 @@
 //! actuator's owner read from a real `rl servo --json` beside them, and the recording then
 //! validated strictly against the model.
 //!
-//! Faults are real: a crash is `kill -9`, a restart or join is a new process, and a lost
+//! Faults are real: a crash is `kill -9`, a restart or join is a new process, a pause is
+//! SIGSTOP and a resume SIGCONT, a cut is nftables and a pulled cable links down on the fault
+//! lab's virtual LAN (a trace with either runs there, [`cuts`]), and a lost
 //! heartbeat is dropped on arrival by the receiving process (the `fault-injection` build of
 //! `rl` reads `drop-heartbeats-from <id>` / `accept-heartbeats-from <id>` on its stdin and
 //! logs every drop): a `LoseHeartbeat { from, to }` in round `r` makes `to` drop `from`'s
@@ -33,13 +35,15 @@
 //! against the model), [`curated`](mod@curated) (which traces), [`config`] (the `rl.toml` and the
 //! timing), [`binary`] (building `rl`), [`processes`] (the children), [`lives`] (a
 //! controller process's record and observation), [`servo`] (the actuator's owner),
-//! [`drops`] (injected losses against logged drops), [`run`] (one attempt's steps),
+//! [`drops`] (injected losses against logged drops), [`cuts`] (cuts and pulled cables on the
+//! virtual LAN), [`run`] (one attempt's steps),
 //! [`transcript`] (output and recording), [`error`].
 
 pub mod binary;
 pub mod checks;
 pub mod config;
 pub mod curated;
+pub mod cuts;
 pub mod drops;
 pub mod error;
 pub mod lives;
@@ -59,6 +63,7 @@ pub use curated::{curated, select, shows, Curated, Need, Scope, SelectError, Sel
 pub use error::{BinaryError, Diverged, Failure, Problem, ReplayError};
 pub use plan::{plan, replay_timing, Mode, Plan, PlanError, RoundPlan};
 
+use crate::lab::lan::Lan;
 use crate::record::{round_of, Recording};
 use crate::validate::{self, Accepted};
 use plan::Mode as PlanMode;
@@ -100,12 +105,22 @@ pub struct Replayed {
 pub fn replay(plan: &Plan, setup: &Setup) -> Result<Replayed, ReplayError> {
     let timing = run_timing()?;
     let started = Instant::now();
+    // One LAN for every attempt; dropped (namespaces, links and all) when the replay ends.
+    let lan = if plan.needs_lan() {
+        let built = Lan::build(&Lan::fresh_prefix()).map_err(|e| ReplayError::Lan {
+            file: plan.file.clone(),
+            error: e.to_string(),
+        })?;
+        Some(built)
+    } else {
+        None
+    };
     let mut earlier = Vec::new();
     let mut attempt = 0;
     loop {
         attempt += 1;
         let config = prepare_dir(setup.record_dir)?;
-        let mut run = Run::new(plan, setup, timing, &config);
+        let mut run = Run::new(plan, setup, timing, &config, lan.as_ref());
         let outcome = carry_out(&mut run);
         run.stop();
         run.output().write_record(setup.record_dir)?;

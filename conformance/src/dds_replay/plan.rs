@@ -16,7 +16,8 @@
 //!   losses are dropped for that round, its crashes are `kill -9` at the round's start, and
 //!   every boundary is compared;
 //! - a restart or join after round 0 ends the lockstep (the new process is heard only after
-//!   discovery); the replay then waits, with a bounded wait, for the next quiescent boundary
+//!   discovery), and so does a pulled cable plugged back in (heard once its neighbours are
+//!   resolved again); the replay then waits, with a bounded wait, for the next quiescent boundary
 //!   (one a round's end leaves unchanged) and re-aligns there if faults follow, or for the
 //!   settled end;
 //! - after the trace's last step the model adds rounds without faults until nothing changes
@@ -31,10 +32,14 @@ use crate::validate::Timing;
 use model::state::link_bit;
 use model::traces::{abstract_state, AbstractState};
 use model::{protocol, Action, Life, State};
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write;
 
 pub use super::refusal::PlanError;
+
+/// A cut needs a network namespace per controller: the virtual LAN's three
+/// (`crate::lab::lan::CONTROLLER_IDS`).
+pub const CUT_CONTROLLERS_MAX: usize = 3;
 
 /// The most rounds the model may take to settle after a trace's last step.
 pub const SETTLE_ROUNDS_MAX: usize = 40;
@@ -42,7 +47,8 @@ pub const SETTLE_ROUNDS_MAX: usize = 40;
 /// What happens during one round of the plan.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct RoundPlan {
-    /// Crashes, restarts and joins, in the trace's order.
+    /// Crashes, restarts, joins, pauses, resumes, cuts, pulled cables and heals, in the
+    /// trace's order.
     pub lifecycle: Vec<Action>,
     /// Heartbeats lost at the round's end, `(from, to)`: `to` drops `from`'s heartbeats for
     /// the round.
@@ -54,11 +60,11 @@ impl RoundPlan {
         self.lifecycle.is_empty() && self.lost.is_empty()
     }
 
-    /// A process starts (join or restart) in this round.
-    pub fn starts_process(&self) -> bool {
+    /// A cut or a pulled cable: the replay needs the virtual LAN.
+    pub fn cuts(&self) -> bool {
         self.lifecycle
             .iter()
-            .any(|a| matches!(a, Action::Join { .. } | Action::Restart { .. }))
+            .any(|a| matches!(a, Action::Isolate { .. } | Action::Unplug { .. }))
     }
 }
 
@@ -107,9 +113,40 @@ impl Plan {
         abstract_state(&self.boundaries[k])
     }
 
+    /// Whether the controllers must run on the virtual LAN (a network namespace each), for a
+    /// cut or a pulled cable; otherwise they run on loopback.
+    pub fn needs_lan(&self) -> bool {
+        self.rounds.iter().any(RoundPlan::cuts)
+    }
+
     /// The last boundary: the settled end.
     pub fn last(&self) -> usize {
         self.boundaries.len() - 1
+    }
+
+    /// The controllers heard only once DDS has found them again after round `k`: a process
+    /// started in it (join or restart), or one whose cables are plugged back in (a heal of
+    /// a pulled cable: its neighbours must be resolved again before unicast flows).
+    pub fn newcomers(&self, k: usize) -> Vec<u8> {
+        let Some(round) = self.rounds.get(k) else {
+            return Vec::new();
+        };
+        let mut unplugged = self.boundaries[k].unplugged;
+        let mut out = Vec::new();
+        for action in &round.lifecycle {
+            match *action {
+                Action::Join { controller } | Action::Restart { controller } => {
+                    out.push(controller);
+                }
+                Action::Unplug { controller } => unplugged |= 1 << (controller - 1),
+                Action::Heal { controller } if unplugged & 1 << (controller - 1) != 0 => {
+                    unplugged &= !(1 << (controller - 1));
+                    out.push(controller);
+                }
+                _ => {}
+            }
+        }
+        out
     }
 
     /// How the replay reaches each boundary (index `k`, `0..=last`).
@@ -127,7 +164,7 @@ impl Plan {
                 Mode::Free
             };
             modes.push(mode);
-            if self.rounds.get(k).is_some_and(RoundPlan::starts_process) {
+            if !self.newcomers(k).is_empty() {
                 lockstep = false;
             }
         }
@@ -279,6 +316,8 @@ fn rebuild(trace: &Trace, config: &model::Config, initial: State) -> Result<Rebu
     let mut boundaries = vec![initial.clone()];
     let mut state = initial;
     let mut round_has_other_action = false;
+    // The round each paused controller was paused in.
+    let mut paused_in: BTreeMap<u8, usize> = BTreeMap::new();
     for trace_step in &trace.steps {
         let action = trace_step.action;
         match action {
@@ -291,30 +330,48 @@ fn rebuild(trace: &Trace, config: &model::Config, initial: State) -> Result<Rebu
                 rounds.push(RoundPlan::default());
                 round_has_other_action = false;
             }
+            Action::ExpireWindow { .. } if round_has_other_action => {
+                return Err(PlanError::WindowAfterOtherAction {
+                    step: trace_step.number,
+                });
+            }
             Action::ExpireWindow { .. } => {
-                if round_has_other_action {
-                    return Err(PlanError::WindowAfterOtherAction {
-                        step: trace_step.number,
-                    });
-                }
                 state = step(config, &state, action)?;
                 if let Some(last) = boundaries.last_mut() {
                     *last = state.clone();
                 }
             }
             Action::DeliverVotes { .. } => return Err(PlanError::PaperVariantAction),
-            Action::Pause { .. }
-            | Action::Resume { .. }
-            | Action::Isolate { .. }
-            | Action::Unplug { .. }
-            | Action::Starve { .. }
-            | Action::Lag { .. }
-            | Action::CatchUp { .. }
-            | Action::Heal { .. } => {
-                return Err(PlanError::PauseOrCut {
+            Action::Starve { .. } | Action::Lag { .. } | Action::CatchUp { .. } => {
+                return Err(PlanError::StarvedLink {
                     step: trace_step.number,
                     action,
                 })
+            }
+            Action::Resume { controller } => {
+                let paused_in = paused_in.remove(&controller).unwrap_or(0);
+                let rounds_paused = (rounds.len() - 1).saturating_sub(paused_in);
+                if rounds_paused < usize::from(config.dead_after_rounds) {
+                    return Err(PlanError::ShortPause {
+                        step: trace_step.number,
+                        controller,
+                        rounds: rounds_paused,
+                        stall_rounds: config.dead_after_rounds,
+                    });
+                }
+                state = step(config, &state, action)?;
+                if let Some(round) = rounds.last_mut() {
+                    round.lifecycle.push(action);
+                }
+                round_has_other_action = true;
+            }
+            Action::Pause { controller } => {
+                paused_in.insert(controller, rounds.len() - 1);
+                state = step(config, &state, action)?;
+                if let Some(round) = rounds.last_mut() {
+                    round.lifecycle.push(action);
+                }
+                round_has_other_action = true;
             }
             // The actuator's own events: DDS does them; the model keeps its owner.
             Action::DiscoverWriter { .. } | Action::TieBreak { .. } => {
@@ -324,7 +381,19 @@ fn rebuild(trace: &Trace, config: &model::Config, initial: State) -> Result<Rebu
                 state = step(config, &state, action)?;
                 round_has_other_action = true;
             }
-            Action::Crash { .. } | Action::Restart { .. } | Action::Join { .. } => {
+            Action::Crash { .. }
+            | Action::Restart { .. }
+            | Action::Join { .. }
+            | Action::Isolate { .. }
+            | Action::Unplug { .. }
+            | Action::Heal { .. } => {
+                if matches!(action, Action::Isolate { .. } | Action::Unplug { .. })
+                    && state.controllers.len() > CUT_CONTROLLERS_MAX
+                {
+                    return Err(PlanError::CutBeyondTheLan {
+                        controllers: state.controllers.len(),
+                    });
+                }
                 state = step(config, &state, action)?;
                 if let Some(round) = rounds.last_mut() {
                     round.lifecycle.push(action);

@@ -1,11 +1,15 @@
 //! The replay's child processes: `rl controller --json-events` with its stdin piped (the
-//! fault-injection control), and `rl servo --json`. Every line they print reaches one channel,
+//! fault-injection control), and `rl servo --json`, on loopback or, for a trace with cuts,
+//! each in its node's network namespace of the virtual LAN ([`Namespaces`]; `ip netns exec`
+//! execs the program, so the child's pid is the program's and a signal reaches it). Every
+//! line they print reaches one channel,
 //! stamped with the wall clock when it was read. The children are kept here, not in
 //! `rl::procs::Fleet`, so the replay can tell a process that exited on its own
 //! ([`Processes::exited`], `try_wait`) from one it killed.
 
 use rl::procs::wall_ms;
 use rl_layer::core::ControllerId;
+use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdin, Command, ExitStatus, Stdio};
@@ -34,9 +38,19 @@ struct Process {
     exit_reported: bool,
 }
 
+/// The network namespace each process runs in, on the virtual LAN
+/// (`crate::lab::lan::Lan::ns`).
+#[derive(Clone, Debug, Default)]
+pub struct Namespaces {
+    pub controllers: BTreeMap<ControllerId, String>,
+    pub servo: String,
+}
+
 /// The children of one attempt, stopped when dropped.
 pub struct Processes {
     exe: PathBuf,
+    /// Where each child runs; `None`: on loopback, in this namespace.
+    namespaces: Option<Namespaces>,
     config: PathBuf,
     domain: u16,
     /// Environment for controllers only (`RL_MUTATION`).
@@ -53,6 +67,7 @@ impl Processes {
         config: &Path,
         domain: u16,
         mutation: Option<&str>,
+        namespaces: Option<Namespaces>,
     ) -> (Processes, Receiver<Line>) {
         let (lines, receiver) = mpsc::channel();
         let controller_env = mutation
@@ -60,6 +75,7 @@ impl Processes {
             .unwrap_or_default();
         let processes = Processes {
             exe: exe.to_path_buf(),
+            namespaces,
             config: config.to_path_buf(),
             domain,
             controller_env,
@@ -69,8 +85,17 @@ impl Processes {
         (processes, receiver)
     }
 
-    fn command(&self, args: &[&str]) -> Command {
-        let mut command = Command::new(&self.exe);
+    /// `rl args ...` in namespace `ns` (`ip netns exec`, which passes the environment on), or
+    /// here.
+    fn command(&self, ns: Option<&str>, args: &[&str]) -> Command {
+        let mut command = match ns {
+            Some(ns) => {
+                let mut command = Command::new("ip");
+                command.args(["netns", "exec", ns]).arg(&self.exe);
+                command
+            }
+            None => Command::new(&self.exe),
+        };
         command
             .args(args)
             .arg("--config")
@@ -87,7 +112,14 @@ impl Processes {
     /// Starts `rl controller --id <id> --json-events` tagged `source`, its stdin piped.
     pub fn start_controller(&mut self, id: ControllerId, source: &str) -> std::io::Result<()> {
         let id_text = id.to_string();
-        let mut command = self.command(&["controller", "--id", &id_text, "--json-events"]);
+        let ns = self
+            .namespaces
+            .as_ref()
+            .map(|n| n.controllers.get(&id).cloned().ok_or(id))
+            .transpose()
+            .map_err(|id| std::io::Error::other(format!("no namespace for C{id}")))?;
+        let args = ["controller", "--id", &id_text, "--json-events"];
+        let mut command = self.command(ns.as_deref(), &args);
         command.stdin(Stdio::piped());
         for (key, value) in &self.controller_env {
             command.env(key, value);
@@ -97,7 +129,8 @@ impl Processes {
 
     /// Starts `rl servo --json`.
     pub fn start_servo(&mut self) -> std::io::Result<()> {
-        let command = self.command(&["servo", "--json"]);
+        let ns = self.namespaces.as_ref().map(|n| n.servo.clone());
+        let command = self.command(ns.as_deref(), &["servo", "--json"]);
         self.spawn(command, SERVO)
     }
 
@@ -137,6 +170,15 @@ impl Processes {
         Ok(())
     }
 
+    /// Sends `signal` (SIGSTOP, SIGCONT) to a running child.
+    pub fn signal(&mut self, source: &str, signal: i32) -> std::io::Result<()> {
+        let process = self
+            .find(source)
+            .filter(|p| !p.killed)
+            .ok_or_else(|| std::io::Error::other("not started, or killed"))?;
+        rl::procs::signal(process.child.id(), signal)
+    }
+
     /// Writes `text` to a controller's stdin (the fault-injection control).
     pub fn send(&mut self, source: &str, text: &str) -> std::io::Result<()> {
         let stdin = self
@@ -168,6 +210,8 @@ impl Processes {
         for process in &mut self.processes {
             process.stdin = None;
             if matches!(process.child.try_wait(), Ok(None)) {
+                // A paused child takes SIGTERM only once it runs again.
+                let _ = rl::procs::signal(process.child.id(), libc::SIGCONT);
                 let _ = rl::procs::signal(process.child.id(), libc::SIGTERM);
             }
         }

@@ -36,10 +36,29 @@ pub enum PlanError {
     /// `DeliverVotes` belongs to the paper variant.
     #[error("durable-vote delivery exists only in the paper variant")]
     PaperVariantAction,
-    /// Pauses, cuts and starved links need a process stopped or a network cut or shaped on
-    /// schedule, which this replay does not do (the process tests and the fault lab do).
-    #[error("step {step}: \"{action}\" (a pause or a cut) is not replayed on processes")]
-    PauseOrCut { step: usize, action: Action },
+    /// A starved link delays some datagrams and drops others as the queue decides: the round
+    /// in which the actuator misses a deadline or a peer sees a late command (`Lag`,
+    /// `CatchUp`, F17's takeover) is the kernel's, not a round the replay can choose (the
+    /// fault lab's `tbf-*` scenarios judge it by outcome).
+    #[error("step {step}: \"{action}\" (a starved link) is not replayed on processes")]
+    StarvedLink { step: usize, action: Action },
+    /// A resume sooner than a peer deadline after its pause: the runtime restarts only after
+    /// a stall of at least a peer deadline (impl/layer/src/stall.rs), which the model's
+    /// `Resume` stands for.
+    #[error(
+        "step {step}: C{controller} resumes {rounds} round(s) after its pause, sooner than \
+         the stall the runtime restarts after ({stall_rounds} rounds)"
+    )]
+    ShortPause {
+        step: usize,
+        controller: u8,
+        rounds: usize,
+        stall_rounds: u8,
+    },
+    /// A cut needs each controller in a network namespace of its own, and the virtual LAN
+    /// has three.
+    #[error("a cut among {controllers} controllers (the virtual LAN has three)")]
+    CutBeyondTheLan { controllers: usize },
     /// The model keeps changing after the trace's last step.
     #[error("does not settle within {rounds} rounds")]
     NoSettle { rounds: usize },
@@ -94,7 +113,9 @@ impl PlanError {
                 "a window expires after another action of its round"
             }
             PlanError::PaperVariantAction => "durable-vote delivery (the paper variant)",
-            PlanError::PauseOrCut { .. } => "a pause or a cut",
+            PlanError::StarvedLink { .. } => "a starved link",
+            PlanError::ShortPause { .. } => "a pause shorter than a stall",
+            PlanError::CutBeyondTheLan { .. } => "a cut among more than three controllers",
             PlanError::NoSettle { .. } => "no settled end",
             PlanError::NoRoundEnds => "no round ends",
             PlanError::NoFirstReport => "no report at the first round's end",

@@ -1,22 +1,26 @@
 //! One attempt's processes and what they printed, and the steps the driver ([`super`]) takes
-//! with them: start, apply a round's faults on time, wait for and compare a boundary. Every
+//! with them: start, apply a round's faults on time (a pause is SIGSTOP, a resume SIGCONT,
+//! cuts and pulled cables are [`super::cuts`] on the virtual LAN), wait for and compare a
+//! boundary. Every
 //! observation first checks the processes' health: a process the plan did not kill must
 //! still run, and the heartbeat drops logged so far must be the injected ones
 //! ([`super::drops`]).
 
 use super::config::{
     RunTiming, APPLY_LATEST_MS, APPLY_OFFSET_MS, FIRST_REPORT_TIMEOUT, OBSERVE_OFFSET_MS,
-    SETTLE_TIMEOUT,
+    SETTLE_TIMEOUT, STALL_MARGIN_MS,
 };
+use super::cuts::Cuts;
 use super::drops::DropBook;
 use super::error::{owner_name, owners_allowed, Failure, Problem};
 use super::lives::{self, Life};
 use super::plan::{owners, Plan, RoundPlan};
-use super::processes::{Line, Processes, SERVO};
+use super::processes::{Line, Namespaces, Processes, SERVO};
 use super::servo::{describe_counts, OwnerSeen, ServoView};
 use super::transcript::Output;
 use super::Setup;
 use crate::diff::state_diff;
+use crate::lab::lan::{Lan, Node};
 use crate::record::{describe_event, round_of};
 use model::traces::AbstractState;
 use model::Action;
@@ -63,13 +67,35 @@ pub(super) struct Run<'a> {
     output: Output,
     /// The real round of the first boundary, once known.
     first_round: Option<u64>,
+    /// The cuts and pulled cables in force, on the virtual LAN (if the plan has any).
+    cuts: Option<Cuts<'a>>,
 }
 
 impl<'a> Run<'a> {
-    pub fn new(plan: &'a Plan, setup: &Setup, timing: RunTiming, config: &std::path::Path) -> Self {
-        let (processes, lines) =
-            Processes::new(setup.exe, config, setup.domain, setup.mutation.as_deref());
+    /// An attempt on loopback, or on `lan` (one namespace per node) if given.
+    pub fn new(
+        plan: &'a Plan,
+        setup: &Setup,
+        timing: RunTiming,
+        config: &std::path::Path,
+        lan: Option<&'a Lan>,
+    ) -> Self {
+        let namespaces = lan.map(|lan| Namespaces {
+            controllers: crate::lab::lan::CONTROLLER_IDS
+                .iter()
+                .map(|&id| (id, lan.ns(Node::Controller(id))))
+                .collect(),
+            servo: lan.ns(Node::Actuator),
+        });
+        let (processes, lines) = Processes::new(
+            setup.exe,
+            config,
+            setup.domain,
+            setup.mutation.as_deref(),
+            namespaces,
+        );
         Run {
+            cuts: lan.map(Cuts::new),
             plan,
             timing,
             processes,
@@ -309,7 +335,24 @@ impl<'a> Run<'a> {
             return Err(self.failure(true, Problem::HarnessLate { real, late_ms }));
         }
         self.drops.require(k, real, &round.lost);
-        self.apply(round, real)
+        self.apply(round, real)?;
+        // A pause or a cut must be in force before the round's heartbeats go out.
+        let done_ms = wall_ms().saturating_sub(boundary_ms);
+        let heartbeats_ms = self.period_ms() / 4;
+        let interrupts = round.lifecycle.iter().any(|a| {
+            !matches!(
+                a,
+                Action::Crash { .. } | Action::Join { .. } | Action::Restart { .. }
+            )
+        });
+        if interrupts && done_ms >= heartbeats_ms {
+            let problem = Problem::HarnessLate {
+                real,
+                late_ms: done_ms,
+            };
+            return Err(self.failure(true, problem));
+        }
+        Ok(())
     }
 
     /// Whether some process still drops heartbeats.
@@ -322,11 +365,35 @@ impl<'a> Run<'a> {
     /// Starts, kills, and sets every live process's dropped peers to the round's losses.
     fn apply(&mut self, round: &RoundPlan, real: u64) -> Result<(), Failure> {
         self.check_exits(real)?;
-        for action in &round.lifecycle {
+        // Signals first: they take microseconds, a cut's tables milliseconds, and the stall
+        // a pause stands for must begin as early in its round as it can.
+        let (signals, others): (Vec<Action>, Vec<Action>) = round
+            .lifecycle
+            .iter()
+            .copied()
+            .partition(|a| matches!(a, Action::Pause { .. } | Action::Resume { .. }));
+        for action in signals.iter().chain(&others) {
             match *action {
                 Action::Crash { controller } => self.kill(controller, real)?,
                 Action::Join { controller } | Action::Restart { controller } => {
                     self.spawn(controller, real)?;
+                }
+                Action::Pause { controller } => self.pause(controller, true, real)?,
+                Action::Resume { controller } => self.pause(controller, false, real)?,
+                Action::Isolate { .. } | Action::Unplug { .. } | Action::Heal { .. } => {
+                    let result = match self.cuts.as_mut() {
+                        Some(cuts) => cuts.apply(*action),
+                        None => Err(format!("{action}: the run has no virtual LAN")),
+                    };
+                    if let Err(why) = result {
+                        return Err(self.failure(
+                            false,
+                            Problem::Cut {
+                                action: *action,
+                                why,
+                            },
+                        ));
+                    }
                 }
                 _ => {}
             }
@@ -366,6 +433,34 @@ impl<'a> Run<'a> {
             }
             self.drops.written(&source_name, wall_ms(), &wanted);
             self.lives[index].dropping = wanted;
+        }
+        Ok(())
+    }
+
+    /// SIGSTOP (`stop`) or SIGCONT in real round `real`. The model's resume stands for a
+    /// stall of at least a peer deadline, which is what the runtime restarts after
+    /// (impl/layer/src/stall.rs), so SIGCONT waits until the process has stood still that long.
+    fn pause(&mut self, id: ControllerId, stop: bool, real: u64) -> Result<(), Failure> {
+        let stall_ms = self.period_ms() * u64::from(self.timing.rounds.dead_after_rounds);
+        let stopped_ms = lives::current_mut(&mut self.lives, id).and_then(|l| l.paused_wall_ms);
+        if let (false, Some(stopped_ms)) = (stop, stopped_ms) {
+            self.sleep_until(stopped_ms + stall_ms + STALL_MARGIN_MS);
+        }
+        let Some(life) = lives::current_mut(&mut self.lives, id) else {
+            return Ok(());
+        };
+        let signal = if stop {
+            life.paused_round = Some(real);
+            life.resumed_round = None;
+            life.paused_wall_ms = Some(wall_ms());
+            libc::SIGSTOP
+        } else {
+            life.resumed_round = Some(real);
+            libc::SIGCONT
+        };
+        let source_name = life.log.source.clone();
+        if let Err(source) = self.processes.signal(&source_name, signal) {
+            return Err(self.failure(false, Problem::Signal { id, signal, source }));
         }
         Ok(())
     }
@@ -422,12 +517,19 @@ impl<'a> Run<'a> {
         } else if let Some(event) = EventLine::parse(&line.text) {
             let is_leds = matches!(event.event, Event::Leds { .. });
             let shown = (!is_leds).then(|| describe_event(&event, None));
-            if let Some(life) = self.lives.iter_mut().find(|l| l.log.source == line.source) {
+            if let Some(life) = lives::of_process_mut(&mut self.lives, &line.source) {
                 if !life.stamped {
                     life.log.incarnation = event.incarnation;
                     life.stamped = true;
                 }
-                life.log.events.push(event);
+                if event.incarnation == life.log.incarnation {
+                    life.log.events.push(event);
+                } else {
+                    // The process went on as a new incarnation (after a stall, a lost carrier).
+                    let mut next = life.next_incarnation(event.incarnation, round, line.wall_ms);
+                    next.log.events.push(event);
+                    self.lives.push(next);
+                }
             }
             shown
         } else {
@@ -489,6 +591,10 @@ impl<'a> Run<'a> {
     /// Stops every process (SIGTERM, then SIGKILL) and takes in their last lines.
     pub fn stop(&mut self) {
         self.processes.stop_all();
+        // The LAN outlives the attempt: the next one starts with every link whole.
+        if let Some(cuts) = self.cuts.as_mut() {
+            cuts.heal_all();
+        }
         self.pump(Duration::from_millis(200));
     }
 

@@ -257,6 +257,34 @@ fn peers(id: u8) -> Vec<Node> {
         .collect()
 }
 
+/// What a cut of controller `id` drops, in which namespace: at `id`, everything from and to
+/// its peers; at each peer, everything from and to `id` (so its multicast, which no
+/// address rule at `id` names, is dropped where it arrives). The actuator and camera still
+/// hear it.
+pub fn cut_rules(id: u8) -> Vec<(Node, Rules)> {
+    let me = Node::Controller(id);
+    let mut rules = vec![(me, Rules::isolate_from(&peers(id)))];
+    rules.extend(
+        peers(id)
+            .into_iter()
+            .map(|n| (n, Rules::isolate_from(&[me]))),
+    );
+    rules
+}
+
+/// Pulls controller `id`'s cables: the host ends of its links into both nets down, so it
+/// sees its carrier go (`rl_layer::link_watch`), which firewall rules never show it. Returns
+/// the links to bring up again.
+pub fn unplug(lan: &Lan, id: u8) -> Result<Vec<String>, LabError> {
+    let mut down = Vec::new();
+    for net in Net::BOTH {
+        let link = lan.link(Node::Controller(id), net);
+        host::run("ip", &["link", "set", &link, "down"])?;
+        down.push(link);
+    }
+    Ok(down)
+}
+
 /// Applies `fault` (its target resolved to `target`: `None` for a fault without one, such as a
 /// whole net down); `table` names its nftables table.
 pub fn apply(
@@ -295,14 +323,7 @@ pub fn apply(
             rules.extend(alone.iter().map(|n| (*n, Rules::isolate_from(&others))));
             rules.extend(others.iter().map(|n| (*n, Rules::isolate_from(&alone))));
         }
-        Fault::Cut(_) => {
-            rules.push((me, Rules::isolate_from(&peers(id))));
-            rules.extend(
-                peers(id)
-                    .into_iter()
-                    .map(|n| (n, Rules::isolate_from(&[me]))),
-            );
-        }
+        Fault::Cut(_) => rules.extend(cut_rules(id)),
         Fault::OneWay(_, Direction::Out) => {
             rules.extend(peers(id).into_iter().map(|n| (n, Rules::deaf_to(&[me]))));
         }
@@ -313,15 +334,7 @@ pub fn apply(
             let links = Net::BOTH.map(|net| lan.link(me, net)).to_vec();
             applied.flapper = Some(start_flapping(links, *seed));
         }
-        // The link down rather than nftables: the controller must see its carrier go, as on
-        // a pulled cable (`rl_layer::link_watch`), which firewall rules never show it.
-        Fault::Unplug(_) => {
-            for net in Net::BOTH {
-                let link = lan.link(me, net);
-                host::run("ip", &["link", "set", &link, "down"])?;
-                applied.links_down.push(link);
-            }
-        }
+        Fault::Unplug(_) => applied.links_down = unplug(lan, id)?,
         Fault::ClockOffset(_, offset_s) => {
             procs.clock_offsets_s.insert(id, *offset_s);
             procs.stop(id);

@@ -20,13 +20,15 @@ pub const VARIABLE: &str = "RL_MUTATION";
 
 /// The names a `mutation` build of `rl` knows (`rl_layer::core::mutation::Mutation::name`). The
 /// lab's own `rl` dependency is built without that feature, so a test keeps the two equal.
-pub const NAMES: [&str; 6] = [
+pub const NAMES: [&str; 8] = [
     "promote-without-failure",
     "ignore-minority-vote",
     "failback",
     "admit-fourth",
     "stay-when-unplugged",
     "write-before-compare",
+    "keep-incarnation-on-resume",
+    "no-epoch-ranking",
 ];
 
 /// The environment variable a `mutation` build of `rl servo --vote` reads.

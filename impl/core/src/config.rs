@@ -102,6 +102,17 @@ impl CoreConfig {
         true
     }
 
+    /// Whether a controller whose voting loop stood still for a peer deadline starts again as
+    /// a new incarnation (the model's F12). The stall is the runtime's to see
+    /// (impl/layer/src/stall.rs), the decision is the protocol's: always, but under the
+    /// `KeepIncarnationOnResume` mutation.
+    pub fn restarts_when_resumed(&self) -> bool {
+        #[cfg(feature = "mutation")]
+        return !crate::mutation::keeps_incarnation_on_resume(self);
+        #[cfg(not(feature = "mutation"))]
+        true
+    }
+
     /// Whether a deliberately broken rule is configured (the invariants are then not asserted:
     /// breaking them is the point).
     pub fn is_mutated(&self) -> bool {

@@ -113,8 +113,8 @@ pub enum Command {
     /// caller answers with [`Input::StartAgain`] and a new incarnation.
     StartAgain,
     /// A new life began ([`Input::StartAgain`]): silent until it has heard a round, then it
-    /// joins below the others. Heartbeats that arrive before the next round boundary are
-    /// dropped (after a stall they may be a stall old: [`crate::Core::hears_at`]).
+    /// joins below the others. It follows no round phase before the next round boundary
+    /// ([`crate::Core::follows_phase_at`]).
     NewLife {
         /// Why.
         cause: Restart,

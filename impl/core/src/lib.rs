@@ -103,8 +103,8 @@ pub struct Core {
     phase: phase::PhaseFollower,
     /// Set when it failed itself and a delay is configured: when it leaves.
     exit: Option<failure::PendingExit>,
-    /// A new life hears nothing that arrives before this instant (crate::Core::hears_at).
-    deaf_until_ms: Option<u64>,
+    /// A new life follows no round phase before this instant (crate::Core::follows_phase_at).
+    phase_held_until_ms: Option<u64>,
 }
 
 impl Core {
@@ -122,7 +122,7 @@ impl Core {
             duplicate_id_heartbeats: 0,
             phase: phase::PhaseFollower::new(period_ms, config.heartbeat_offset_ms()),
             exit: None,
-            deaf_until_ms: None,
+            phase_held_until_ms: None,
         }
     }
 
@@ -165,13 +165,18 @@ impl Core {
         sent_ms < self.round_end_ms.saturating_sub(period_ms)
     }
 
-    /// Whether a heartbeat arriving at `now_ms` is taken at all. A new life
-    /// ([`Input::StartAgain`]) hears from the next round boundary on: the kernel kept the
-    /// datagrams that came while the process stood still (or dropped the newest ones when its
-    /// buffer filled), and DDS hands them over now, up to a stall old. So the new incarnation
-    /// hears from the next round on, as if it had just started.
-    pub fn hears_at(&self, now_ms: u64) -> bool {
-        self.deaf_until_ms.is_none_or(|until_ms| now_ms >= until_ms)
+    /// Whether a heartbeat arriving at `now_ms` may set this controller's round phase
+    /// ([`Input::HeartbeatArrival`]). A new life ([`Input::StartAgain`]) follows no phase
+    /// before the next round boundary: the datagrams the kernel kept while the process stood
+    /// still (or its starved links queued) arrive in a burst, off their place in the round.
+    ///
+    /// What they say is another matter: a new life hears at once, as the model's resumed,
+    /// unplugged or deposed controller hears the round it comes back in. A heartbeat that
+    /// waited from an earlier round is dropped one by one by its send time
+    /// ([`Core::sent_before_this_round`]).
+    pub fn follows_phase_at(&self, now_ms: u64) -> bool {
+        self.phase_held_until_ms
+            .is_none_or(|until_ms| now_ms >= until_ms)
     }
 
     /// Durable vote records received, by peer id.
@@ -259,13 +264,9 @@ impl Core {
         let mut commands = Vec::new();
         let local_fault = input == Input::LocalFault;
         match input {
-            Input::Heartbeat(heartbeat) => {
-                if self.hears_at(now_ms) {
-                    self.hear(heartbeat)
-                }
-            }
+            Input::Heartbeat(heartbeat) => self.hear(heartbeat),
             Input::HeartbeatArrival(heartbeat) => {
-                let phase = self.hears_at(now_ms).then_some(&mut self.phase);
+                let phase = self.follows_phase_at(now_ms).then_some(&mut self.phase);
                 if let Some(by_ms) =
                     phase.and_then(|phase| phase.on_heartbeat(&self.state, &heartbeat, now_ms))
                 {
@@ -352,6 +353,9 @@ impl Core {
         if cause == Restart::Detached && !self.config.restarts_when_unplugged() {
             return Vec::new();
         }
+        if matches!(cause, Restart::Stalled { .. }) && !self.config.restarts_when_resumed() {
+            return Vec::new();
+        }
         let config = CoreConfig {
             incarnation,
             ..self.config
@@ -360,7 +364,7 @@ impl Core {
             Restart::Deposed => Core::start_again(config, now_ms),
             Restart::Stalled { .. } | Restart::Detached => Core::new(config, now_ms),
         };
-        self.deaf_until_ms = Some(next_boundary(now_ms, config.heartbeat_period_ms.max(1)));
+        self.phase_held_until_ms = Some(next_boundary(now_ms, config.heartbeat_period_ms.max(1)));
         vec![Command::NewLife { cause }]
     }
 

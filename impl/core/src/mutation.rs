@@ -32,17 +32,27 @@ pub enum Mutation {
     /// off the bus, but after the wrong output went out. No rule of this crate changes: the
     /// application that compares reads it (`rl controller`).
     WriteBeforeCompare,
+    /// A controller whose voting loop stood still for a peer deadline (a SIGSTOP, a stall)
+    /// goes on as the incarnation it was (the model's F12 reverted): it speaks at once with
+    /// what it knew before the stall.
+    KeepIncarnationOnResume,
+    /// Agreed results are ranked without their epochs and standing (the model's F11
+    /// reverted): after a healed cut, a result agreed alone ranks with the majority's newer
+    /// one, by role and holder only.
+    NoEpochRanking,
 }
 
 impl Mutation {
     /// Every mutation.
-    pub const ALL: [Mutation; 6] = [
+    pub const ALL: [Mutation; 8] = [
         Mutation::PromoteWithoutFailure,
         Mutation::IgnoreMinorityVote,
         Mutation::Failback,
         Mutation::AdmitFourth,
         Mutation::StayWhenUnplugged,
         Mutation::WriteBeforeCompare,
+        Mutation::KeepIncarnationOnResume,
+        Mutation::NoEpochRanking,
     ];
 
     /// Its name on a command line or in an environment variable (`promote-without-failure`).
@@ -54,6 +64,8 @@ impl Mutation {
             Mutation::AdmitFourth => "admit-fourth",
             Mutation::StayWhenUnplugged => "stay-when-unplugged",
             Mutation::WriteBeforeCompare => "write-before-compare",
+            Mutation::KeepIncarnationOnResume => "keep-incarnation-on-resume",
+            Mutation::NoEpochRanking => "no-epoch-ranking",
         }
     }
 
@@ -71,6 +83,17 @@ fn active(config: &CoreConfig, mutation: Mutation) -> bool {
 /// their carrier, instead of starting again as a new incarnation.
 pub(crate) fn stays_when_unplugged(config: &CoreConfig) -> bool {
     active(config, Mutation::StayWhenUnplugged)
+}
+
+/// `KeepIncarnationOnResume`: whether a controller so configured goes on after a stall,
+/// instead of starting again as a new incarnation.
+pub(crate) fn keeps_incarnation_on_resume(config: &CoreConfig) -> bool {
+    active(config, Mutation::KeepIncarnationOnResume)
+}
+
+/// `NoEpochRanking`: whether the ranking leaves out the epoch and standing of each result.
+pub(crate) fn rank_without_epochs(config: &CoreConfig) -> bool {
+    active(config, Mutation::NoEpochRanking)
 }
 
 /// `PromoteWithoutFailure`: called when `silent_peer` missed this round's heartbeat but is not

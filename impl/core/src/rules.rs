@@ -257,6 +257,7 @@ fn revote(config: &CoreConfig, c: &mut ControllerState) {
 // `config` selects a mutation (feature `mutation`); the correct rules need only the state.
 #[cfg_attr(not(feature = "mutation"), allow(unused_variables))]
 pub(crate) fn compute_vote(config: &CoreConfig, c: &ControllerState) -> Assignment {
+    #[cfg_attr(not(feature = "mutation"), allow(unused_mut))]
     let mut known: Vec<KnownResult> = c
         .agreed
         .map(|result| KnownResult {
@@ -280,6 +281,13 @@ pub(crate) fn compute_vote(config: &CoreConfig, c: &ControllerState) -> Assignme
                 })
             }),
     );
+    #[cfg(feature = "mutation")]
+    if crate::mutation::rank_without_epochs(config) {
+        for known in &mut known {
+            known.epoch = 0;
+            known.provisional = false;
+        }
+    }
     let unranked = (std::cmp::Reverse(0), true, ROLE_COUNT, true);
     let rank = |member: &Holder| -> (std::cmp::Reverse<u32>, bool, usize, bool) {
         #[cfg(feature = "mutation")]

@@ -420,16 +420,11 @@ impl Voting {
 
     /// Drains both readers (edge-triggered: whatever woke the poll).
     fn take_samples(&mut self) {
-        // A new life hears nothing before the next boundary (Core::hears_at).
-        let stale = !self.core.hears_at(self.clock.now_ms());
         let heartbeats = self.endpoints.heartbeats_in.take();
         // Only a heartbeat whose arrival woke the loop arrived now (a wake-up can come late:
         // the timeout finds what arrived without one): the newest of those sets the phase.
         let on_time = std::mem::take(&mut self.heartbeat_woke).then_some(heartbeats.len());
         for (number, heartbeat) in (1..).zip(heartbeats) {
-            if stale {
-                continue;
-            }
             #[cfg(feature = "fault-injection")]
             if fault_injection::dropped(heartbeat.value.id) {
                 // Logged: an injected loss must be told apart from a real one.

@@ -69,7 +69,7 @@ fn without_a_delay_configured_a_failed_controller_stays() {
 }
 
 #[test]
-fn a_new_life_is_a_new_incarnation_deaf_until_the_next_boundary() {
+fn a_new_life_after_a_stall_is_a_new_incarnation_that_hears_the_round_it_resumes_in() {
     let mut c = with_exit_delay(formed_c(2), 300);
     let commands = c.step(
         Input::StartAgain {
@@ -91,13 +91,18 @@ fn a_new_life_is_a_new_incarnation_deaf_until_the_next_boundary() {
         Some(300),
         "the config stays"
     );
-    // Heartbeats the kernel kept during the stall arrive now: not heard.
-    assert!(!c.hears_at(5_249));
+    // As the model's resumed controller, it hears this round's heartbeats (the adapter drops
+    // the ones the kernel kept during the stall by their send time: sent before this round);
+    // their arrival sets no round phase before the next boundary.
     c.step(Input::Heartbeat(steady(1, assignment(&[(1, 0)]))), 5_200);
-    assert!(c.inbox.is_empty());
-    assert!(c.hears_at(5_250));
-    c.step(Input::Heartbeat(steady(1, assignment(&[(1, 0)]))), 5_260);
+    assert!(!c.follows_phase_at(5_249));
+    assert!(c.follows_phase_at(5_250));
     assert_eq!(c.inbox.len(), 1);
+    assert!(
+        c.sent_before_this_round(4_999),
+        "sent before the round of 5000"
+    );
+    assert!(!c.sent_before_this_round(5_062));
 }
 
 #[test]
@@ -118,6 +123,10 @@ fn a_deposed_controller_speaks_at_the_rounds_heartbeat_slot() {
     );
     assert_eq!(c.next_deadline().at_ms, 1_062);
     assert_eq!(c.next_deadline().timer, Timer::Heartbeat);
+    // What its starved links deliver in the rest of the round waited in their queue: heard
+    // (each by its send time), but no guide to the round's phase.
+    assert!(!c.follows_phase_at(1_249));
+    assert!(c.follows_phase_at(1_250));
 }
 
 #[test]
