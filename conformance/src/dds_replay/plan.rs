@@ -303,6 +303,46 @@ pub(super) fn run_rounds(
     Ok(out)
 }
 
+/// Whether real processes can take `action`, a process or network fault of round `round`
+/// (trace step `step`): a cut needs a namespace per controller, and a resume must come at
+/// least a stall after its pause (`paused_in`: the round each paused controller was paused
+/// in, kept here).
+fn admit_process_fault(
+    config: &model::Config,
+    state: &State,
+    action: Action,
+    paused_in: &mut BTreeMap<u8, usize>,
+    round: usize,
+    step: usize,
+) -> Result<(), PlanError> {
+    match action {
+        Action::Isolate { .. } | Action::Unplug { .. }
+            if state.controllers.len() > CUT_CONTROLLERS_MAX =>
+        {
+            Err(PlanError::CutBeyondTheLan {
+                controllers: state.controllers.len(),
+            })
+        }
+        Action::Pause { controller } => {
+            paused_in.insert(controller, round);
+            Ok(())
+        }
+        Action::Resume { controller } => {
+            let rounds = round.saturating_sub(paused_in.remove(&controller).unwrap_or(0));
+            if rounds < usize::from(config.dead_after_rounds) {
+                return Err(PlanError::ShortPause {
+                    step,
+                    controller,
+                    rounds,
+                    stall_rounds: config.dead_after_rounds,
+                });
+            }
+            Ok(())
+        }
+        _ => Ok(()),
+    }
+}
+
 /// The trace rebuilt under the run's round lengths, round by round: its rounds and the
 /// boundaries between them.
 struct Rebuilt {
@@ -348,31 +388,6 @@ fn rebuild(trace: &Trace, config: &model::Config, initial: State) -> Result<Rebu
                     action,
                 })
             }
-            Action::Resume { controller } => {
-                let paused_in = paused_in.remove(&controller).unwrap_or(0);
-                let rounds_paused = (rounds.len() - 1).saturating_sub(paused_in);
-                if rounds_paused < usize::from(config.dead_after_rounds) {
-                    return Err(PlanError::ShortPause {
-                        step: trace_step.number,
-                        controller,
-                        rounds: rounds_paused,
-                        stall_rounds: config.dead_after_rounds,
-                    });
-                }
-                state = step(config, &state, action)?;
-                if let Some(round) = rounds.last_mut() {
-                    round.lifecycle.push(action);
-                }
-                round_has_other_action = true;
-            }
-            Action::Pause { controller } => {
-                paused_in.insert(controller, rounds.len() - 1);
-                state = step(config, &state, action)?;
-                if let Some(round) = rounds.last_mut() {
-                    round.lifecycle.push(action);
-                }
-                round_has_other_action = true;
-            }
             // The actuator's own events: DDS does them; the model keeps its owner.
             Action::DiscoverWriter { .. } | Action::TieBreak { .. } => {
                 state = step(config, &state, action)?;
@@ -384,16 +399,20 @@ fn rebuild(trace: &Trace, config: &model::Config, initial: State) -> Result<Rebu
             Action::Crash { .. }
             | Action::Restart { .. }
             | Action::Join { .. }
+            | Action::Pause { .. }
+            | Action::Resume { .. }
             | Action::Isolate { .. }
             | Action::Unplug { .. }
             | Action::Heal { .. } => {
-                if matches!(action, Action::Isolate { .. } | Action::Unplug { .. })
-                    && state.controllers.len() > CUT_CONTROLLERS_MAX
-                {
-                    return Err(PlanError::CutBeyondTheLan {
-                        controllers: state.controllers.len(),
-                    });
-                }
+                let round = rounds.len() - 1;
+                admit_process_fault(
+                    config,
+                    &state,
+                    action,
+                    &mut paused_in,
+                    round,
+                    trace_step.number,
+                )?;
                 state = step(config, &state, action)?;
                 if let Some(round) = rounds.last_mut() {
                     round.lifecycle.push(action);

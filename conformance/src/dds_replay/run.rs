@@ -1,33 +1,32 @@
 //! One attempt's processes and what they printed, and the steps the driver ([`super`]) takes
 //! with them: start, apply a round's faults on time (a pause is SIGSTOP, a resume SIGCONT,
 //! cuts and pulled cables are [`super::cuts`] on the virtual LAN), wait for and compare a
-//! boundary. Every
+//! boundary (the faults in `run/faults.rs`). Every
 //! observation first checks the processes' health: a process the plan did not kill must
 //! still run, and the heartbeat drops logged so far must be the injected ones
 //! ([`super::drops`]).
 
 use super::config::{
-    RunTiming, APPLY_LATEST_MS, APPLY_OFFSET_MS, FIRST_REPORT_TIMEOUT, OBSERVE_OFFSET_MS,
-    SETTLE_TIMEOUT, STALL_MARGIN_MS,
+    RunTiming, APPLY_LATEST_MS, FIRST_REPORT_TIMEOUT, OBSERVE_OFFSET_MS, SETTLE_TIMEOUT,
 };
 use super::cuts::Cuts;
 use super::drops::DropBook;
 use super::error::{owner_name, owners_allowed, Failure, Problem};
 use super::lives::{self, Life};
-use super::plan::{owners, Plan, RoundPlan};
+use super::plan::{owners, Plan};
 use super::processes::{Line, Namespaces, Processes, SERVO};
 use super::servo::{describe_counts, OwnerSeen, ServoView};
 use super::transcript::Output;
 use super::Setup;
+
+mod faults;
 use crate::diff::state_diff;
 use crate::lab::lan::{Lan, Node};
 use crate::record::{describe_event, round_of};
 use model::traces::AbstractState;
-use model::Action;
 use rl::procs::{parse_servo_event, wall_ms};
 use rl_layer::core::ControllerId;
 use rl_layer::event::{Event, EventLine};
-use std::collections::BTreeSet;
 use std::fmt::Write as _;
 use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
@@ -323,168 +322,6 @@ impl<'a> Run<'a> {
             tail,
         };
         Err(self.failure(false, problem))
-    }
-
-    /// Round `k`'s faults, at the start of real round `real`: on time or not at all. Its
-    /// losses must each show a logged drop.
-    pub fn apply_on_time(&mut self, k: usize, round: &RoundPlan, real: u64) -> Result<(), Failure> {
-        let boundary_ms = real * self.period_ms();
-        self.sleep_until(boundary_ms + APPLY_OFFSET_MS);
-        let late_ms = wall_ms().saturating_sub(boundary_ms);
-        if late_ms > APPLY_LATEST_MS && !round.is_empty() {
-            return Err(self.failure(true, Problem::HarnessLate { real, late_ms }));
-        }
-        self.drops.require(k, real, &round.lost);
-        self.apply(round, real)?;
-        // A pause or a cut must be in force before the round's heartbeats go out.
-        let done_ms = wall_ms().saturating_sub(boundary_ms);
-        let heartbeats_ms = self.period_ms() / 4;
-        let interrupts = round.lifecycle.iter().any(|a| {
-            !matches!(
-                a,
-                Action::Crash { .. } | Action::Join { .. } | Action::Restart { .. }
-            )
-        });
-        if interrupts && done_ms >= heartbeats_ms {
-            let problem = Problem::HarnessLate {
-                real,
-                late_ms: done_ms,
-            };
-            return Err(self.failure(true, problem));
-        }
-        Ok(())
-    }
-
-    /// Whether some process still drops heartbeats.
-    pub fn dropping(&self) -> bool {
-        self.lives
-            .iter()
-            .any(|l| l.is_running() && !l.dropping.is_empty())
-    }
-
-    /// Starts, kills, and sets every live process's dropped peers to the round's losses.
-    fn apply(&mut self, round: &RoundPlan, real: u64) -> Result<(), Failure> {
-        self.check_exits(real)?;
-        // Signals first: they take microseconds, a cut's tables milliseconds, and the stall
-        // a pause stands for must begin as early in its round as it can.
-        let (signals, others): (Vec<Action>, Vec<Action>) = round
-            .lifecycle
-            .iter()
-            .copied()
-            .partition(|a| matches!(a, Action::Pause { .. } | Action::Resume { .. }));
-        for action in signals.iter().chain(&others) {
-            match *action {
-                Action::Crash { controller } => self.kill(controller, real)?,
-                Action::Join { controller } | Action::Restart { controller } => {
-                    self.spawn(controller, real)?;
-                }
-                Action::Pause { controller } => self.pause(controller, true, real)?,
-                Action::Resume { controller } => self.pause(controller, false, real)?,
-                Action::Isolate { .. } | Action::Unplug { .. } | Action::Heal { .. } => {
-                    let result = match self.cuts.as_mut() {
-                        Some(cuts) => cuts.apply(*action),
-                        None => Err(format!("{action}: the run has no virtual LAN")),
-                    };
-                    if let Err(why) = result {
-                        return Err(self.failure(
-                            false,
-                            Problem::Cut {
-                                action: *action,
-                                why,
-                            },
-                        ));
-                    }
-                }
-                _ => {}
-            }
-        }
-        for index in 0..self.lives.len() {
-            let life = &self.lives[index];
-            if !life.is_running() {
-                continue;
-            }
-            let id = life.log.id;
-            let wanted: BTreeSet<ControllerId> = round
-                .lost
-                .iter()
-                .filter(|(_, to)| *to == id)
-                .map(|(from, _)| *from)
-                .collect();
-            let mut commands = String::new();
-            for from in wanted.difference(&life.dropping) {
-                let _ = writeln!(commands, "drop-heartbeats-from {from}");
-            }
-            for from in life.dropping.difference(&wanted) {
-                let _ = writeln!(commands, "accept-heartbeats-from {from}");
-            }
-            if commands.is_empty() {
-                continue;
-            }
-            let source_name = life.log.source.clone();
-            if let Err(source) = self.processes.send(&source_name, &commands) {
-                self.check_exits(real)?;
-                return Err(self.failure(
-                    false,
-                    Problem::Control {
-                        source_name,
-                        source,
-                    },
-                ));
-            }
-            self.drops.written(&source_name, wall_ms(), &wanted);
-            self.lives[index].dropping = wanted;
-        }
-        Ok(())
-    }
-
-    /// SIGSTOP (`stop`) or SIGCONT in real round `real`. The model's resume stands for a
-    /// stall of at least a peer deadline, which is what the runtime restarts after
-    /// (impl/layer/src/stall.rs), so SIGCONT waits until the process has stood still that long.
-    fn pause(&mut self, id: ControllerId, stop: bool, real: u64) -> Result<(), Failure> {
-        let stall_ms = self.period_ms() * u64::from(self.timing.rounds.dead_after_rounds);
-        let stopped_ms = lives::current_mut(&mut self.lives, id).and_then(|l| l.paused_wall_ms);
-        if let (false, Some(stopped_ms)) = (stop, stopped_ms) {
-            self.sleep_until(stopped_ms + stall_ms + STALL_MARGIN_MS);
-        }
-        let Some(life) = lives::current_mut(&mut self.lives, id) else {
-            return Ok(());
-        };
-        let signal = if stop {
-            life.paused_round = Some(real);
-            life.resumed_round = None;
-            life.paused_wall_ms = Some(wall_ms());
-            libc::SIGSTOP
-        } else {
-            life.resumed_round = Some(real);
-            libc::SIGCONT
-        };
-        let source_name = life.log.source.clone();
-        if let Err(source) = self.processes.signal(&source_name, signal) {
-            return Err(self.failure(false, Problem::Signal { id, signal, source }));
-        }
-        Ok(())
-    }
-
-    fn kill(&mut self, id: ControllerId, real: u64) -> Result<(), Failure> {
-        let Some(life) = lives::current_mut(&mut self.lives, id) else {
-            return Ok(());
-        };
-        life.killed_round = Some(real);
-        let source_name = life.log.source.clone();
-        if let Err(source) = self.processes.kill(&source_name) {
-            return Err(self.failure(false, Problem::Kill { id, source }));
-        }
-        Ok(())
-    }
-
-    fn spawn(&mut self, id: ControllerId, real: u64) -> Result<(), Failure> {
-        let life = Life::new(id, lives::lives_of(&self.lives, id), real, wall_ms());
-        if let Err(source) = self.processes.start_controller(id, &life.log.source) {
-            let what = format!("rl controller --id {id}");
-            return Err(self.failure(false, Problem::Spawn { what, source }));
-        }
-        self.lives.push(life);
-        Ok(())
     }
 
     /// Takes in what the processes printed, waiting up to `wait` for the first line.
