@@ -54,8 +54,8 @@ struct Slot {
     incarnation: u8,
     /// The running core, while `life` is up.
     core: Option<Core>,
-    /// The stopped core, while `life` is paused: a resume continues it only under the
-    /// `KeepIncarnationOnResume` mutation.
+    /// The stopped core, while `life` is paused: told `Input::StartAgain` at the resume (it
+    /// goes on as it was only under the `KeepIncarnationOnResume` mutation).
     paused: Option<Core>,
 }
 
@@ -370,7 +370,8 @@ impl<'a> CoreNetwork<'a> {
                 })?;
                 slot.core = Some(core);
                 slot.life = Life::Up;
-                let stalled_ms = 2 * PERIOD_MS;
+                // Stopped for at least a peer deadline: what the runtime restarts after.
+                let stalled_ms = u64::from(self.rounds.dead_after_rounds) * PERIOD_MS;
                 let now_ms = self.boundary_ms() + START_OFFSET_MS;
                 if self.start_again(controller, Restart::Stalled { stalled_ms }, now_ms)? {
                     log.insert(controller, vec![started()]);
