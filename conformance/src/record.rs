@@ -6,7 +6,8 @@
 //! `output`, `vote`, `alarm`, `leds`, `stopped`, `heartbeat_late` (and `heartbeat_dropped` from a
 //! fault-injection build), each with `t_ms` (the controller's round
 //! clock: wall-clock milliseconds, rounds are multiples of the heartbeat period), `id` and
-//! `incarnation` (docs/architecture.md). Other lines (servo and camera events, log text) are
+//! `incarnation` (docs/architecture.md). Other lines (servo and camera events, log text, and
+//! a fault-injection build's `held` lines, printed before the process has a life) are
 //! skipped. Both the DDS-level replay and trace validation read a controller's state from here,
 //! so they agree on what was observed.
 //!
@@ -207,6 +208,11 @@ impl Recording {
                         format!("a controller event that does not parse: {e}"),
                     )
                 })?;
+            // Held before it votes (the DDS-level replay's start): not yet a life.
+            if matches!(event.event, Event::Held { .. }) {
+                self.skipped_lines += 1;
+                continue;
+            }
             let lives = self.lives.entry(event.id).or_default();
             match lives
                 .iter_mut()
@@ -308,6 +314,13 @@ pub fn describe_event(event: &EventLine, number: Option<u8>) -> String {
             format!("from C{from}, waited {waited_ms} ms")
         }
         Event::Resumed { stalled_ms } => format!("after a {stalled_ms} ms stall"),
+        Event::Held {
+            heartbeat_writers,
+            heartbeat_readers,
+        } => format!(
+            "held; discovered {heartbeat_writers} heartbeat writer(s), \
+             {heartbeat_readers} reader(s) of others"
+        ),
         Event::Detached => "every link without a carrier".to_string(),
         Event::Deposed => "a peer took over from its late commands".to_string(),
         _ => String::new(),

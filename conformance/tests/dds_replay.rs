@@ -227,6 +227,12 @@ fn cut_healed() {
     replay_curated("cut healed");
 }
 
+// Domain 185: the Primary's commands late, its Secondary takes over (F17).
+#[test]
+fn starved_primary_taken_over() {
+    replay_curated("starved Primary taken over");
+}
+
 /// Replays a curated family with the controllers running `mutation` on `domain`; the replay
 /// must fail, and some row of its diff must show `field` differing as `shows` accepts (model
 /// value, processes' value).

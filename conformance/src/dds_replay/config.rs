@@ -2,20 +2,30 @@
 //! when a round's faults are applied, when a boundary is observed, and the window in which
 //! the servo's owner must be settled.
 //!
-//! One round is one heartbeat period (250 ms); within real round `r` (from `r * 250` ms):
+//! One round is one heartbeat period (250 ms). Every controller process of the trace, the
+//! ones that join or restart later included, is started before round 0, held before its
+//! clock starts (`RL_HOLD_START`), until all have discovered each other over DDS; each is
+//! let go (`start-voting` on its stdin) in the round the trace starts it. Within real round
+//! `r` (from `r * 250` ms):
 //!
 //! ```text
 //!  +0     boundary: the controllers decide (status, output, strength) within milliseconds
-//!  +10    processes started at start
-//!  +20    the round's faults applied (kill -9, new processes, drop/accept control, SIGSTOP
-//!         and SIGCONT, nftables cuts and links down), at the latest +50, in force before
-//!         the heartbeats go out at +62 (a quarter period); SIGCONT no sooner than a peer
-//!         deadline after the SIGSTOP, the stall the model's resume stands for
+//!  +10    at the start: round 0's faults applied
+//!  +20    the round's faults applied (kill -9, drop/accept control, SIGSTOP and SIGCONT,
+//!         nftables cuts and links down, commands late or held back), at the latest +50, in force before the heartbeats
+//!         go out at +62 (a quarter period); SIGCONT no sooner than a peer deadline after the
+//!         SIGSTOP, the stall the model's resume stands for
+//!  +55    the round's starts, joins and restarts: held processes let go, so that their first
+//!         heartbeat, which goes out at once, is on the round's phase (+62)
 //!  +180   from here the servo's owner must be settled: a crash at +50 at the latest stops the
 //!         owner's commands, the servo gives up on it after the command deadline (100 ms) and
 //!         takes the next writer's command within a republish period (10 ms), plus 20 ms
-//!  +230   the boundary observed: every controller's reports, and the commands the servo
-//!         accepted since +180, all from the model's owner (none if it has none)
+//!  +200   the next round's starved links begin (their late commands arrive from +20 of the
+//!         next round)
+//!  +230   the boundary observed: every controller's reports printed before +20 (the
+//!         boundary's decisions; a takeover from a starved Primary comes later in the
+//!         round), and the commands the servo accepted since +180, all from the model's
+//!         owner (none if it has none)
 //!  +250   the next boundary
 //! ```
 
@@ -23,11 +33,39 @@ use super::error::ReplayError;
 use crate::validate::Timing;
 use std::time::Duration;
 
-/// Processes start this long after a round boundary.
+/// Round 0's faults are applied this long after the start's boundary.
 pub const START_OFFSET_MS: u64 = 10;
 /// A round's faults are applied this long after its boundary (heartbeats go out at a quarter
 /// period).
 pub const APPLY_OFFSET_MS: u64 = 20;
+/// Held processes are let go this long after a boundary: a controller's first heartbeat goes
+/// out at once, and a peer with no Primary to follow takes its round phase from it (rl-core's
+/// `phase`), so it goes out a few milliseconds before the round's heartbeats at a quarter
+/// period, within the phase's dead zone (a sixteenth of a period).
+pub const LET_GO_OFFSET_MS: u64 = 55;
+/// A starved controller's commands reach the others this late (its `delay-commands`): past
+/// the lateness bound by which a Secondary finds them late (half the command deadline,
+/// impl/layer/src/runtime/arrival.rs), within the command deadline and the commands'
+/// lifespan (one command deadline), so the actuator still takes them; a republish period
+/// (10 ms) may add to it.
+pub const STARVED_DELAY_MS: u64 = 70;
+/// A boundary's reports are what the controllers printed before this long into its round:
+/// they decide within milliseconds of it, and nothing the round's faults do changes a
+/// report sooner (they are applied from +20; a takeover from a starved Primary comes at
+/// +30 at the earliest, see [`STARVE_ONSET_MS`]).
+pub const DECIDED_BY_MS: u64 = APPLY_OFFSET_MS;
+/// A starved link of round `k` begins this long into round `k - 1`, after the servo took
+/// that round's owner window's first commands: its first late command reaches the others
+/// 70 ms later, at +20 of round `k`, so the Secondary takes over (two late samples and a
+/// Tertiary sample on time after them) before round `k`'s heartbeats at +62 announce it, as
+/// the model's takeover comes with the starved link, before its round's end.
+pub const STARVE_ONSET_MS: u64 = 200;
+/// A missed deadline in the round a peer takes over from the starved controller is applied
+/// this long after the boundary: the starved link's late commands (from +20, 70 ms late)
+/// have reached the Secondary, which takes over on two of them and a Tertiary sample on
+/// time after them, and the takeover writer owns the actuator before the owner window
+/// (+180).
+pub const LAG_AFTER_TAKEOVER_MS: u64 = 130;
 /// Applying later than this after the boundary would miss the round's heartbeats.
 pub const APPLY_LATEST_MS: u64 = 50;
 /// A boundary is observed this long after it: its reports are printed within milliseconds,
@@ -38,8 +76,8 @@ pub const OBSERVE_OFFSET_MS: u64 = 230;
 pub const STALL_MARGIN_MS: u64 = 5;
 /// Scheduling slack added to the owner's settling time.
 pub const OWNER_MARGIN_MS: u64 = 20;
-/// The first reports must come within this long of the start.
-pub const FIRST_REPORT_TIMEOUT: Duration = Duration::from_secs(10);
+/// The held processes must all have discovered each other within this long of their start.
+pub const DISCOVERY_TIMEOUT: Duration = Duration::from_secs(10);
 /// Bounded wait for a quiescent or settled boundary.
 pub const SETTLE_TIMEOUT: Duration = Duration::from_secs(10);
 /// The settled end must hold this many more boundaries.
@@ -47,19 +85,18 @@ pub const HOLD_ROUNDS: u64 = 2;
 /// Attempts when the processes' timing does not line up with the trace.
 pub const ATTEMPTS: usize = 3;
 
-/// The `rl` configuration the replay runs with: the model's heartbeat period and dead-man
-/// deadline, an initialization window one round longer than the model's (3 rounds, not 2),
-/// and the command deadline and republish period written out (the owner window depends on
-/// them). A controller that fails itself stays up for the longest delay allowed: in the model
-/// it stays up until a restart, which is a fault of its own. With a 2-round window, DDS discovery of a late process decides in which round its
-/// window expires, which the late-join and fourth-controller traces depend on; the plan
-/// checks against the model that every replayed trace reaches the same states with 3.
+/// The `rl` configuration the replay runs with: the model's heartbeat period, dead-man
+/// deadline and initialization window (2 rounds), and the command deadline and republish
+/// period written out (the owner window depends on them). The processes discover each other
+/// before they vote (held, see above), so the window is the model's: no round of it goes to
+/// discovery. A controller that fails itself stays up for the longest delay allowed: in the
+/// model it stays up until a restart, which is a fault of its own.
 pub const CONFIG_TOML: &str = "\
 # The DDS-level replay's timing (conformance/src/dds_replay/config.rs): one round = 250 ms.
 [timing]
 heartbeat_period_ms = 250
 peer_deadline_ms = 500
-init_window_ms = 750
+init_window_ms = 500
 command_deadline_ms = 100
 command_republish_ms = 10
 # In the model a FAILED controller stays up until a restart (a fault of its own), so here too.
@@ -99,6 +136,14 @@ pub fn run_timing() -> Result<RunTiming, ReplayError> {
              boundary, not before the observation at {OBSERVE_OFFSET_MS} ms of a \
              {} ms round",
             rounds.period_ms
+        )));
+    }
+    let deadline_ms = config.timing.command_deadline_ms;
+    let latest_ms = STARVED_DELAY_MS + config.timing.command_republish_ms;
+    if STARVED_DELAY_MS <= deadline_ms / 2 || latest_ms >= deadline_ms {
+        return Err(ReplayError::Config(format!(
+            "timing.command_deadline_ms: a starved link's {STARVED_DELAY_MS} ms delay (up to \
+             {latest_ms} ms) must be past half of it and within it ({deadline_ms} ms)"
         )));
     }
     Ok(RunTiming {

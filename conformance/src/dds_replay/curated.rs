@@ -33,6 +33,8 @@ pub enum Need {
     /// A controller is cut off from its peers (nftables on the virtual LAN) and the cut is
     /// healed later, in another round.
     CutHealed,
+    /// The Primary's link is starved (its commands late) and its Secondary takes over (F17).
+    StarvedTakeover,
 }
 
 /// Which scope of the trace set a curated entry takes its trace from.
@@ -44,6 +46,8 @@ pub enum Scope {
     LinkFailure,
     /// Pauses and cuts of a running system (`model::Config::returns()`).
     Returns,
+    /// Starved links (`model::Config::starved()`).
+    Starved,
 }
 
 impl Scope {
@@ -52,6 +56,7 @@ impl Scope {
             Scope::Default => model::Config::default(),
             Scope::LinkFailure => model::Config::link_failure(),
             Scope::Returns => model::Config::returns(),
+            Scope::Starved => model::Config::starved(),
         }
     }
 }
@@ -69,7 +74,7 @@ pub struct Curated {
     pub why: &'static str,
 }
 
-/// The curated subset: every fault kind at least once. Domains 186, 187, 190-197, 220 and 225
+/// The curated subset: every fault kind at least once. Domains 185-187, 190-197, 220 and 225
 /// (198 is the recorded `rl demo` of trace validation, 199 the broken replay and
 /// `dds-replay-all`, 188, 189, 221-224 and 226 the mutation checks).
 pub const CURATED: &[Curated] = &[
@@ -204,6 +209,17 @@ pub const CURATED: &[Curated] = &[
               two rounds on the virtual LAN: it agrees alone meanwhile, and at the heal the \
               majority's newer epoch ranks first (F11), so it comes back below them",
     },
+    Curated {
+        name: "starved Primary taken over",
+        need: Need::StarvedTakeover,
+        scope: Scope::Starved,
+        purposes: &["witness: a Secondary takes over from a starved Primary"],
+        domain: 185,
+        why: "the steady Primary's commands reach everyone 70 ms late: its Secondary finds \
+              them late beside the Tertiary's on time, takes over at the takeover strength \
+              before the actuator's deadline (F17), and the deposed Primary, hearing it at the \
+              round's end, starts again below",
+    },
 ];
 
 /// The curated entry named `name`.
@@ -280,6 +296,7 @@ pub fn shows(plan: &Plan, need: Need) -> bool {
             }
             _ => false,
         }),
+        Need::StarvedTakeover => plan.rounds.iter().any(|r| !r.takeovers.is_empty()),
     }
 }
 

@@ -132,27 +132,25 @@ pub struct Failure {
 /// What departed from the model in one attempt.
 #[derive(Debug, thiserror::Error)]
 pub enum Problem {
-    /// Nothing was reported at all: DDS discovery failed, or every process died.
+    /// The held processes did not all find each other before the start.
     #[error(
-        "no controller reported anything within {timeout:?} of the start (DDS discovery failed?)"
+        "the held processes did not all discover each other within {timeout:?} \
+         (participants with a heartbeat writer / reader, as each reported last: {counts}; \
+         each needs {writers} / {readers})"
     )]
-    NoFirstReports { timeout: Duration },
-    /// The harness read the first reports too late to apply round 1's faults on time.
-    #[error("the first reports were read {late_ms} ms after their boundary, too late to apply round 1's faults")]
-    FirstReportsLate { late_ms: u64 },
-    /// A process started at round 0 was discovered more than a round late.
-    #[error(
-        "C{id} was first heard {rounds} rounds after it started (DDS discovery); the plan \
-         allows one"
-    )]
-    DiscoveredLate { id: ControllerId, rounds: u64 },
+    NotDiscovered {
+        timeout: Duration,
+        counts: String,
+        writers: usize,
+        readers: usize,
+    },
     /// The harness reached a round after its heartbeats went out.
     #[error("the harness reached round {real} {late_ms} ms late, after its heartbeats")]
     HarnessLate { real: u64, late_ms: u64 },
     /// At a compared boundary the processes' state (the servo's owner included) differs.
     #[error(
-        "at boundary {boundary} of {last} ({how}; real round {real}, {since_first} after the \
-         first reports):\n{diff}"
+        "at boundary {boundary} of {last} ({how}; real round {real}, {since_first} after \
+         boundary 1):\n{diff}"
     )]
     StateDiffers {
         boundary: usize,

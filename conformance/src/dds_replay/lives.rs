@@ -121,12 +121,15 @@ pub fn lives_of(lives: &[Life], id: ControllerId) -> u8 {
 }
 
 /// What the processes reported by the boundary of real round `real`, abstracted, for
-/// controller ids `1..=count`; the owner is filled in by the caller.
+/// controller ids `1..=count`: what they printed before `decided_by_ms` into the round (the
+/// boundary's decisions, not what the round's faults changed since); the owner is filled in
+/// by the caller.
 pub fn observe(
     lives: &[Life],
     count: usize,
     real: u64,
     period_ms: u64,
+    decided_by_ms: u64,
 ) -> Result<AbstractState, UnknownIncarnation> {
     let mut numbers = IncarnationNumbers::new();
     for life in lives {
@@ -146,7 +149,9 @@ pub fn observe(
                 Some(life) if life.paused_at(real) => Observed::Paused {
                     incarnation: life.log.incarnation,
                 },
-                Some(life) => Observed::Up(Box::new(life.log.status_at_boundary(real, period_ms))),
+                Some(life) => Observed::Up(Box::new(
+                    life.log.status_before(real * period_ms + decided_by_ms),
+                )),
             }
         })
         .collect();

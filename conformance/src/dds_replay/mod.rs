@@ -13,21 +13,23 @@
 //! the `mutation` feature: with `RL_MUTATION` set ([`Setup::mutation`]) the controllers run a
 //! deliberately broken rule, and the replay must fail.
 //!
-//! Timing ([`config`]): the processes start just after a boundary; the first boundary at
-//! which any of them reports a change is the trace's boundary 1; a round's faults are
-//! applied 20 ms after its boundary; a boundary is observed 230 ms after it: each
-//! controller's latest `status` with the later `alarm`s applied, mapped by the abstraction
-//! function, and the servo's owner from the commands it accepted since the owner settled.
-//! Bounded waits where the plan re-aligns or waits for the settled end, which must then
-//! hold for [`HOLD_ROUNDS`] more boundaries.
+//! Timing ([`config`]): every controller process of the trace (the later joins and restarts
+//! too) is started before round 0 and held before it votes until all have discovered each
+//! other over DDS; the initial ones are let go just after a boundary, which is the trace's
+//! boundary 0, and every later one in the round the trace starts it, so it is heard in that
+//! round as in the model; a round's faults are applied 20 ms after its boundary; a boundary
+//! is observed 230 ms after it: each controller's latest `status` with the later `alarm`s
+//! applied, mapped by the abstraction function, and the servo's owner from the commands it
+//! accepted since the owner settled. Bounded waits where the plan re-aligns (after a pulled
+//! cable is plugged back in) or waits for the settled end, which must then hold for
+//! [`HOLD_ROUNDS`] more boundaries.
 //!
 //! Every observation also checks that no process exited unless the plan killed it, and that
 //! the heartbeat drops logged are the injected ones ([`drops`]).
 //!
-//! If the first reports do not show the trace's boundary 1 (DDS discovery completed in
-//! different rounds for different links, or took more than a round), or the harness was too
-//! late to apply a fault on time, the attempt is not a replay of the trace: it is repeated
-//! with fresh processes, up to [`ATTEMPTS`] times. Any other difference is a failure
+//! If the held processes do not find each other in time, or the harness was too late to
+//! apply a fault on time, the attempt is not a replay of the trace: it is repeated with
+//! fresh processes, up to [`ATTEMPTS`] times. Any other difference is a failure
 //! ([`ReplayError::Diverged`]), reported with the run's context.
 //!
 //! Modules: [`plan`](mod@plan) (a trace's plan, pure), [`refusal`] (why a trace cannot be
@@ -92,7 +94,7 @@ pub struct Replayed {
     pub attempts: usize,
     /// Boundaries compared in lockstep (each on its own real round).
     pub lockstep_boundaries: usize,
-    /// Real rounds from the first reports to the end of the hold.
+    /// Real rounds from boundary 1 to the end of the hold.
     pub rounds: u64,
     pub elapsed: Duration,
     /// The recorded events (one log per process) and the run's `rl.toml`.
@@ -165,11 +167,13 @@ pub fn replay(plan: &Plan, setup: &Setup) -> Result<Replayed, ReplayError> {
 fn carry_out(run: &mut Run) -> Result<(usize, u64), Failure> {
     let plan = run.plan;
     let period_ms = run.period_ms();
-    // Round 0: the initial controllers and round 0's faults, right after a boundary.
+    // Every process held until all have found each other; then round 0: the initial
+    // controllers let go and round 0's faults, right after a boundary.
+    run.start_held()?;
     let start_round = round_of(wall_ms(), period_ms) + 1;
     run.sleep_until(start_round * period_ms + START_OFFSET_MS);
     run.start(start_round)?;
-    let first = run.await_first_reports()?;
+    let first = start_round + 1;
     let mut base = (1usize, first);
     let mut lockstep = 0;
     let mut last_real = first;
@@ -181,19 +185,12 @@ fn carry_out(run: &mut Run) -> Result<(usize, u64), Failure> {
                 if let Some(round) = plan.rounds.get(k) {
                     run.apply_on_time(k, round, real)?;
                 }
+                if let Some(next) = plan.rounds.get(k + 1) {
+                    run.starve_ahead(next, real)?;
+                }
                 run.sleep_until(real * period_ms + OBSERVE_OFFSET_MS);
                 let expected = run.expected_in_lockstep(k);
-                let how = if k == 1 {
-                    "the first reports"
-                } else {
-                    "lockstep"
-                };
-                run.compare(&expected, real, how).map_err(|mut failure| {
-                    // At the first reports a different state is DDS discovery: try again.
-                    let differs = matches!(failure.problem, Problem::StateDiffers { .. });
-                    failure.retry |= k == 1 && differs;
-                    failure
-                })?;
+                run.compare(&expected, real, "lockstep")?;
                 lockstep += 1;
                 last_real = real;
             }
@@ -240,19 +237,20 @@ fn prepare_dir(dir: &Path) -> Result<PathBuf, ReplayError> {
     Ok(config)
 }
 
-/// Trace validation of the recording, without the lag tolerance: the replay observes each
-/// boundary after its reports, so a report late by a round is a defect here.
+/// Trace validation of the recording, without the lag tolerance and with a boundary's
+/// reports its decisions ([`config::DECIDED_BY_MS`]): the replay observes each boundary after
+/// its reports, so a report late by a round is a defect here.
 fn validate_strictly(
     plan: &Plan,
     record_dir: &Path,
     timing: &RunTiming,
 ) -> Result<Accepted, ReplayError> {
     let recording = Recording::read_dir(record_dir)?;
-    validate::validate_strict(&recording, &timing.rounds).map_err(|rejection| {
-        ReplayError::Rejected {
+    validate::validate_replayed(&recording, &timing.rounds, config::DECIDED_BY_MS).map_err(
+        |rejection| ReplayError::Rejected {
             file: plan.file.clone(),
             record_dir: record_dir.to_path_buf(),
             rejection,
-        }
-    })
+        },
+    )
 }

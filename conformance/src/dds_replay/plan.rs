@@ -2,24 +2,21 @@
 //! every round boundary, all derived from the model. Pure: no processes here (the driver,
 //! [`super`], carries the plan out).
 //!
-//! Real processes cannot follow the model step for step: DDS discovery takes a round or two,
-//! a new process is not heard at once, and the round clock is the wall clock. So a trace is
-//! replayed on the model's rounds where it can be and compared at points where timing no
-//! longer matters:
+//! Real processes follow the model round for round once DDS discovery is out of the way: every
+//! process of the trace is started before round 0 and held until all have found each other
+//! ([`super::config`]), and the round clock is the wall clock. So:
 //!
-//! - round 0's actions happen at start: the trace's initial controllers and its round-0
-//!   crashes, restarts and joins are processes started (killed) right after a round
-//!   boundary, its round-0 heartbeat losses are dropped from the start;
-//! - the first round boundary at which any controller reports a change is the trace's
-//!   boundary 1 (before it, discovery: rounds in which every heartbeat is lost). From there
-//!   the replay is in lockstep: the trace's round `k` is real round `first + k - 1`, its
-//!   losses are dropped for that round, its crashes are `kill -9` at the round's start, and
-//!   every boundary is compared;
-//! - a restart or join after round 0 ends the lockstep (the new process is heard only after
-//!   discovery), and so does a pulled cable plugged back in (heard once its neighbours are
-//!   resolved again); the replay then waits, with a bounded wait, for the next quiescent boundary
-//!   (one a round's end leaves unchanged) and re-aligns there if faults follow, or for the
-//!   settled end;
+//! - round 0's actions happen at start: the trace's initial controllers are let go right
+//!   after a boundary (boundary 0), its round-0 crashes, restarts and joins applied at once,
+//!   its round-0 heartbeat losses dropped from the start;
+//! - from there the replay is in lockstep: the trace's round `k` is real round
+//!   `start + k`, its losses are dropped for that round, its crashes are `kill -9` and its
+//!   joins and restarts held processes let go at the round's start, and every boundary is
+//!   compared;
+//! - a pulled cable plugged back in ends the lockstep (the controller is heard once its
+//!   neighbours are resolved again); the replay then waits, with a bounded wait, for the next
+//!   quiescent boundary (one a round's end leaves unchanged) and re-aligns there if faults
+//!   follow, or for the settled end;
 //! - after the trace's last step the model adds rounds without faults until nothing changes
 //!   any more (the settled end), and the run must reach that state and stay in it.
 //!
@@ -47,17 +44,31 @@ pub const SETTLE_ROUNDS_MAX: usize = 40;
 /// What happens during one round of the plan.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct RoundPlan {
-    /// Crashes, restarts, joins, pauses, resumes, cuts, pulled cables and heals, in the
-    /// trace's order.
+    /// Crashes, restarts, joins, pauses, resumes, cuts, pulled cables, starved links (and
+    /// their commands' missed deadlines and late samples) and heals, in the trace's order.
     pub lifecycle: Vec<Action>,
     /// Heartbeats lost at the round's end, `(from, to)`: `to` drops `from`'s heartbeats for
     /// the round.
     pub lost: BTreeSet<(u8, u8)>,
+    /// Starved controllers a peer takes over from in this round (F17): their late commands
+    /// must reach the peers before a missed deadline, a late sample or a heal in the same
+    /// round changes how they go out.
+    pub takeovers: BTreeSet<u8>,
 }
 
 impl RoundPlan {
     pub fn is_empty(&self) -> bool {
         self.lifecycle.is_empty() && self.lost.is_empty()
+    }
+
+    /// Whether `action` must wait for a takeover in its round: a missed deadline, a late
+    /// sample or a heal of the starved link a peer takes over from.
+    pub fn waits_for_takeover(&self, action: Action) -> bool {
+        matches!(
+            action,
+            Action::Lag { controller } | Action::CatchUp { controller } | Action::Heal { controller }
+                if self.takeovers.contains(&controller)
+        )
     }
 
     /// A cut or a pulled cable: the replay needs the virtual LAN.
@@ -76,9 +87,10 @@ pub enum Mode {
     /// On the model's rounds: the boundary is a known real round, compared exactly there,
     /// and the next round's faults are applied on time.
     Lockstep,
-    /// After a late start: not compared (the new process is heard only once discovered).
+    /// After a pulled cable is plugged back in: not compared (the controller is heard only
+    /// once its neighbours are resolved again).
     Free,
-    /// A quiescent boundary after a late start, with faults in its round: waited for
+    /// A quiescent boundary after such a heal, with faults in its round: waited for
     /// (bounded), then the lockstep resumes from it.
     Realign,
 }
@@ -124,9 +136,10 @@ impl Plan {
         self.boundaries.len() - 1
     }
 
-    /// The controllers heard only once DDS has found them again after round `k`: a process
-    /// started in it (join or restart), or one whose cables are plugged back in (a heal of
-    /// a pulled cable: its neighbours must be resolved again before unicast flows).
+    /// The controllers heard only once they are found again after round `k`: one whose
+    /// cables are plugged back in (a heal of a pulled cable: its neighbours must be resolved
+    /// again before unicast flows). A join or restart is no newcomer: its process was held,
+    /// discovered before it votes.
     pub fn newcomers(&self, k: usize) -> Vec<u8> {
         let Some(round) = self.rounds.get(k) else {
             return Vec::new();
@@ -135,9 +148,6 @@ impl Plan {
         let mut out = Vec::new();
         for action in &round.lifecycle {
             match *action {
-                Action::Join { controller } | Action::Restart { controller } => {
-                    out.push(controller);
-                }
                 Action::Unplug { controller } => unplugged |= 1 << (controller - 1),
                 Action::Heal { controller } if unplugged & 1 << (controller - 1) != 0 => {
                     unplugged &= !(1 << (controller - 1));
@@ -251,11 +261,20 @@ fn expire_due(config: &model::Config, mut state: State) -> Result<State, PlanErr
     Ok(state)
 }
 
+/// A round's end: the model's `Tick`, or, with no controller up (the model then has no round
+/// ends), the state as it is.
+fn end_round(config: &model::Config, state: &State) -> Result<State, PlanError> {
+    if state.up().next().is_none() {
+        return Ok(state.clone());
+    }
+    step(config, state, Action::Tick)
+}
+
 /// A round's end with nothing lost leaves the state as it is.
 pub fn is_quiescent(config: &model::Config, state: &State) -> bool {
     let mut clean = state.clone();
     clean.lost_links = 0;
-    let Ok(ended) = step(config, &clean, Action::Tick).and_then(|s| expire_due(config, s)) else {
+    let Ok(ended) = end_round(config, &clean).and_then(|s| expire_due(config, s)) else {
         return false;
     };
     ended.controllers == clean.controllers
@@ -284,7 +303,7 @@ pub(super) fn run_rounds(
                 state = step(config, &state, lose)?;
             }
         }
-        state = expire_due(config, step(config, &state, Action::Tick)?)?;
+        state = expire_due(config, end_round(config, &state)?)?;
         // Ghost history only: it feeds properties and budgets, never a decision.
         state.history = model::state::History::default();
         out.push(state.clone());
@@ -297,7 +316,7 @@ pub(super) fn run_rounds(
                 rounds: SETTLE_ROUNDS_MAX,
             });
         }
-        state = expire_due(config, step(config, &state, Action::Tick)?)?;
+        state = expire_due(config, end_round(config, &state)?)?;
         out.push(state.clone());
     }
     Ok(out)
@@ -355,25 +374,39 @@ fn rebuild(trace: &Trace, config: &model::Config, initial: State) -> Result<Rebu
     let mut rounds = vec![RoundPlan::default()];
     let mut boundaries = vec![initial.clone()];
     let mut state = initial;
-    let mut round_has_other_action = false;
+    // The round's actions so far, other than window expiries.
+    let mut round_actions: Vec<Action> = Vec::new();
     // The round each paused controller was paused in.
     let mut paused_in: BTreeMap<u8, usize> = BTreeMap::new();
     for trace_step in &trace.steps {
         let action = trace_step.action;
         match action {
             Action::Tick => {
+                left_open(config, boundaries.last(), trace_step.number)?;
                 if let Some(round) = rounds.last_mut() {
                     round.lost = lost_links(&state);
                 }
                 state = step(config, &state, action)?;
                 boundaries.push(state.clone());
                 rounds.push(RoundPlan::default());
-                round_has_other_action = false;
+                round_actions.clear();
             }
-            Action::ExpireWindow { .. } if round_has_other_action => {
-                return Err(PlanError::WindowAfterOtherAction {
-                    step: trace_step.number,
-                });
+            Action::ExpireWindow { .. } if !round_actions.is_empty() => {
+                // The implementation's window fires at the boundary, before the round's
+                // faults: replayable if expiring there reaches the same state.
+                let at_boundary = boundaries.last().cloned().unwrap_or_else(|| state.clone());
+                let expired = step(config, &at_boundary, action)?;
+                let moved = expire_at_boundary(config, &expired, &round_actions);
+                let in_order = step(config, &state, action)?;
+                if moved.as_ref().map(without_history) != Some(without_history(&in_order)) {
+                    return Err(PlanError::WindowAfterOtherAction {
+                        step: trace_step.number,
+                    });
+                }
+                if let Some(last) = boundaries.last_mut() {
+                    *last = expired;
+                }
+                state = in_order;
             }
             Action::ExpireWindow { .. } => {
                 state = step(config, &state, action)?;
@@ -382,19 +415,13 @@ fn rebuild(trace: &Trace, config: &model::Config, initial: State) -> Result<Rebu
                 }
             }
             Action::DeliverVotes { .. } => return Err(PlanError::PaperVariantAction),
-            Action::Starve { .. } | Action::Lag { .. } | Action::CatchUp { .. } => {
-                return Err(PlanError::StarvedLink {
-                    step: trace_step.number,
-                    action,
-                })
-            }
             // The actuator's own events: DDS does them; the model keeps its owner.
             Action::DiscoverWriter { .. } | Action::TieBreak { .. } => {
                 state = step(config, &state, action)?;
             }
             Action::LoseHeartbeat { .. } => {
                 state = step(config, &state, action)?;
-                round_has_other_action = true;
+                round_actions.push(action);
             }
             Action::Crash { .. }
             | Action::Restart { .. }
@@ -403,6 +430,9 @@ fn rebuild(trace: &Trace, config: &model::Config, initial: State) -> Result<Rebu
             | Action::Resume { .. }
             | Action::Isolate { .. }
             | Action::Unplug { .. }
+            | Action::Starve { .. }
+            | Action::Lag { .. }
+            | Action::CatchUp { .. }
             | Action::Heal { .. } => {
                 let round = rounds.len() - 1;
                 admit_process_fault(
@@ -416,8 +446,17 @@ fn rebuild(trace: &Trace, config: &model::Config, initial: State) -> Result<Rebu
                 state = step(config, &state, action)?;
                 if let Some(round) = rounds.last_mut() {
                     round.lifecycle.push(action);
+                    if let Action::Starve { controller } = action {
+                        let taken_over = state
+                            .controllers
+                            .iter()
+                            .any(|c| c.took_over_from.is_some_and(|(from, _)| from == controller));
+                        if taken_over {
+                            round.takeovers.insert(controller);
+                        }
+                    }
                 }
-                round_has_other_action = true;
+                round_actions.push(action);
             }
         }
         if abstract_state(&state) != trace_step.state {
@@ -429,11 +468,68 @@ fn rebuild(trace: &Trace, config: &model::Config, initial: State) -> Result<Rebu
             });
         }
     }
+    // A trace may stop at a boundary before every window due there has expired: the
+    // implementation expires them all at once, which the model allows next.
+    if round_actions.is_empty() {
+        state = expire_due(config, state)?;
+        if let Some(last) = boundaries.last_mut() {
+            *last = state.clone();
+        }
+    } else {
+        let after = trace.steps.last().map_or(0, |s| s.number);
+        left_open(config, boundaries.last(), after)?;
+    }
     Ok(Rebuilt {
         rounds,
         boundaries,
         state,
     })
+}
+
+/// A window due at `boundary` that the trace leaves open into the round (expiring it later,
+/// or never): the implementation fires every due window at the boundary itself.
+fn left_open(
+    config: &model::Config,
+    boundary: Option<&State>,
+    step_number: usize,
+) -> Result<(), PlanError> {
+    let Some(boundary) = boundary else {
+        return Ok(());
+    };
+    let mut enabled = Vec::new();
+    protocol::actions(config, boundary, &mut enabled);
+    match enabled
+        .iter()
+        .find(|a| matches!(a, Action::ExpireWindow { .. }))
+    {
+        Some(&Action::ExpireWindow { controller }) => Err(PlanError::WindowLeftOpen {
+            step: step_number,
+            controller,
+        }),
+        _ => Ok(()),
+    }
+}
+
+/// The round's `actions` taken again after its boundary's state `expired` (with a window
+/// expired there); `None` if the model does not allow one of them then.
+fn expire_at_boundary(
+    config: &model::Config,
+    expired: &State,
+    actions: &[Action],
+) -> Option<State> {
+    let mut state = expired.clone();
+    for action in actions {
+        state = step(config, &state, *action).ok()?;
+    }
+    Some(state)
+}
+
+/// `state` without its ghost history, which feeds properties and budgets, never a decision.
+fn without_history(state: &State) -> State {
+    State {
+        history: model::state::History::default(),
+        ..state.clone()
+    }
 }
 
 /// Who may own the actuator in `state`: the live controllers commanding at the highest
@@ -527,13 +623,13 @@ pub fn plan(trace: &Trace, timing: &Timing) -> Result<Plan, PlanError> {
     Ok(plan)
 }
 
-/// The run's timing as the DDS-level replay configures `rl` (the model's period and
-/// dead-man deadline; a window one round longer, see [`super::CONFIG_TOML`]).
+/// The run's timing as the DDS-level replay configures `rl`: the model's period, dead-man
+/// deadline and window ([`super::CONFIG_TOML`]).
 pub fn replay_timing() -> Timing {
     Timing {
         period_ms: 250,
         dead_after_rounds: 2,
-        window_rounds: 3,
+        window_rounds: 2,
     }
 }
 

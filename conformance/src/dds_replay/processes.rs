@@ -1,9 +1,9 @@
 //! The replay's child processes: `rl controller --json-events` with its stdin piped (the
-//! fault-injection control), and `rl servo --json`, on loopback or, for a trace with cuts,
-//! each in its node's network namespace of the virtual LAN ([`Namespaces`]; `ip netns exec`
-//! execs the program, so the child's pid is the program's and a signal reaches it). Every
-//! line they print reaches one channel,
-//! stamped with the wall clock when it was read. The children are kept here, not in
+//! fault-injection control), held before it votes until told, and `rl servo --json`, on
+//! loopback or, for a trace with cuts, each in its node's network namespace of the virtual
+//! LAN ([`Namespaces`]; `ip netns exec` execs the program, so the child's pid is the
+//! program's and a signal reaches it). Every line they print reaches one channel, stamped
+//! with the wall clock when it was read. The children are kept here, not in
 //! `rl::procs::Fleet`, so the replay can tell a process that exited on its own
 //! ([`Processes::exited`], `try_wait`) from one it killed.
 
@@ -15,6 +15,9 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdin, Command, ExitStatus, Stdio};
 use std::sync::mpsc::{self, Receiver, Sender};
 use std::time::{Duration, Instant};
+
+/// The control line that lets a held controller go: it starts its clock and votes.
+pub const START_VOTING: &str = "start-voting\n";
 
 /// The source name of the servo's lines.
 pub const SERVO: &str = "servo";
@@ -109,7 +112,8 @@ impl Processes {
         command
     }
 
-    /// Starts `rl controller --id <id> --json-events` tagged `source`, its stdin piped.
+    /// Starts `rl controller --id <id> --json-events` tagged `source`, its stdin piped, held
+    /// before it votes (`RL_HOLD_START`) until it reads [`START_VOTING`].
     pub fn start_controller(&mut self, id: ControllerId, source: &str) -> std::io::Result<()> {
         let id_text = id.to_string();
         let ns = self
@@ -120,7 +124,7 @@ impl Processes {
             .map_err(|id| std::io::Error::other(format!("no namespace for C{id}")))?;
         let args = ["controller", "--id", &id_text, "--json-events"];
         let mut command = self.command(ns.as_deref(), &args);
-        command.stdin(Stdio::piped());
+        command.stdin(Stdio::piped()).env("RL_HOLD_START", "1");
         for (key, value) in &self.controller_env {
             command.env(key, value);
         }

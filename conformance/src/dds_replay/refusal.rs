@@ -33,15 +33,15 @@ pub enum PlanError {
     /// Windows expire at the boundary, before anything else of the round.
     #[error("step {step}: a window expires after another action of its round")]
     WindowAfterOtherAction { step: usize },
+    /// A window due at a boundary that the trace leaves open into the round.
+    #[error(
+        "step {step}: C{controller}'s window, due at the boundary before, is left open into \
+         the round (the implementation expires every due window at the boundary)"
+    )]
+    WindowLeftOpen { step: usize, controller: u8 },
     /// `DeliverVotes` belongs to the paper variant.
     #[error("durable-vote delivery exists only in the paper variant")]
     PaperVariantAction,
-    /// A starved link delays some datagrams and drops others as the queue decides: the round
-    /// in which the actuator misses a deadline or a peer sees a late command (`Lag`,
-    /// `CatchUp`, F17's takeover) is the kernel's, not a round the replay can choose (the
-    /// fault lab's `tbf-*` scenarios judge it by outcome).
-    #[error("step {step}: \"{action}\" (a starved link) is not replayed on processes")]
-    StarvedLink { step: usize, action: Action },
     /// A resume sooner than a peer deadline after its pause: the runtime restarts only after
     /// a stall of at least a peer deadline (impl/layer/src/stall.rs), which the model's
     /// `Resume` stands for.
@@ -65,30 +65,23 @@ pub enum PlanError {
     /// Nothing to compare: the trace ends before its first round does.
     #[error("no round ends")]
     NoRoundEnds,
-    /// The replay aligns on the first report; without one it cannot.
+    /// Faults after a pulled cable is plugged back in need a quiescent boundary to
+    /// re-align at.
     #[error(
-        "no controller reports anything at the first round's end, so the replay cannot tell \
-         which real round it is"
+        "round {round} has faults after a pulled cable was plugged back in, with no quiescent \
+         boundary to re-align at"
     )]
-    NoFirstReport,
-    /// Faults after a late start need a quiescent boundary to re-align at.
+    FaultsAfterReplug { round: usize },
+    /// A controller heard a round or two after its cables are plugged back in would change
+    /// the settled end.
     #[error(
-        "round {round} has faults after a process started late, with no quiescent boundary to \
-         re-align at"
+        "its settled end changes if the controller plugged back in in round {round} is heard \
+         {rounds} round(s) later"
     )]
-    FaultsAfterLateStart { round: usize },
-    /// DDS discovery at start would change the trace's states.
-    #[error("its states change if {late} is heard one round later at start (DDS discovery)")]
-    DiscoveryAtStart { late: String },
-    /// DDS discovery of a late process would change the settled end.
-    #[error(
-        "its settled end changes if the process started in round {round} is heard {rounds} \
-         round(s) later (DDS discovery)"
-    )]
-    DiscoveryAfterLateStart { round: usize, rounds: usize },
-    /// The model refused the run with a late-discovered newcomer.
-    #[error("with {newcomers} discovered late: {cause}")]
-    LateDiscoveryRun {
+    ReplugHeardLate { round: usize, rounds: usize },
+    /// The model refused the run with a controller heard late after its heal.
+    #[error("with {newcomers} heard late after a heal: {cause}")]
+    ReplugHeardLateRun {
         newcomers: String,
         cause: Box<PlanError>,
     },
@@ -112,22 +105,23 @@ impl PlanError {
             PlanError::WindowAfterOtherAction { .. } => {
                 "a window expires after another action of its round"
             }
+            PlanError::WindowLeftOpen { .. } => "a window due at a boundary left open",
             PlanError::PaperVariantAction => "durable-vote delivery (the paper variant)",
-            PlanError::StarvedLink { .. } => "a starved link",
             PlanError::ShortPause { .. } => "a pause shorter than a stall",
             PlanError::CutBeyondTheLan { .. } => "a cut among more than three controllers",
             PlanError::NoSettle { .. } => "no settled end",
             PlanError::NoRoundEnds => "no round ends",
-            PlanError::NoFirstReport => "no report at the first round's end",
-            PlanError::FaultsAfterLateStart { .. } => {
-                "faults after a late start with no quiescent boundary"
+            PlanError::FaultsAfterReplug { .. } => {
+                "faults after a pulled cable plugged back in, with no quiescent boundary"
             }
-            PlanError::DiscoveryAtStart { .. } => "DDS discovery at start changes its states",
-            PlanError::DiscoveryAfterLateStart { .. } => {
-                "DDS discovery of a late process changes its settled end"
+            PlanError::ReplugHeardLate { .. } => {
+                "a controller heard late after a heal changes its settled end"
             }
-            PlanError::LateDiscoveryRun { cause, .. } => {
-                return format!("with a late-discovered newcomer: {}", cause.reason())
+            PlanError::ReplugHeardLateRun { cause, .. } => {
+                return format!(
+                    "with a controller heard late after a heal: {}",
+                    cause.reason()
+                )
             }
         };
         kind.to_string()

@@ -1,5 +1,6 @@
 //! One attempt's processes and what they printed, and the steps the driver ([`super`]) takes
-//! with them: start, apply a round's faults on time (a pause is SIGSTOP, a resume SIGCONT,
+//! with them: start every process held until all have discovered each other, let each go in
+//! its round, apply a round's faults on time (a pause is SIGSTOP, a resume SIGCONT,
 //! cuts and pulled cables are [`super::cuts`] on the virtual LAN), wait for and compare a
 //! boundary (the faults in `run/faults.rs`). Every
 //! observation first checks the processes' health: a process the plan did not kill must
@@ -7,7 +8,7 @@
 //! ([`super::drops`]).
 
 use super::config::{
-    RunTiming, APPLY_LATEST_MS, FIRST_REPORT_TIMEOUT, OBSERVE_OFFSET_MS, SETTLE_TIMEOUT,
+    RunTiming, DECIDED_BY_MS, DISCOVERY_TIMEOUT, OBSERVE_OFFSET_MS, SETTLE_TIMEOUT,
 };
 use super::cuts::Cuts;
 use super::drops::DropBook;
@@ -24,9 +25,11 @@ use crate::diff::state_diff;
 use crate::lab::lan::{Lan, Node};
 use crate::record::{describe_event, round_of};
 use model::traces::AbstractState;
+use model::Action;
 use rl::procs::{parse_servo_event, wall_ms};
 use rl_layer::core::ControllerId;
 use rl_layer::event::{Event, EventLine};
+use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
@@ -68,6 +71,53 @@ pub(super) struct Run<'a> {
     first_round: Option<u64>,
     /// The cuts and pulled cables in force, on the virtual LAN (if the plan has any).
     cuts: Option<Cuts<'a>>,
+    /// The processes started and held, not let go yet, in the order the plan lets them go.
+    held: Vec<Held>,
+    /// What each held process reported discovered last (its `held` lines).
+    discovered: BTreeMap<String, (usize, usize)>,
+    /// The processes admitted in this round, to be let go before its heartbeats.
+    letting_go: Vec<String>,
+    /// The controllers whose link is starved, and the control line for their commands now.
+    starved: BTreeMap<ControllerId, String>,
+}
+
+/// A controller process started and held before it votes, to be let go in the round the
+/// trace starts it.
+#[derive(Clone, Debug)]
+pub(super) struct Held {
+    pub id: ControllerId,
+    /// Its number among the processes of its id (0 for the first): its source name.
+    pub number: u8,
+    pub source: String,
+}
+
+/// Every controller process the plan starts, in the order it starts them: the initial
+/// controllers, then each join and restart.
+fn processes_of(plan: &Plan) -> Vec<Held> {
+    let starts = plan
+        .rounds
+        .iter()
+        .flat_map(|r| &r.lifecycle)
+        .filter_map(|a| match *a {
+            Action::Join { controller } | Action::Restart { controller } => Some(controller),
+            _ => None,
+        });
+    let mut numbers: BTreeMap<ControllerId, u8> = BTreeMap::new();
+    plan.initial_up
+        .iter()
+        .copied()
+        .chain(starts)
+        .map(|id| {
+            let number = numbers.entry(id).or_default();
+            let held = Held {
+                id,
+                number: *number,
+                source: lives::source_name(id, *number),
+            };
+            *number += 1;
+            held
+        })
+        .collect()
 }
 
 impl<'a> Run<'a> {
@@ -104,6 +154,10 @@ impl<'a> Run<'a> {
             drops: DropBook::default(),
             output: Output::default(),
             first_round: None,
+            held: processes_of(plan),
+            discovered: BTreeMap::new(),
+            letting_go: Vec::new(),
+            starved: BTreeMap::new(),
         }
     }
 
@@ -111,58 +165,90 @@ impl<'a> Run<'a> {
         self.timing.rounds.period_ms
     }
 
-    /// Real round `start`: the servo, the trace's initial controllers and round 0's faults.
-    pub fn start(&mut self, start: u64) -> Result<(), Failure> {
+    /// The servo and every controller process of the plan, held; returns once all have
+    /// discovered each other (each knows a heartbeat writer and reader of every controller
+    /// process, and the servo's reader).
+    pub fn start_held(&mut self) -> Result<(), Failure> {
         if let Err(source) = self.processes.start_servo() {
             let what = "rl servo --json".to_string();
             return Err(self.failure(false, Problem::Spawn { what, source }));
         }
-        let plan = self.plan;
-        for &id in &plan.initial_up {
-            self.spawn(id, start)?;
+        for index in 0..self.held.len() {
+            let Held { id, ref source, .. } = self.held[index];
+            let source = source.clone();
+            if let Err(source) = self.processes.start_controller(id, &source) {
+                let what = format!("rl controller --id {id}");
+                return Err(self.failure(false, Problem::Spawn { what, source }));
+            }
         }
-        self.apply(&plan.rounds[0], start)
-    }
-
-    /// Waits for the first reports: their round is the trace's boundary 1 (compared in the
-    /// lockstep, where a difference means the start did not line up with the trace).
-    pub fn await_first_reports(&mut self) -> Result<u64, Failure> {
-        let deadline = Instant::now() + FIRST_REPORT_TIMEOUT;
-        let first = loop {
+        // Every controller process has a heartbeat writer and reader, the servo a reader, and
+        // each counts its own.
+        let needed = (self.held.len(), self.held.len() + 1);
+        let deadline = Instant::now() + DISCOVERY_TIMEOUT;
+        loop {
             self.pump(Duration::from_millis(5));
-            let earliest = self
-                .lives
-                .iter()
-                .flat_map(|l| l.log.events.iter())
-                .filter(|e| matches!(e.event, Event::Status { .. }))
-                .map(|e| e.t_ms)
-                .min();
-            if let Some(t_ms) = earliest {
-                break round_of(t_ms, self.period_ms());
+            let all = self.held.iter().all(|h| {
+                self.discovered
+                    .get(&h.source)
+                    .is_some_and(|&(writers, readers)| writers >= needed.0 && readers >= needed.1)
+            });
+            if all {
+                return Ok(());
             }
             self.check_exits(round_of(wall_ms(), self.period_ms()))?;
             if Instant::now() >= deadline {
-                let timeout = FIRST_REPORT_TIMEOUT;
-                return Err(self.failure(false, Problem::NoFirstReports { timeout }));
+                let counts = self
+                    .held
+                    .iter()
+                    .map(|h| match self.discovered.get(&h.source) {
+                        Some((writers, readers)) => format!("{} {writers}/{readers}", h.source),
+                        None => format!("{} none", h.source),
+                    })
+                    .collect::<Vec<_>>()
+                    .join(", ");
+                let timeout = DISCOVERY_TIMEOUT;
+                let problem = Problem::NotDiscovered {
+                    timeout,
+                    counts,
+                    writers: needed.0,
+                    readers: needed.1,
+                };
+                return Err(self.failure(true, problem));
             }
-        };
-        self.first_round = Some(first);
-        let late_ms = wall_ms().saturating_sub(first * self.period_ms());
-        if late_ms > APPLY_LATEST_MS && self.plan.rounds.get(1).is_some_and(|r| !r.is_empty()) {
-            return Err(self.failure(true, Problem::FirstReportsLate { late_ms }));
         }
-        // Discovery: every process started in round 0 must be heard from the trace's round 0
-        // or the round before (the plan checked that both lead to the same states).
-        let late = self
-            .lives
-            .iter()
-            .filter(|l| l.is_running())
-            .map(|l| (l.log.id, (first - 1).saturating_sub(l.spawned_round)))
-            .find(|(_, rounds)| *rounds > 1);
-        if let Some((id, rounds)) = late {
-            return Err(self.failure(true, Problem::DiscoveredLate { id, rounds }));
+    }
+
+    /// Real round `start`: round 0's faults, and the trace's initial controllers let go
+    /// with round 0's starts; boundary 1 is the next.
+    pub fn start(&mut self, start: u64) -> Result<(), Failure> {
+        let plan = self.plan;
+        self.first_round = Some(start + 1);
+        for &id in &plan.initial_up {
+            self.admit(id, start)?;
         }
-        Ok(first)
+        // One that crashes in round 0 runs until then: let go now, before the others (held
+        // until +55, they throw its first heartbeat away, as the model's crash loses it).
+        for action in &plan.rounds[0].lifecycle {
+            if let Action::Crash { controller } = *action {
+                let pending = self.letting_go.iter().position(|source| {
+                    lives::of_process_mut(&mut self.lives, source)
+                        .is_some_and(|l| l.log.id == controller)
+                });
+                if let Some(index) = pending {
+                    let source = self.letting_go.remove(index);
+                    self.let_go_now(&source, start)?;
+                    // Until it has said it runs, within the round's first tens of ms.
+                    let deadline = Instant::now() + Duration::from_millis(40);
+                    while Instant::now() < deadline
+                        && !lives::of_process_mut(&mut self.lives, &source)
+                            .is_some_and(|l| l.stamped)
+                    {
+                        self.pump(Duration::from_millis(1));
+                    }
+                }
+            }
+        }
+        self.apply(&plan.rounds[0], start)
     }
 
     /// Boundary `k` as compared in the lockstep, where round `k`'s faults were applied at its
@@ -292,7 +378,7 @@ impl<'a> Run<'a> {
             return Err(self.failure(false, problem));
         }
         let count = self.plan.boundaries[0].controllers.len();
-        let mut observed = lives::observe(&self.lives, count, real, period_ms)
+        let mut observed = lives::observe(&self.lives, count, real, period_ms, DECIDED_BY_MS)
             .map_err(|e| self.failure(false, e.into()))?;
         let boundary_ms = real * period_ms;
         let owner = self.servo.owner_between(
@@ -342,7 +428,8 @@ impl<'a> Run<'a> {
     }
 
     fn take(&mut self, line: Line) {
-        let round = round_of(line.wall_ms, self.period_ms());
+        let period_ms = self.period_ms();
+        let round = round_of(line.wall_ms, period_ms);
         let relative = self.first_round.map_or(String::new(), |f| {
             format!(" ({:+})", round as i64 - f as i64)
         });
@@ -352,9 +439,22 @@ impl<'a> Run<'a> {
                 super::servo::describe(&event)
             })
         } else if let Some(event) = EventLine::parse(&line.text) {
+            if let Event::Held {
+                heartbeat_writers,
+                heartbeat_readers,
+            } = event.event
+            {
+                let counts = (heartbeat_writers, heartbeat_readers);
+                self.discovered.insert(line.source.clone(), counts);
+            }
             let is_leds = matches!(event.event, Event::Leds { .. });
             let shown = (!is_leds).then(|| describe_event(&event, None));
-            if let Some(life) = lives::of_process_mut(&mut self.lives, &line.source) {
+            // A held line comes before the process's life: no incarnation yet.
+            let life = match event.event {
+                Event::Held { .. } => None,
+                _ => lives::of_process_mut(&mut self.lives, &line.source),
+            };
+            if let Some(life) = life {
                 if !life.stamped {
                     life.log.incarnation = event.incarnation;
                     life.stamped = true;
@@ -362,8 +462,17 @@ impl<'a> Run<'a> {
                 if event.incarnation == life.log.incarnation {
                     life.log.events.push(event);
                 } else {
-                    // The process went on as a new incarnation (after a stall, a lost carrier).
-                    let mut next = life.next_incarnation(event.incarnation, round, line.wall_ms);
+                    // The process went on as a new incarnation (after a stall, a lost carrier,
+                    // or deposed). One that began with a boundary's decisions (deposed, which
+                    // it learns at a round's end) is that boundary's: as if started in the
+                    // round before.
+                    let at_boundary = event.t_ms % period_ms < DECIDED_BY_MS;
+                    let started = if at_boundary {
+                        round_of(event.t_ms, period_ms).saturating_sub(1)
+                    } else {
+                        round
+                    };
+                    let mut next = life.next_incarnation(event.incarnation, started, line.wall_ms);
                     next.log.events.push(event);
                     self.lives.push(next);
                 }

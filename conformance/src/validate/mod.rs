@@ -220,6 +220,19 @@ pub fn validate_strict(recording: &Recording, timing: &Timing) -> Result<Accepte
     Search::new(recording, timing, false)?.run()
 }
 
+/// As [`validate_strict`], with a boundary's reports taken as those printed within
+/// `decided_within_ms` of it: the DDS-level replay, whose harness also times the faults, so
+/// a report later in the round (a takeover from a starved Primary) is the next boundary's.
+pub fn validate_replayed(
+    recording: &Recording,
+    timing: &Timing,
+    decided_within_ms: u64,
+) -> Result<Accepted, Box<Rejection>> {
+    Search::new(recording, timing, false)?
+        .decided_within(decided_within_ms)
+        .run()
+}
+
 /// Reads a run's configuration: `path` if given, else `<dir>/rl.toml` if it exists, else
 /// `rl`'s defaults.
 pub fn run_timing(

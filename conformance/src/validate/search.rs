@@ -76,6 +76,9 @@ pub(super) struct Search<'a> {
     pub(super) lagged: HashSet<(ControllerId, u64)>,
     /// Whether the one-round lag tolerance applies.
     pub(super) lag: bool,
+    /// A boundary's reports are those printed this long into its round (its decisions),
+    /// not the whole round's; `None`: the whole round's.
+    pub(super) decided_within_ms: Option<u64>,
     pub(super) stats: Accepted,
 }
 
@@ -130,8 +133,25 @@ impl<'a> Search<'a> {
             observed: HashMap::new(),
             lagged: HashSet::new(),
             lag,
+            decided_within_ms: None,
             stats,
         })
+    }
+
+    /// Takes a boundary's reports as those printed within `ms` of it (see
+    /// [`Search::decided_within_ms`]).
+    pub(super) fn decided_within(mut self, ms: u64) -> Search<'a> {
+        self.decided_within_ms = Some(ms);
+        self
+    }
+
+    /// What `log` reported by the boundary of `round`.
+    pub(super) fn reported(&self, log: &LifeLog, round: u64) -> rl_layer::core::Status {
+        let period_ms = self.timing.period_ms;
+        match self.decided_within_ms {
+            Some(ms) => log.status_before(round * period_ms + ms),
+            None => log.status_at_boundary(round, period_ms),
+        }
     }
 
     pub(super) fn life(&self, id: ControllerId, number: u8) -> Option<&LifeRounds> {
@@ -155,7 +175,7 @@ impl<'a> Search<'a> {
                 "internal: C{id} life #{number} is not in the recording"
             ))
         })?;
-        let status = life.log.status_at_boundary(round, self.timing.period_ms);
+        let status = self.reported(&life.log, round);
         let source = life.log.source.clone();
         let abstracted =
             abstraction::abstract_controller(id, &Observed::Up(Box::new(status)), &self.numbers)
@@ -254,15 +274,10 @@ impl<'a> Search<'a> {
 
     /// Whether some life reports the takeover strength at boundary `boundary` (F17).
     fn reports_takeover(&self, boundary: u64) -> bool {
-        let period_ms = self.timing.period_ms;
         self.lives.iter().flatten().any(|life| {
             life.start_round < boundary
                 && life.last_round + 1 >= boundary
-                && life
-                    .log
-                    .status_at_boundary(boundary, period_ms)
-                    .report
-                    .strength
+                && self.reported(&life.log, boundary).report.strength
                     == Some(rl_layer::core::types::TAKEOVER_STRENGTH)
         })
     }

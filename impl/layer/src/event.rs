@@ -39,6 +39,18 @@ pub struct EventLine {
 pub enum Event {
     /// The voting thread started (before its first round).
     Started,
+    /// Held before voting (a `fault-injection` build under `RL_HOLD_START`): its DDS endpoints
+    /// exist and it waits for `start-voting` on its stdin before its clock starts, while
+    /// discovery goes on. How many participants have a heartbeat writer and a heartbeat
+    /// reader, as discovered so far (its own included): the DDS-level replay starts a trace's
+    /// processes this way and lets them vote once all have found each other. Incarnation 0:
+    /// none yet.
+    Held {
+        /// Participants with a heartbeat writer, discovered (its own included).
+        heartbeat_writers: usize,
+        /// Participants with a heartbeat reader, discovered (its own included).
+        heartbeat_readers: usize,
+    },
     /// The protocol state changed (phase, role, strength, agreed result, vote or membership).
     Status {
         /// The protocol state after the change (boxed: the largest event by far).
@@ -168,6 +180,7 @@ impl Event {
     pub fn kind(&self) -> &'static str {
         match self {
             Event::Started => "started",
+            Event::Held { .. } => "held",
             Event::Status { .. } => "status",
             Event::Output { .. } => "output",
             Event::Vote { .. } => "vote",
@@ -273,6 +286,14 @@ mod tests {
             r#"{"t_ms":1000,"id":2,"incarnation":77,"event":"resumed","stalled_ms":3000}"#
         );
         assert_eq!(
+            line(Event::Held {
+                heartbeat_writers: 2,
+                heartbeat_readers: 1
+            })
+            .to_json(),
+            r#"{"t_ms":1000,"id":2,"incarnation":77,"event":"held","heartbeat_writers":2,"heartbeat_readers":1}"#
+        );
+        assert_eq!(
             line(Event::Detached).to_json(),
             r#"{"t_ms":1000,"id":2,"incarnation":77,"event":"detached"}"#
         );
@@ -358,6 +379,10 @@ mod tests {
         status.alarms = vec![(3, AlarmReason::Failed)];
         let events = [
             Event::Started,
+            Event::Held {
+                heartbeat_writers: 2,
+                heartbeat_readers: 2,
+            },
             Event::Status {
                 status: Box::new(status),
             },

@@ -87,7 +87,8 @@ pub(crate) fn spawn(
             (None, None)
         }
     };
-    let endpoints = Endpoints {
+    #[cfg_attr(not(feature = "fault-injection"), allow(unused_mut))]
+    let mut endpoints = Endpoints {
         heartbeats_in: session.heartbeat_reader().map_err(dds)?,
         votes_in: session.vote_reader().map_err(dds)?,
         commands_in: session.command_follower_reader().map_err(dds)?,
@@ -97,6 +98,13 @@ pub(crate) fn spawn(
         ros_status,
         _ros_node: ros_node,
     };
+    // Held while discovery goes on (the DDS-level replay's start); what the readers take in
+    // meanwhile is not this start's.
+    #[cfg(feature = "fault-injection")]
+    fault_injection::hold_until_started(&session, id, options.json_events, || {
+        let _ = endpoints.heartbeats_in.take();
+        let _ = endpoints.commands_in.take();
+    });
     // Before the clock starts: the lamp test takes a moment, and the first round must not
     // begin late.
     let leds = led_bank(&config);
@@ -560,7 +568,7 @@ impl Voting {
 mod arrival;
 mod commands_in;
 #[cfg(feature = "fault-injection")]
-mod fault_injection;
+pub(crate) mod fault_injection;
 
 #[cfg(feature = "fault-injection")]
 pub use fault_injection::OutputFault;

@@ -1,11 +1,16 @@
 //! Applying a round's faults to the attempt's processes and the LAN: on time or not at all
-//! (`Run::apply_on_time`), crashes, starts, pauses and resumes, cuts and heals, and the
+//! (`Run::apply_on_time`), crashes, held processes let go, pauses and resumes, starved
+//! links (a controller's commands late or held back, its stdin control), cuts and heals, and the
 //! heartbeat-drop control. Kept apart from the observation side of [`super`].
 
-use super::super::config::{APPLY_LATEST_MS, APPLY_OFFSET_MS, STALL_MARGIN_MS};
+use super::super::config::{
+    APPLY_LATEST_MS, APPLY_OFFSET_MS, LAG_AFTER_TAKEOVER_MS, LET_GO_OFFSET_MS, STALL_MARGIN_MS,
+    STARVED_DELAY_MS, STARVE_ONSET_MS,
+};
 use super::super::error::{Failure, Problem};
 use super::super::lives::{self, Life};
 use super::super::plan::RoundPlan;
+use super::super::processes::START_VOTING;
 use super::Run;
 use model::Action;
 use rl::procs::wall_ms;
@@ -41,6 +46,56 @@ impl Run<'_> {
             };
             return Err(self.failure(true, problem));
         }
+        self.after_takeover(round, real)
+    }
+
+    /// The starved links of the round after real round `real` begin, at [`STARVE_ONSET_MS`]
+    /// into it (applying that round finds them in place).
+    pub fn starve_ahead(&mut self, next: &RoundPlan, real: u64) -> Result<(), Failure> {
+        let starving: Vec<ControllerId> = next
+            .lifecycle
+            .iter()
+            .filter_map(|a| match *a {
+                Action::Starve { controller } => Some(controller),
+                _ => None,
+            })
+            .collect();
+        if starving.is_empty() {
+            return Ok(());
+        }
+        self.sleep_until(real * self.period_ms() + STARVE_ONSET_MS);
+        for controller in starving {
+            self.command_link(controller, Some(STARVED_DELAY_MS), real)?;
+        }
+        Ok(())
+    }
+
+    /// What changes a starved link in the round a peer takes over from it (a missed
+    /// deadline, a late sample, a heal), in order: in the model the takeover comes with the
+    /// starved link, so the late commands it is measured on go out first, and these follow
+    /// from [`LAG_AFTER_TAKEOVER_MS`] into the round (the takeover writer owns the actuator
+    /// then, whatever the starved one's deadline).
+    fn after_takeover(&mut self, round: &RoundPlan, real: u64) -> Result<(), Failure> {
+        let waiting: Vec<Action> = round
+            .lifecycle
+            .iter()
+            .copied()
+            .filter(|a| round.waits_for_takeover(*a))
+            .collect();
+        if waiting.is_empty() {
+            return Ok(());
+        }
+        self.sleep_until(real * self.period_ms() + LAG_AFTER_TAKEOVER_MS);
+        for action in waiting {
+            match action {
+                Action::Lag { controller } => self.command_link(controller, None, real)?,
+                Action::CatchUp { controller } => {
+                    self.command_link(controller, Some(STARVED_DELAY_MS), real)?;
+                }
+                Action::Heal { controller } => self.command_link(controller, Some(0), real)?,
+                _ => {}
+            }
+        }
         Ok(())
     }
 
@@ -66,17 +121,73 @@ impl Run<'_> {
             match *action {
                 Action::Crash { controller } => self.kill(controller, real)?,
                 Action::Join { controller } | Action::Restart { controller } => {
-                    self.spawn(controller, real)?;
+                    self.admit(controller, real)?;
                 }
                 Action::Pause { controller } => self.pause(controller, true, real)?,
                 Action::Resume { controller } => self.pause(controller, false, real)?,
+                Action::Starve { controller } if self.starved.contains_key(&controller) => {}
+                Action::Starve { controller } | Action::CatchUp { controller } => {
+                    self.command_link(controller, Some(STARVED_DELAY_MS), real)?;
+                }
+                _ if round.waits_for_takeover(*action) => {}
+                Action::Lag { controller } => self.command_link(controller, None, real)?,
+                Action::Heal { controller } if self.starved.contains_key(&controller) => {
+                    self.command_link(controller, Some(0), real)?;
+                }
                 Action::Isolate { .. } | Action::Unplug { .. } | Action::Heal { .. } => {
                     self.cut(*action)?;
                 }
                 _ => {}
             }
         }
-        self.control_drops(round, real)
+        // The drops first: a held process obeys them, and they must be in force before the
+        // round's heartbeats arrive.
+        self.control_drops(round, real)?;
+        self.let_go(real)
+    }
+
+    /// How controller `id`'s commands go out (its stdin control), a starved link's effect on
+    /// them: late by `Some(ms)` (`Some(0)`: on time again, the link healed), or none at all
+    /// (`None`: the readers miss the deadline). Kept for a later process of the same id, whose
+    /// link is the same.
+    fn command_link(
+        &mut self,
+        id: ControllerId,
+        delay_ms: Option<u64>,
+        real: u64,
+    ) -> Result<(), Failure> {
+        let line = match delay_ms {
+            Some(0) => {
+                self.starved.remove(&id);
+                "delay-commands 0\n".to_string()
+            }
+            Some(ms) => format!("delay-commands {ms}\n"),
+            None => "hold-commands\n".to_string(),
+        };
+        if delay_ms != Some(0) {
+            self.starved.insert(id, line.clone());
+        }
+        let Some(life) = lives::current_mut(&mut self.lives, id).filter(|l| l.is_running()) else {
+            return Ok(());
+        };
+        let source_name = life.log.source.clone();
+        self.control(&source_name, &line, real)
+    }
+
+    /// Writes `line` to a process's stdin control.
+    fn control(&mut self, source_name: &str, line: &str, real: u64) -> Result<(), Failure> {
+        if let Err(source) = self.processes.send(source_name, line) {
+            self.check_exits(real)?;
+            let source_name = source_name.to_string();
+            return Err(self.failure(
+                false,
+                Problem::Control {
+                    source_name,
+                    source,
+                },
+            ));
+        }
+        Ok(())
     }
 
     /// A cut, pulled cables or a heal on the virtual LAN.
@@ -169,13 +280,50 @@ impl Run<'_> {
         Ok(())
     }
 
-    pub(super) fn spawn(&mut self, id: ControllerId, real: u64) -> Result<(), Failure> {
-        let life = Life::new(id, lives::lives_of(&self.lives, id), real, wall_ms());
-        if let Err(source) = self.processes.start_controller(id, &life.log.source) {
-            let what = format!("rl controller --id {id}");
+    /// Starts a life for the next held process of `id` in real round `real` (a start, join
+    /// or restart), to be let go at the round's [`LET_GO_OFFSET_MS`].
+    pub(super) fn admit(&mut self, id: ControllerId, real: u64) -> Result<(), Failure> {
+        let Some(index) = self.held.iter().position(|h| h.id == id) else {
+            let what = format!("rl controller --id {id} (no held process left)");
+            let source = std::io::Error::other("the plan starts more processes than it held");
             return Err(self.failure(false, Problem::Spawn { what, source }));
+        };
+        let held = self.held.remove(index);
+        // A starved link is the controller's: a new process of it has it too.
+        if let Some(line) = self.starved.get(&id).cloned() {
+            self.control(&held.source, &line, real)?;
         }
-        self.lives.push(life);
+        self.lives.push(Life::new(id, held.number, real, wall_ms()));
+        self.letting_go.push(held.source);
+        Ok(())
+    }
+
+    /// Lets one held process go now.
+    pub(super) fn let_go_now(&mut self, source_name: &str, real: u64) -> Result<(), Failure> {
+        self.control(source_name, START_VOTING, real)
+    }
+
+    /// Lets the processes admitted in real round `real` go, just before the round's
+    /// heartbeats: a controller's first heartbeat goes out at once, and a peer with no
+    /// Primary to follow takes its round phase from it (rl-core's `phase`), so it must go out
+    /// on the round's phase.
+    fn let_go(&mut self, real: u64) -> Result<(), Failure> {
+        if self.letting_go.is_empty() {
+            return Ok(());
+        }
+        self.sleep_until(real * self.period_ms() + LET_GO_OFFSET_MS);
+        for source_name in std::mem::take(&mut self.letting_go) {
+            // Restarted and crashed in the same round: it never votes.
+            let killed = lives::of_process_mut(&mut self.lives, &source_name)
+                .is_some_and(|l| l.killed_round.is_some());
+            if !killed {
+                self.let_go_now(&source_name, real)?;
+            }
+        }
+        let late_ms = wall_ms().saturating_sub(real * self.period_ms());
+        if late_ms >= self.period_ms() / 4 {
+            return Err(self.failure(true, Problem::HarnessLate { real, late_ms }));
+        }
         Ok(())
     }
 }

@@ -58,7 +58,7 @@ use rustdds::{
     DomainParticipantBuilder, Publisher, QosPolicies, QosPolicyBuilder, RTPSEntity, Subscriber,
     Topic, TopicDescription, TopicKind,
 };
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::time::Duration;
 
 /// A DDS failure, with the entity and topic it concerns.
@@ -524,6 +524,29 @@ impl Session {
     /// A camera writer, as the shapes simulator uses (reliable, so any camera reader matches).
     pub fn camera_writer(&self) -> Result<Writer<ShapeTypeExtended>, DdsError> {
         self.keyed_writer(&self.topics.camera, qos::camera_writer())
+    }
+
+    /// How many participants have a heartbeat writer, and how many a heartbeat reader, as
+    /// discovered (this one's own included, once its own announcements come back): the
+    /// DDS-level replay starts a trace's processes held and lets them vote once all have
+    /// found each other (`rl controller` under `RL_HOLD_START`, a `fault-injection` build).
+    pub fn heartbeat_participants_discovered(&self) -> (usize, usize) {
+        let topic = &self.config.heartbeat_topic;
+        let writers = self
+            .participant
+            .discovered_writers()
+            .into_iter()
+            .filter(|w| &w.publication_topic_data.topic_name == topic)
+            .map(|w| w.writer_proxy.remote_writer_guid.prefix)
+            .collect::<BTreeSet<_>>();
+        let readers = self
+            .participant
+            .discovered_readers()
+            .into_iter()
+            .filter(|r| r.subscription_topic_data.topic_name() == topic)
+            .map(|r| r.reader_proxy.remote_reader_guid.prefix)
+            .collect::<BTreeSet<_>>();
+        (writers.len(), readers.len())
     }
 
     /// Ownership strengths of the remote EXCLUSIVE writers of the command topic, by writer

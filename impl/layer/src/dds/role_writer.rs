@@ -128,6 +128,10 @@ pub struct StrengthWriter<T, K: Keying<T> = NoKey> {
     waiting_raise: Option<(Strength, Instant)>,
     /// The takeover writer kept ready while it commands at the Secondary's strength.
     ready: Option<K::Raw>,
+    /// Commands held back by the fault-injection control (a starved link's delay), with
+    /// their stamps, oldest first.
+    #[cfg(feature = "fault-injection")]
+    delayed: std::collections::VecDeque<(T, Timestamp, Instant)>,
     samples: PhantomData<fn(T)>,
 }
 
@@ -151,6 +155,8 @@ where
             retiring: None,
             waiting_raise: None,
             ready: None,
+            #[cfg(feature = "fault-injection")]
+            delayed: std::collections::VecDeque::new(),
             samples: PhantomData,
         };
         // The strength asked for at creation is taken at once: no controller above is
@@ -272,19 +278,51 @@ where
         {
             self.retiring = None;
         }
-        let Some(writer) = &self.writer else {
+        if self.writer.is_none() {
             return Ok(false);
-        };
+        }
+        // Stamped: the writer's lifespan counts from it (crate::dds::qos::command_writer).
+        let written = Timestamp::now();
+        #[cfg(feature = "fault-injection")]
+        {
+            use crate::runtime::fault_injection::{command_link, CommandLink};
+            match command_link() {
+                CommandLink::OnTime => self.delayed.clear(),
+                CommandLink::Held => {
+                    self.delayed.clear();
+                    return Ok(true);
+                }
+                CommandLink::Delayed(delay_ms) => {
+                    self.delayed.push_back((sample, written, Instant::now()));
+                    let delay = Duration::from_millis(delay_ms);
+                    while let Some((_, _, at)) = self.delayed.front() {
+                        if at.elapsed() < delay {
+                            break;
+                        }
+                        if let Some((late, stamp, _)) = self.delayed.pop_front() {
+                            self.send(late, stamp)?;
+                        }
+                    }
+                    return Ok(true);
+                }
+            }
+        }
+        self.send(sample, written)?;
+        Ok(true)
+    }
+
+    /// Writes `sample` stamped `written` on the writer, and on a retiring one.
+    fn send(&self, sample: T, written: Timestamp) -> Result<(), DdsError> {
         let error = |e: WriteError<T>| DdsError::Write {
             topic: self.topic.name(),
             source: e.forget_data(),
         };
-        // Stamped: the writer's lifespan counts from it (crate::dds::qos::command_writer).
-        let written = Timestamp::now();
         if let Some((retiring, _)) = &self.retiring {
             K::write(retiring, sample.clone(), written).map_err(error)?;
         }
-        K::write(writer, sample, written).map_err(error)?;
-        Ok(true)
+        if let Some(writer) = &self.writer {
+            K::write(writer, sample, written).map_err(error)?;
+        }
+        Ok(())
     }
 }

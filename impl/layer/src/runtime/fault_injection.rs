@@ -7,14 +7,18 @@
 //! still succeed (the watchdog test); `wrong-commands offset <n>|frozen|random|none` asks the
 //! application to make its commands wrong (crate::api::Redundancy::injected_output_fault: a
 //! controller that heartbeats on but computes wrong commands, for the output voting tests and
-//! the lab); `skew-commands <n>` is `wrong-commands offset <n>`.
+//! the lab); `skew-commands <n>` is `wrong-commands offset <n>`; `delay-commands <ms>` and
+//! `hold-commands` make its commands late or missing, as a starved link does
+//! ([`CommandLink`]). Under `RL_HOLD_START` the
+//! controller waits for `start-voting` before its clock starts ([`hold_until_started`]).
 
 use std::collections::BTreeSet;
-use std::io::BufRead;
+use std::io::{BufRead, Write};
 use std::sync::Mutex;
 use std::time::Duration;
 
 static DROPPED: Mutex<BTreeSet<u8>> = Mutex::new(BTreeSet::new());
+static COMMAND_LINK: Mutex<CommandLink> = Mutex::new(CommandLink::OnTime);
 static STALL: Mutex<Option<Duration>> = Mutex::new(None);
 static OUTPUT_FAULT: Mutex<OutputFault> = Mutex::new(OutputFault::None);
 
@@ -45,6 +49,33 @@ impl OutputFault {
         };
         words.next().is_none().then_some(fault)
     }
+}
+
+/// How this controller's commands reach the others (`delay-commands <ms>`, `hold-commands`):
+/// a starved link's effect on them as the model names it, one at a time, so the DDS-level
+/// replay can give the trace's `Starve`, `Lag` and `CatchUp` in the trace's round
+/// (crate::dds::StrengthWriter applies it; heartbeats and votes are not touched, as the
+/// model's starved link carries them on time).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum CommandLink {
+    /// Written at once (`delay-commands 0`).
+    #[default]
+    OnTime,
+    /// Each command written this long after it was stamped (`delay-commands <ms>`): late to
+    /// every reader, within the command deadline.
+    Delayed(u64),
+    /// None written (`hold-commands`): the readers miss the command deadline.
+    Held,
+}
+
+/// How the commands are to go out now.
+pub fn command_link() -> CommandLink {
+    *COMMAND_LINK.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+fn set_command_link(link: CommandLink) {
+    *COMMAND_LINK.lock().unwrap_or_else(|e| e.into_inner()) = link;
+    tracing::warn!("fault injection: commands {link:?}");
 }
 
 /// The output fault asked for.
@@ -132,61 +163,147 @@ fn break_dds_event_loops() {
 }
 
 /// Reads `drop-heartbeats-from <id>`, `accept-heartbeats-from <id>`,
-/// `stall-voting-loop <ms>`, `wrong-commands ...`, `skew-commands <offset>` and
-/// `break-dds-event-loop` lines.
+/// `stall-voting-loop <ms>`, `wrong-commands ...`, `skew-commands <offset>`,
+/// `delay-commands <ms>`, `hold-commands` and `break-dds-event-loop` lines.
 pub fn listen_on_stdin() {
     let _ = std::thread::Builder::new()
         .name("rl-fault-injection".into())
         .spawn(|| {
             for line in std::io::stdin().lock().lines().map_while(Result::ok) {
-                if line.trim() == "break-dds-event-loop" {
-                    break_dds_event_loops();
-                    continue;
-                }
-                let mut words = line.split_whitespace();
-                let (Some(verb), Some(id)) = (words.next(), words.next()) else {
-                    continue;
-                };
-                if verb == "wrong-commands" {
-                    let words = line.split_whitespace().skip(1);
-                    set_output_fault(&line, OutputFault::parse(words));
-                    continue;
-                }
-                if verb == "skew-commands" {
-                    let fault = id.parse().ok().map(|offset| match offset {
-                        0 => OutputFault::None,
-                        offset => OutputFault::Offset(offset),
-                    });
-                    set_output_fault(&line, fault);
-                    continue;
-                }
-                if verb == "stall-voting-loop" {
-                    match id.parse::<u64>() {
-                        Ok(ms) => {
-                            *STALL.lock().unwrap_or_else(|e| e.into_inner()) =
-                                Some(Duration::from_millis(ms));
-                        }
-                        Err(_) => tracing::warn!("fault injection: bad duration in {line:?}"),
-                    }
-                    continue;
-                }
-                let Ok(id) = id.parse::<u8>() else {
-                    tracing::warn!("fault injection: bad id in {line:?}");
-                    continue;
-                };
-                let mut dropped = DROPPED.lock().unwrap_or_else(|e| e.into_inner());
-                match verb {
-                    "drop-heartbeats-from" => {
-                        dropped.insert(id);
-                    }
-                    "accept-heartbeats-from" => {
-                        dropped.remove(&id);
-                    }
-                    _ => tracing::warn!("fault injection: unknown command {line:?}"),
-                }
-                tracing::info!("fault injection: dropping heartbeats from {dropped:?}");
+                obey(&line);
             }
         });
+}
+
+/// The line that ends a hold ([`hold_until_started`]).
+pub const START_VOTING: &str = "start-voting";
+
+/// Under `RL_HOLD_START` (any value): holds the controller before its clock starts, its DDS
+/// endpoints created, until `start-voting` comes on stdin (or stdin closes), printing a
+/// `held` event line (with `--json-events`) whenever the count of discovered participants
+/// changes. The other control lines are obeyed meanwhile. The DDS-level replay starts every
+/// process of a trace this way, so a process that joins in round `k` has been discovered by
+/// then and is heard in round `k`, as the model's join is. What the readers take in while it
+/// is held is thrown away (`discard`, every few milliseconds): a process started at the
+/// release would not have it.
+pub fn hold_until_started(
+    session: &crate::dds::Session,
+    id: crate::core::ControllerId,
+    json_events: bool,
+    mut discard: impl FnMut(),
+) -> bool {
+    if std::env::var_os("RL_HOLD_START").is_none() {
+        return false;
+    }
+    let (started, start) = std::sync::mpsc::channel();
+    let reading = std::thread::Builder::new()
+        .name("rl-held".into())
+        .spawn(move || {
+            for line in std::io::stdin().lock().lines().map_while(Result::ok) {
+                if line.trim() == START_VOTING {
+                    break;
+                }
+                obey(&line);
+            }
+            let _ = started.send(());
+        });
+    let Ok(reading) = reading else {
+        tracing::warn!("fault injection: no thread to read stdin while held; not holding");
+        return false;
+    };
+    tracing::warn!("fault injection: held until {START_VOTING:?} on stdin");
+    let mut shown = None;
+    loop {
+        // Thrown away as it comes, not at the end: a peer let go a moment earlier sends its
+        // first heartbeat at once, and it belongs to this round.
+        discard();
+        let counts = session.heartbeat_participants_discovered();
+        if json_events && shown != Some(counts) {
+            shown = Some(counts);
+            let line = crate::event::EventLine {
+                t_ms: crate::round_clock::RoundClock::start().now_ms(),
+                id,
+                incarnation: 0,
+                event: crate::event::Event::Held {
+                    heartbeat_writers: counts.0,
+                    heartbeat_readers: counts.1,
+                },
+            };
+            let mut out = std::io::stdout().lock();
+            let _ = writeln!(out, "{}", line.to_json());
+            let _ = out.flush();
+        }
+        match start.recv_timeout(Duration::from_millis(HELD_LOOK_MS)) {
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
+            _ => break,
+        }
+    }
+    let _ = reading.join();
+    true
+}
+
+/// How often a held controller looks at what discovery found.
+const HELD_LOOK_MS: u64 = 10;
+
+/// One control line.
+fn obey(line: &str) {
+    if line.trim() == "break-dds-event-loop" {
+        break_dds_event_loops();
+        return;
+    }
+    if line.trim() == "hold-commands" {
+        set_command_link(CommandLink::Held);
+        return;
+    }
+    let mut words = line.split_whitespace();
+    let (Some(verb), Some(id)) = (words.next(), words.next()) else {
+        return;
+    };
+    if verb == "wrong-commands" {
+        let words = line.split_whitespace().skip(1);
+        set_output_fault(line, OutputFault::parse(words));
+        return;
+    }
+    if verb == "skew-commands" {
+        let fault = id.parse().ok().map(|offset| match offset {
+            0 => OutputFault::None,
+            offset => OutputFault::Offset(offset),
+        });
+        set_output_fault(line, fault);
+        return;
+    }
+    if verb == "delay-commands" {
+        match id.parse::<u64>() {
+            Ok(0) => set_command_link(CommandLink::OnTime),
+            Ok(ms) => set_command_link(CommandLink::Delayed(ms)),
+            Err(_) => tracing::warn!("fault injection: bad delay in {line:?}"),
+        }
+        return;
+    }
+    if verb == "stall-voting-loop" {
+        match id.parse::<u64>() {
+            Ok(ms) => {
+                *STALL.lock().unwrap_or_else(|e| e.into_inner()) = Some(Duration::from_millis(ms));
+            }
+            Err(_) => tracing::warn!("fault injection: bad duration in {line:?}"),
+        }
+        return;
+    }
+    let Ok(id) = id.parse::<u8>() else {
+        tracing::warn!("fault injection: bad id in {line:?}");
+        return;
+    };
+    let mut dropped = DROPPED.lock().unwrap_or_else(|e| e.into_inner());
+    match verb {
+        "drop-heartbeats-from" => {
+            dropped.insert(id);
+        }
+        "accept-heartbeats-from" => {
+            dropped.remove(&id);
+        }
+        _ => tracing::warn!("fault injection: unknown command {line:?}"),
+    }
+    tracing::info!("fault injection: dropping heartbeats from {dropped:?}");
 }
 
 #[cfg(test)]
