@@ -520,8 +520,8 @@ impl<'a> Run<'a> {
         let _ = writeln!(context, "  processes: {}, servo", lives.join(", "));
         let _ = writeln!(
             context,
-            "  --- the last {} lines the processes printed (wall ms, round, rounds since the \
-             first reports; leds events and servo commands left out) ---",
+            "  --- the last {} lines the processes printed (wall ms, round, rounds since \
+             boundary 1; leds events and servo commands left out) ---",
             super::transcript::TAIL_LINES
         );
         for line in self.output.transcript_tail() {

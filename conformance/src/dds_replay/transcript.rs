@@ -1,5 +1,5 @@
 //! What the processes printed: every line kept for the recording (one log per process), and
-//! a readable transcript (wall ms, round, rounds since the first reports) for failure reports.
+//! a readable transcript (wall ms, round, rounds since boundary 1) for failure reports.
 
 use super::error::ReplayError;
 use crate::record::describe_event;
