@@ -568,7 +568,7 @@ impl Voting {
 mod arrival;
 mod commands_in;
 #[cfg(feature = "fault-injection")]
-pub(crate) mod fault_injection;
+mod fault_injection;
 
 #[cfg(feature = "fault-injection")]
 pub use fault_injection::OutputFault;

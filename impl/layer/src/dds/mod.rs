@@ -29,6 +29,8 @@
 //! ([`Session::command_writer_strengths`], RustDDS `discovered_writers()`).
 
 mod app_topics;
+#[cfg(feature = "fault-injection")]
+pub mod command_link;
 mod endpoint;
 mod groups;
 mod network;

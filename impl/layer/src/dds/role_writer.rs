@@ -285,8 +285,8 @@ where
         let written = Timestamp::now();
         #[cfg(feature = "fault-injection")]
         {
-            use crate::runtime::fault_injection::{command_link, CommandLink};
-            match command_link() {
+            use super::command_link::{self, CommandLink};
+            match command_link::get() {
                 CommandLink::OnTime => self.delayed.clear(),
                 CommandLink::Held => {
                     self.delayed.clear();

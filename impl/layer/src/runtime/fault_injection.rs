@@ -9,16 +9,16 @@
 //! controller that heartbeats on but computes wrong commands, for the output voting tests and
 //! the lab); `skew-commands <n>` is `wrong-commands offset <n>`; `delay-commands <ms>` and
 //! `hold-commands` make its commands late or missing, as a starved link does
-//! ([`CommandLink`]). Under `RL_HOLD_START` the
+//! (crate::dds::command_link). Under `RL_HOLD_START` the
 //! controller waits for `start-voting` before its clock starts ([`hold_until_started`]).
 
+use crate::dds::command_link::CommandLink;
 use std::collections::BTreeSet;
 use std::io::{BufRead, Write};
 use std::sync::Mutex;
 use std::time::Duration;
 
 static DROPPED: Mutex<BTreeSet<u8>> = Mutex::new(BTreeSet::new());
-static COMMAND_LINK: Mutex<CommandLink> = Mutex::new(CommandLink::OnTime);
 static STALL: Mutex<Option<Duration>> = Mutex::new(None);
 static OUTPUT_FAULT: Mutex<OutputFault> = Mutex::new(OutputFault::None);
 
@@ -49,33 +49,6 @@ impl OutputFault {
         };
         words.next().is_none().then_some(fault)
     }
-}
-
-/// How this controller's commands reach the others (`delay-commands <ms>`, `hold-commands`):
-/// a starved link's effect on them as the model names it, one at a time, so the DDS-level
-/// replay can give the trace's `Starve`, `Lag` and `CatchUp` in the trace's round
-/// (crate::dds::StrengthWriter applies it; heartbeats and votes are not touched, as the
-/// model's starved link carries them on time).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum CommandLink {
-    /// Written at once (`delay-commands 0`).
-    #[default]
-    OnTime,
-    /// Each command written this long after it was stamped (`delay-commands <ms>`): late to
-    /// every reader, within the command deadline.
-    Delayed(u64),
-    /// None written (`hold-commands`): the readers miss the command deadline.
-    Held,
-}
-
-/// How the commands are to go out now.
-pub fn command_link() -> CommandLink {
-    *COMMAND_LINK.lock().unwrap_or_else(|e| e.into_inner())
-}
-
-fn set_command_link(link: CommandLink) {
-    *COMMAND_LINK.lock().unwrap_or_else(|e| e.into_inner()) = link;
-    tracing::warn!("fault injection: commands {link:?}");
 }
 
 /// The output fault asked for.
@@ -252,7 +225,7 @@ fn obey(line: &str) {
         return;
     }
     if line.trim() == "hold-commands" {
-        set_command_link(CommandLink::Held);
+        crate::dds::command_link::set(CommandLink::Held);
         return;
     }
     let mut words = line.split_whitespace();
@@ -274,8 +247,8 @@ fn obey(line: &str) {
     }
     if verb == "delay-commands" {
         match id.parse::<u64>() {
-            Ok(0) => set_command_link(CommandLink::OnTime),
-            Ok(ms) => set_command_link(CommandLink::Delayed(ms)),
+            Ok(0) => crate::dds::command_link::set(CommandLink::OnTime),
+            Ok(ms) => crate::dds::command_link::set(CommandLink::Delayed(ms)),
             Err(_) => tracing::warn!("fault injection: bad delay in {line:?}"),
         }
         return;

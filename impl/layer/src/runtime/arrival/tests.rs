@@ -41,10 +41,14 @@ fn a_new_writer_says_nothing_until_it_is_established() {
     let mut w = established(&[1], 1_000);
     assert_eq!(w.sample(1, writer(1), 90, 1_010), Some(Arrival::Late));
     assert_eq!(w.sample(3, writer(3), 5, 1_020), None);
-    assert_eq!(w.sample(3, writer(3), 5, 1_400), None);
+    let established_ms = 1_020 + ESTABLISHED_MS;
+    assert_eq!(w.sample(3, writer(3), 5, established_ms - EVERY_MS), None);
     // Established: its on-time samples count, and with C1 late each is reported.
-    w.sample(1, writer(1), 90, 1_500);
-    assert_eq!(w.sample(3, writer(3), 5, 1_530), Some(Arrival::OnTime));
+    w.sample(1, writer(1), 90, established_ms);
+    assert_eq!(
+        w.sample(3, writer(3), 5, established_ms + 2 * EVERY_MS),
+        Some(Arrival::OnTime)
+    );
 }
 
 #[test]
