@@ -32,7 +32,8 @@
 //! fresh processes, up to [`ATTEMPTS`] times. Any other difference is a failure
 //! ([`ReplayError::Diverged`]), reported with the run's context.
 //!
-//! Modules: [`plan`](mod@plan) (a trace's plan, pure), [`refusal`] (why a trace cannot be
+//! Modules: [`plan`](mod@plan) (a trace's plan, pure; the trace rebuilt round by round in
+//! its `rebuild`), [`refusal`] (why a trace cannot be
 //! planned, and the kind of each refusal), [`checks`] (its timing assumptions, checked
 //! against the model), [`curated`](mod@curated) (which traces), [`config`] (the `rl.toml` and the
 //! timing), [`binary`] (building `rl`), [`processes`] (the children), [`lives`] (a

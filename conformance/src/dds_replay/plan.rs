@@ -26,13 +26,15 @@
 use super::checks;
 use crate::trace::Trace;
 use crate::validate::Timing;
-use model::state::link_bit;
 use model::traces::{abstract_state, AbstractState};
 use model::{protocol, Action, Life, State};
-use std::collections::{BTreeMap, BTreeSet};
+use rebuild::{lost_links, rebuild, Rebuilt};
+use std::collections::BTreeSet;
 use std::fmt::Write;
 
 pub use super::refusal::PlanError;
+
+mod rebuild;
 
 /// A cut needs a network namespace per controller: the virtual LAN's three
 /// (`crate::lab::lan::CONTROLLER_IDS`).
@@ -235,19 +237,6 @@ pub(super) fn step(
     protocol::next_state(config, state, action).ok_or(PlanError::NotAllowed { action })
 }
 
-fn lost_links(state: &State) -> BTreeSet<(u8, u8)> {
-    let n = state.controllers.len() as u8;
-    let mut out = BTreeSet::new();
-    for from in 1..=n {
-        for to in 1..=n {
-            if from != to && state.lost_links & link_bit(from, to) != 0 {
-                out.insert((from, to));
-            }
-        }
-    }
-    out
-}
-
 /// Expires every due window (they are urgent: the implementation fires them at the boundary).
 fn expire_due(config: &model::Config, mut state: State) -> Result<State, PlanError> {
     for id in config.ids() {
@@ -320,216 +309,6 @@ pub(super) fn run_rounds(
         out.push(state.clone());
     }
     Ok(out)
-}
-
-/// Whether real processes can take `action`, a process or network fault of round `round`
-/// (trace step `step`): a cut needs a namespace per controller, and a resume must come at
-/// least a stall after its pause (`paused_in`: the round each paused controller was paused
-/// in, kept here).
-fn admit_process_fault(
-    config: &model::Config,
-    state: &State,
-    action: Action,
-    paused_in: &mut BTreeMap<u8, usize>,
-    round: usize,
-    step: usize,
-) -> Result<(), PlanError> {
-    match action {
-        Action::Isolate { .. } | Action::Unplug { .. }
-            if state.controllers.len() > CUT_CONTROLLERS_MAX =>
-        {
-            Err(PlanError::CutBeyondTheLan {
-                controllers: state.controllers.len(),
-            })
-        }
-        Action::Pause { controller } => {
-            paused_in.insert(controller, round);
-            Ok(())
-        }
-        Action::Resume { controller } => {
-            let rounds = round.saturating_sub(paused_in.remove(&controller).unwrap_or(0));
-            if rounds < usize::from(config.dead_after_rounds) {
-                return Err(PlanError::ShortPause {
-                    step,
-                    controller,
-                    rounds,
-                    stall_rounds: config.dead_after_rounds,
-                });
-            }
-            Ok(())
-        }
-        _ => Ok(()),
-    }
-}
-
-/// The trace rebuilt under the run's round lengths, round by round: its rounds and the
-/// boundaries between them.
-struct Rebuilt {
-    rounds: Vec<RoundPlan>,
-    boundaries: Vec<State>,
-    state: State,
-}
-
-fn rebuild(trace: &Trace, config: &model::Config, initial: State) -> Result<Rebuilt, PlanError> {
-    let mut rounds = vec![RoundPlan::default()];
-    let mut boundaries = vec![initial.clone()];
-    let mut state = initial;
-    // The round's actions so far, other than window expiries.
-    let mut round_actions: Vec<Action> = Vec::new();
-    // The round each paused controller was paused in.
-    let mut paused_in: BTreeMap<u8, usize> = BTreeMap::new();
-    for trace_step in &trace.steps {
-        let action = trace_step.action;
-        match action {
-            Action::Tick => {
-                left_open(config, boundaries.last(), trace_step.number)?;
-                if let Some(round) = rounds.last_mut() {
-                    round.lost = lost_links(&state);
-                }
-                state = step(config, &state, action)?;
-                boundaries.push(state.clone());
-                rounds.push(RoundPlan::default());
-                round_actions.clear();
-            }
-            Action::ExpireWindow { .. } if !round_actions.is_empty() => {
-                // The implementation's window fires at the boundary, before the round's
-                // faults: replayable if expiring there reaches the same state.
-                let at_boundary = boundaries.last().cloned().unwrap_or_else(|| state.clone());
-                let expired = step(config, &at_boundary, action)?;
-                let moved = expire_at_boundary(config, &expired, &round_actions);
-                let in_order = step(config, &state, action)?;
-                if moved.as_ref().map(without_history) != Some(without_history(&in_order)) {
-                    return Err(PlanError::WindowAfterOtherAction {
-                        step: trace_step.number,
-                    });
-                }
-                if let Some(last) = boundaries.last_mut() {
-                    *last = expired;
-                }
-                state = in_order;
-            }
-            Action::ExpireWindow { .. } => {
-                state = step(config, &state, action)?;
-                if let Some(last) = boundaries.last_mut() {
-                    *last = state.clone();
-                }
-            }
-            Action::DeliverVotes { .. } => return Err(PlanError::PaperVariantAction),
-            // The actuator's own events: DDS does them; the model keeps its owner.
-            Action::DiscoverWriter { .. } | Action::TieBreak { .. } => {
-                state = step(config, &state, action)?;
-            }
-            Action::LoseHeartbeat { .. } => {
-                state = step(config, &state, action)?;
-                round_actions.push(action);
-            }
-            Action::Crash { .. }
-            | Action::Restart { .. }
-            | Action::Join { .. }
-            | Action::Pause { .. }
-            | Action::Resume { .. }
-            | Action::Isolate { .. }
-            | Action::Unplug { .. }
-            | Action::Starve { .. }
-            | Action::Lag { .. }
-            | Action::CatchUp { .. }
-            | Action::Heal { .. } => {
-                let round = rounds.len() - 1;
-                admit_process_fault(
-                    config,
-                    &state,
-                    action,
-                    &mut paused_in,
-                    round,
-                    trace_step.number,
-                )?;
-                state = step(config, &state, action)?;
-                if let Some(round) = rounds.last_mut() {
-                    round.lifecycle.push(action);
-                    if let Action::Starve { controller } = action {
-                        let taken_over = state
-                            .controllers
-                            .iter()
-                            .any(|c| c.took_over_from.is_some_and(|(from, _)| from == controller));
-                        if taken_over {
-                            round.takeovers.insert(controller);
-                        }
-                    }
-                }
-                round_actions.push(action);
-            }
-        }
-        if abstract_state(&state) != trace_step.state {
-            return Err(PlanError::StateDiffers {
-                step: trace_step.number,
-                action,
-                run_window_rounds: config.window_rounds,
-                trace_window_rounds: trace.config.window_rounds,
-            });
-        }
-    }
-    // A trace may stop at a boundary before every window due there has expired: the
-    // implementation expires them all at once, which the model allows next.
-    if round_actions.is_empty() {
-        state = expire_due(config, state)?;
-        if let Some(last) = boundaries.last_mut() {
-            *last = state.clone();
-        }
-    } else {
-        let after = trace.steps.last().map_or(0, |s| s.number);
-        left_open(config, boundaries.last(), after)?;
-    }
-    Ok(Rebuilt {
-        rounds,
-        boundaries,
-        state,
-    })
-}
-
-/// A window due at `boundary` that the trace leaves open into the round (expiring it later,
-/// or never): the implementation fires every due window at the boundary itself.
-fn left_open(
-    config: &model::Config,
-    boundary: Option<&State>,
-    step_number: usize,
-) -> Result<(), PlanError> {
-    let Some(boundary) = boundary else {
-        return Ok(());
-    };
-    let mut enabled = Vec::new();
-    protocol::actions(config, boundary, &mut enabled);
-    match enabled
-        .iter()
-        .find(|a| matches!(a, Action::ExpireWindow { .. }))
-    {
-        Some(&Action::ExpireWindow { controller }) => Err(PlanError::WindowLeftOpen {
-            step: step_number,
-            controller,
-        }),
-        _ => Ok(()),
-    }
-}
-
-/// The round's `actions` taken again after its boundary's state `expired` (with a window
-/// expired there); `None` if the model does not allow one of them then.
-fn expire_at_boundary(
-    config: &model::Config,
-    expired: &State,
-    actions: &[Action],
-) -> Option<State> {
-    let mut state = expired.clone();
-    for action in actions {
-        state = step(config, &state, *action).ok()?;
-    }
-    Some(state)
-}
-
-/// `state` without its ghost history, which feeds properties and budgets, never a decision.
-fn without_history(state: &State) -> State {
-    State {
-        history: model::state::History::default(),
-        ..state.clone()
-    }
 }
 
 /// Who may own the actuator in `state`: the live controllers commanding at the highest
