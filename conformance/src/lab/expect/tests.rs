@@ -14,8 +14,8 @@ fn the_settle_bound_is_the_models() {
 fn the_gap_bounds_come_from_each_readers_deadline() {
     // rl servo: the 100 ms command deadline, the 10 ms republish period and 20 ms.
     assert_eq!(servo_gap_ms(), 130.0);
-    // The Connext reader: its 200 ms deadline and 20 ms.
-    assert_eq!(connext_gap_ms(), 220.0);
+    // The Connext reader: its 200 ms deadline, the 10 ms republish period and 20 ms.
+    assert_eq!(connext_gap_ms(), 230.0);
 }
 
 fn changes(fault: Fault) -> OwnerChanges {
@@ -91,7 +91,7 @@ fn a_lone_controller_that_may_have_no_writer_may_be_silent_for_a_deadline_and_tw
     let expected = for_faults(&[Fault::Kill(Target::Id(2)), alone(Target::Id(2))]);
     assert_eq!(
         (expected.servo_gap_ms, expected.connext_gap_ms),
-        (1_130.0, 1_220.0)
+        (1_130.0, 1_230.0)
     );
 }
 
@@ -115,7 +115,7 @@ fn each_fault_keeps_its_own_bound_in_a_schedule() {
     assert_eq!(expected.two_at_top_ms, 250.0);
     assert_eq!(
         (expected.servo_gap_ms, expected.connext_gap_ms),
-        (130.0, 220.0)
+        (130.0, 230.0)
     );
 }
 
