@@ -93,10 +93,10 @@ pub fn servo_gap_ms() -> f64 {
 /// The Connext reader's largest gap, argued as `rl servo`'s: its deadline (the lab starts it
 /// with `--deadline-ms CONNEXT_DEADLINE_MS`), then the next writer's sample within the
 /// republish period, and the slack. The republish term is inherent, not slack: every role
-/// holder republishes in phase with the others (each republishes its last command after the
-/// same camera frame), so the next writer's sample that meets the expired deadline is the one
-/// a period after the owner's last, and every failover measures deadline + one period
-/// (209-212 ms in twelve idle `kill-primary` runs; 110 ms at `rl servo`). Leaving the term to
+/// holder republishes in phase with the others (10 ms after each camera frame, as the
+/// recordings show), so the next writer's sample that meets the expired deadline is the one
+/// about a period after the owner's last, and failovers measure up to deadline + one period
+/// (209-212 ms in twelve idle `kill-primary` runs; 104-110 ms at `rl servo`). Leaving the term to
 /// the slack left Connext 10 ms for scheduling where `rl servo` has 20 (docs/faults.md).
 pub fn connext_gap_ms() -> f64 {
     (CONNEXT_DEADLINE_MS + timing().command_republish_ms) as f64 + GAP_SLACK_MS
