@@ -96,7 +96,7 @@ pub fn servo_gap_ms() -> f64 {
 /// holder republishes in phase with the others (10 ms after each camera frame, as the
 /// recordings show), so the next writer's sample that meets the expired deadline is the one
 /// about a period after the owner's last, and failovers measure up to deadline + one period
-/// (209-212 ms in twelve idle `kill-primary` runs; 104-110 ms at `rl servo`). Leaving the term to
+/// (204-211 ms in twelve idle `kill-primary` runs; 104-110 ms at `rl servo`). Leaving the term to
 /// the slack left Connext 10 ms for scheduling where `rl servo` has 20 (docs/faults.md).
 pub fn connext_gap_ms() -> f64 {
     (CONNEXT_DEADLINE_MS + timing().command_republish_ms) as f64 + GAP_SLACK_MS
