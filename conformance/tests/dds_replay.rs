@@ -7,8 +7,8 @@
 //! read from a real `rl servo --json`. Each run's recording is then validated strictly.
 //!
 //! The subset is `conformance::dds_replay::CURATED`, resolved by purpose from
-//! `traces/index.json`; each test has its own DDS domain (186, 187, 190-197, 220 and 225, in
-//! that table; 199 the broken replay; 188, 189, 221-224 and 226 the mutation checks) and the tests take turns (they are timed on
+//! `traces/index.json`; each test has its own DDS domain (186, 187, 190-197, 218, 220 and 225,
+//! in that table; 199 the broken replay; 188, 189, 219, 221-224 and 226 the mutation checks) and the tests take turns (they are timed on
 //! the wall clock, and this machine has 2 cores). The `rl` binary with the `fault-injection`
 //! and `mutation` features is the workspace build's (`target/release/rl`, `--all-features`);
 //! the recordings are
@@ -20,7 +20,7 @@
 //! the broken rule. The families no mutation can change are listed in docs/conformance.md
 //! with the reason.
 //!
-//! Every replayable trace, not only this subset, is a command, not a test (about 12 minutes):
+//! Every replayable trace, not only this subset, is a command, not a test (about 30 minutes):
 //! `cargo run --release -p conformance --bin dds-replay-all`.
 
 use conformance::dds_replay::{self, Need, Problem, ReplayError, Selected, Setup, CURATED};
@@ -221,6 +221,12 @@ fn pause_and_resume() {
     replay_curated("pause and resume");
 }
 
+// Domain 218: SIGSTOP of the Primary, SIGCONT within the round, a new incarnation (F12).
+#[test]
+fn short_pause_of_the_primary() {
+    replay_curated("short pause of the Primary");
+}
+
 // Domain 187: a cut by nftables on the virtual LAN, healed two rounds later (F11).
 #[test]
 fn cut_healed() {
@@ -377,6 +383,28 @@ fn keep_incarnation_on_resume_breaks_the_pause_and_resume() {
                     name == "incarnation" && model == "1" && processes == "0"
                 });
             old_incarnation || problem.contains(">> actuator owner: model C1, processes C2")
+        },
+    );
+}
+
+/// The same broken rule after a stop shorter than the peer deadline: the continued Primary
+/// goes on as it was, its commands take the actuator back from the Secondary and the next
+/// boundary shows its old incarnation where the model has a new, silent one. Domain 219.
+#[test]
+fn keep_incarnation_on_resume_breaks_the_short_pause_of_the_primary() {
+    assert_caught_where(
+        "short pause of the Primary",
+        Mutation::KeepIncarnationOnResume,
+        219,
+        "C1's old incarnation (a diff row incarnation 1 against 0), or its commands owning \
+         the actuator",
+        |problem| {
+            let old_incarnation = differing_rows(problem)
+                .iter()
+                .any(|(name, model, processes)| {
+                    name == "incarnation" && model == "1" && processes == "0"
+                });
+            old_incarnation || problem.contains(">> actuator owner: model C2, processes C1")
         },
     );
 }

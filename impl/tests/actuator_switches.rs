@@ -4,8 +4,9 @@
 //! changes are counted per controller life (a writer's participant), so a controller that
 //! re-creates its writer at a new strength is one owner throughout.
 //!
-//! - a Primary paused for 3 s (SIGSTOP, SIGCONT): one switch, to the Secondary, and the old
-//!   Primary rejoins below the new one;
+//! - a Primary paused for 3 s, and for 300 ms (past the readers' deadlines, short of the
+//!   peer deadline; SIGSTOP, SIGCONT): one switch, to the Secondary, and the old Primary
+//!   rejoins below the new one;
 //! - ten `kill -9`s of the current Primary, each restarted with the same id, a Tertiary always
 //!   present: one switch per kill, to the Secondary, and the restarted controller back as
 //!   Tertiary.
@@ -17,7 +18,7 @@
 //! The Connext reader needs PyPI `rticonnextdds-connector` (`.ci/run` installs it), so these
 //! tests are ignored by default; `cargo test -- --include-ignored` runs them, and then a missing
 //! reader fails them. Each prints its timeline (faults, roles, owner changes at both readers);
-//! a failure message carries it. Domains 229, 230 and 231 (the Connext reader takes 0..232).
+//! a failure message carries it. Domains 217, 229, 230 and 231 (the Connext reader takes 0..232).
 
 mod support;
 
@@ -299,13 +300,29 @@ fn named(judged: &Judged, changes: &[OwnerChange]) -> String {
 #[test]
 #[ignore = "needs python3 with rticonnextdds-connector (pip install rticonnextdds-connector==1.2.4)"]
 fn pause_primary_3s_one_owner_change() {
+    pause_primary_one_owner_change("pause", 229, Duration::from_secs(3));
+}
+
+/// Past both readers' deadlines (100 ms at the servo, 200 ms at the Connext reader) and short
+/// of the peer deadline (500 ms): the peers never lose C1, the actuators do. C1 is told at its
+/// SIGCONT that it stopped (impl/layer/src/stall.rs) and starts again as a new incarnation, so
+/// neither reader moves back to it.
+#[test]
+#[ignore = "needs python3 with rticonnextdds-connector (pip install rticonnextdds-connector==1.2.4)"]
+fn pause_primary_300ms_one_owner_change() {
+    pause_primary_one_owner_change("short-pause", 217, Duration::from_millis(300));
+}
+
+/// SIGSTOP of the Primary C1 for `stop`, SIGCONT: one owner change at each reader, to the
+/// Secondary C2, and C1 back as Tertiary below P=2 S=3.
+fn pause_primary_one_owner_change(tag: &str, domain: u16, stop: Duration) {
     let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     require_peer("rticonnextdds_connector", CONNEXT_PACKAGE);
-    let mut judged = Judged::formed("pause", 229);
+    let mut judged = Judged::formed(tag, domain);
     judged.pump(Duration::from_millis(500));
     judged.fault("SIGSTOP C1");
     judged.cluster.fleet.pause(1, true).unwrap();
-    judged.pump(Duration::from_secs(3));
+    judged.pump(stop);
     judged.fault("SIGCONT C1");
     judged.cluster.fleet.pause(1, false).unwrap();
     judged.pump(Duration::from_secs(4));

@@ -74,6 +74,10 @@ pub const OBSERVE_OFFSET_MS: u64 = 230;
 /// A paused process is continued no sooner than this long after a peer deadline of standing
 /// still, so its loop surely finds the stall.
 pub const STALL_MARGIN_MS: u64 = 5;
+/// A pause the trace resumes before its peers could lose it is continued no sooner than this
+/// long after a command deadline of standing still, so its commands have surely lapsed and
+/// its loop finds the stop (impl/layer/src/stall.rs): scheduling slack, as the owner's.
+pub const STOP_NOTICED_MARGIN_MS: u64 = 20;
 /// Scheduling slack added to the owner's settling time.
 pub const OWNER_MARGIN_MS: u64 = 20;
 /// The held processes must all have discovered each other within this long of their start.
@@ -111,6 +115,10 @@ pub struct RunTiming {
     /// From this long after a boundary until [`OBSERVE_OFFSET_MS`] every command the servo
     /// accepts must come from the model's owner.
     pub owner_from_ms: u64,
+    /// A pause resumed sooner than a peer deadline is continued this long after its SIGSTOP:
+    /// the command deadline and [`STOP_NOTICED_MARGIN_MS`]. Within one round the resume then
+    /// comes before the owner window, at the latest `APPLY_LATEST_MS` + this.
+    pub stop_noticed_ms: u64,
 }
 
 /// The run's round lengths, read back through `rl`'s own configuration code.
@@ -146,9 +154,18 @@ pub fn run_timing() -> Result<RunTiming, ReplayError> {
              {latest_ms} ms) must be past half of it and within it ({deadline_ms} ms)"
         )));
     }
+    let stop_noticed_ms = deadline_ms + STOP_NOTICED_MARGIN_MS;
+    if APPLY_LATEST_MS + stop_noticed_ms >= owner_from_ms {
+        return Err(ReplayError::Config(format!(
+            "timing.command_deadline_ms: a pause resumed within its round ends up to {} ms \
+             after the boundary, not before the owner window at {owner_from_ms} ms",
+            APPLY_LATEST_MS + stop_noticed_ms
+        )));
+    }
     Ok(RunTiming {
         rounds,
         owner_from_ms,
+        stop_noticed_ms,
     })
 }
 
@@ -161,6 +178,7 @@ mod tests {
         let timing = run_timing().expect("the replay configuration is valid");
         assert_eq!(timing.rounds, super::super::plan::replay_timing());
         assert_eq!(timing.owner_from_ms, 180);
+        assert_eq!(timing.stop_noticed_ms, 120);
         assert!(timing.owner_from_ms + 40 <= OBSERVE_OFFSET_MS);
     }
 }

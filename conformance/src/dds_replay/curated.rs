@@ -30,6 +30,10 @@ pub enum Need {
     /// A controller is stopped (SIGSTOP) for at least a stall and continued (SIGCONT): it
     /// comes back as a new incarnation (F12).
     PauseResumed,
+    /// The Primary is stopped and continued within one round, past the command deadline and
+    /// short of the peer deadline: the actuator noticed, its peers did not, and it comes back
+    /// as a new incarnation all the same (F12), so the actuator stays with the Secondary.
+    ShortPauseOfThePrimary,
     /// A controller is cut off from its peers (nftables on the virtual LAN) and the cut is
     /// healed later, in another round.
     CutHealed,
@@ -74,9 +78,9 @@ pub struct Curated {
     pub why: &'static str,
 }
 
-/// The curated subset: every fault kind at least once. Domains 185-187, 190-197, 220 and 225
-/// (198 is the recorded `rl demo` of trace validation, 199 the broken replay and
-/// `dds-replay-all`, 188, 189, 221-224 and 226 the mutation checks).
+/// The curated subset: every fault kind at least once. Domains 185-187, 190-197, 218, 220 and
+/// 225 (198 is the recorded `rl demo` of trace validation, 199 the broken replay and
+/// `dds-replay-all`, 188, 189, 219, 221-224 and 226 the mutation checks).
 pub const CURATED: &[Curated] = &[
     Curated {
         name: "crash of the Primary",
@@ -197,6 +201,17 @@ pub const CURATED: &[Curated] = &[
               a new incarnation, hearing the round it resumes in, and joins below the others",
     },
     Curated {
+        name: "short pause of the Primary",
+        need: Need::ShortPauseOfThePrimary,
+        scope: Scope::Returns,
+        purposes: &["transition: resume by a paused controller (primary) -> initializing (none)"],
+        domain: 218,
+        why: "SIGSTOP of the steady Primary, SIGCONT 120 ms later in the same round: the \
+              servo has moved to the Secondary's commands, the peers never lost C1; its loop \
+              finds a continued stop of a command deadline and it starts again as a new \
+              incarnation, silent, so the actuator stays with the Secondary",
+    },
+    Curated {
         name: "cut healed",
         need: Need::CutHealed,
         scope: Scope::Returns,
@@ -288,6 +303,14 @@ pub fn shows(plan: &Plan, need: Need) -> bool {
                 .any(|c| c.phase == Phase::Failed || c.peers.iter().any(|p| p.failed))
         }),
         Need::PauseResumed => lifecycle().any(|(_, a)| matches!(a, Action::Resume { .. })),
+        Need::ShortPauseOfThePrimary => plan.rounds.iter().enumerate().any(|(k, round)| {
+            round.lifecycle.iter().any(|a| match *a {
+                Action::Resume { controller } if round.resumes_within(*a) => {
+                    plan.boundaries[k].controller(controller).role == Some(Role::Primary)
+                }
+                _ => false,
+            })
+        }),
         Need::CutHealed => lifecycle().any(|(k, a)| match a {
             Action::Heal { controller } => {
                 let state = &plan.boundaries[k];

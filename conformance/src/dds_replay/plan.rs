@@ -73,6 +73,19 @@ impl RoundPlan {
         )
     }
 
+    /// Whether `action` is a resume in the round of its pause: applied after the round's
+    /// other faults, once the stop has lasted a command deadline (see
+    /// [`super::config::RunTiming::stop_noticed_ms`]).
+    pub fn resumes_within(&self, action: Action) -> bool {
+        let Action::Resume { controller } = action else {
+            return false;
+        };
+        let Some(at) = self.lifecycle.iter().position(|a| *a == action) else {
+            return false;
+        };
+        self.lifecycle[..at].contains(&Action::Pause { controller })
+    }
+
     /// A cut or a pulled cable: the replay needs the virtual LAN.
     pub fn cuts(&self) -> bool {
         self.lifecycle

@@ -42,19 +42,6 @@ pub enum PlanError {
     /// `DeliverVotes` belongs to the paper variant.
     #[error("durable-vote delivery exists only in the paper variant")]
     PaperVariantAction,
-    /// A resume sooner than a peer deadline after its pause: the runtime restarts only after
-    /// a stall of at least a peer deadline (impl/layer/src/stall.rs), which the model's
-    /// `Resume` stands for.
-    #[error(
-        "step {step}: C{controller} resumes {rounds} round(s) after its pause, sooner than \
-         the stall the runtime restarts after ({stall_rounds} rounds)"
-    )]
-    ShortPause {
-        step: usize,
-        controller: u8,
-        rounds: usize,
-        stall_rounds: u8,
-    },
     /// A cut needs each controller in a network namespace of its own, and the virtual LAN
     /// has three.
     #[error("a cut among {controllers} controllers (the virtual LAN has three)")]
@@ -107,7 +94,6 @@ impl PlanError {
             }
             PlanError::WindowLeftOpen { .. } => "a window due at a boundary left open",
             PlanError::PaperVariantAction => "durable-vote delivery (the paper variant)",
-            PlanError::ShortPause { .. } => "a pause shorter than a stall",
             PlanError::CutBeyondTheLan { .. } => "a cut among more than three controllers",
             PlanError::NoSettle { .. } => "no settled end",
             PlanError::NoRoundEnds => "no round ends",

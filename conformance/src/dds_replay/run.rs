@@ -248,7 +248,8 @@ impl<'a> Run<'a> {
                 }
             }
         }
-        self.apply(&plan.rounds[0], start)
+        self.apply(&plan.rounds[0], start)?;
+        self.resume_within_round(&plan.rounds[0], start)
     }
 
     /// Boundary `k` as compared in the lockstep, where round `k`'s faults were applied at its
@@ -472,6 +473,9 @@ impl<'a> Run<'a> {
                     } else {
                         round
                     };
+                    // A life after a resume is that round's, however soon after the
+                    // boundary its first line comes.
+                    let started = life.resumed_round.map_or(started, |r| started.max(r));
                     let mut next = life.next_incarnation(event.incarnation, started, line.wall_ms);
                     next.log.events.push(event);
                     self.lives.push(next);

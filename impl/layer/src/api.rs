@@ -422,13 +422,18 @@ impl<T: Clone, K: Keying<T>> RoleWriter<T, K> {
         // (a new Primary commands meanwhile), so the writer goes and nothing is written.
         // A reported fault silences it at once, before the voting loop fails it.
         let allowed = allowed.filter(|_| {
-            !self.shared.loop_clock.stalled() && !self.shared.silenced.load(Ordering::SeqCst)
+            !self.shared.loop_clock.stalled_for_writer()
+                && !self.shared.silenced.load(Ordering::SeqCst)
         });
         self.writer.set_strength(allowed)?;
-        match sample {
-            Some(sample) => self.writer.write(sample),
-            None => Ok(false),
+        let written = match sample {
+            Some(sample) => self.writer.write(sample)?,
+            None => false,
+        };
+        if written {
+            self.shared.loop_clock.wrote();
         }
+        Ok(written)
     }
 
     /// The strength of the DDS writer now (`None`: no writer).
@@ -468,7 +473,7 @@ impl<T: Clone + 'static> VotedWriter<T> {
         };
         // Back from a stop before the voting loop has noticed, the role is stale: silent.
         let silenced = self.shared.silenced.load(Ordering::SeqCst);
-        if !role_held || silenced || self.shared.loop_clock.stalled() {
+        if !role_held || silenced || self.shared.loop_clock.stalled_for_writer() {
             return Ok(false);
         }
         let answer = Voted {
@@ -477,6 +482,7 @@ impl<T: Clone + 'static> VotedWriter<T> {
             value,
         };
         self.writer.write(&answer)?;
+        self.shared.loop_clock.wrote();
         self.last = Some((input, Instant::now()));
         Ok(true)
     }

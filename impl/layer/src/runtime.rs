@@ -128,7 +128,10 @@ pub(crate) fn spawn(
         silenced: AtomicBool::new(false),
         odd_one_out: Mutex::new(None),
         stop: AtomicBool::new(false),
-        loop_clock: crate::stall::LoopClock::new(timing.peer_deadline_ms),
+        loop_clock: crate::stall::LoopClock::new(
+            timing.peer_deadline_ms,
+            timing.command_deadline_ms,
+        ),
         subscribers: Mutex::new(Vec::new()),
         #[cfg(feature = "mutation")]
         mutation,
@@ -138,6 +141,7 @@ pub(crate) fn spawn(
     identities.bind_own(id, session.participant_key());
     let links = LinkWatch::new(Watched::from_config(&config.networks));
     let arrival = ArrivalWatch::new(timing.command_deadline_ms);
+    let wait_max_ms = FLAG_CHECK_MS.min(timing.command_deadline_ms / 2).max(1);
     let thread = std::thread::Builder::new()
         .name(format!("rl-voting-{id}"))
         .spawn(move || {
@@ -163,6 +167,7 @@ pub(crate) fn spawn(
                 watching_arrivals: false,
                 command_wakes: crate::dds::WakeSwitch::new(),
                 deposed: false,
+                wait_max_ms,
             };
             voting.run()
         })
@@ -261,6 +266,10 @@ struct Voting {
     command_wakes: crate::dds::WakeSwitch,
     /// The core asked to start again (a peer took over from this life, F17).
     deposed: bool,
+    /// The longest wait for samples: [`FLAG_CHECK_MS`], and at most half the command
+    /// deadline, so that a running loop marks its stall clock more often than a command
+    /// deadline and a gap that long is a stop or a starved host (crate::stall).
+    wait_max_ms: u64,
 }
 
 impl Voting {
@@ -321,7 +330,7 @@ impl Voting {
                 .next_deadline()
                 .at_ms
                 .saturating_sub(now_ms)
-                .min(FLAG_CHECK_MS);
+                .min(self.wait_max_ms);
             match poll.poll(&mut events, Some(Duration::from_millis(wait_ms))) {
                 Ok(_) => {
                     self.heartbeat_woke = events.iter().any(|e| e.token() == HEARTBEATS);

@@ -9,7 +9,7 @@ use crate::trace::{Trace, TraceStep};
 use model::state::link_bit;
 use model::traces::abstract_state;
 use model::{protocol, Action, State};
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::BTreeSet;
 
 pub(super) fn lost_links(state: &State) -> BTreeSet<(u8, u8)> {
     let n = state.controllers.len() as u8;
@@ -24,18 +24,10 @@ pub(super) fn lost_links(state: &State) -> BTreeSet<(u8, u8)> {
     out
 }
 
-/// Whether real processes can take `action`, a process or network fault of round `round`
-/// (trace step `step`): a cut needs a namespace per controller, and a resume must come at
-/// least a stall after its pause (`paused_in`: the round each paused controller was paused
-/// in, kept here).
-fn admit_process_fault(
-    config: &model::Config,
-    state: &State,
-    action: Action,
-    paused_in: &mut BTreeMap<u8, usize>,
-    round: usize,
-    step: usize,
-) -> Result<(), PlanError> {
+/// Whether real processes can take `action`, a process or network fault: a cut needs a
+/// namespace per controller. (Any pause can be resumed: SIGCONT waits until the runtime
+/// surely starts again, run/faults.rs.)
+fn admit_process_fault(state: &State, action: Action) -> Result<(), PlanError> {
     match action {
         Action::Isolate { .. } | Action::Unplug { .. }
             if state.controllers.len() > CUT_CONTROLLERS_MAX =>
@@ -43,22 +35,6 @@ fn admit_process_fault(
             Err(PlanError::CutBeyondTheLan {
                 controllers: state.controllers.len(),
             })
-        }
-        Action::Pause { controller } => {
-            paused_in.insert(controller, round);
-            Ok(())
-        }
-        Action::Resume { controller } => {
-            let rounds = round.saturating_sub(paused_in.remove(&controller).unwrap_or(0));
-            if rounds < usize::from(config.dead_after_rounds) {
-                return Err(PlanError::ShortPause {
-                    step,
-                    controller,
-                    rounds,
-                    stall_rounds: config.dead_after_rounds,
-                });
-            }
-            Ok(())
         }
         _ => Ok(()),
     }
@@ -82,8 +58,6 @@ pub(super) fn rebuild(
     let mut state = initial;
     // The round's actions so far, other than window expiries.
     let mut round_actions: Vec<Action> = Vec::new();
-    // The round each paused controller was paused in.
-    let mut paused_in: BTreeMap<u8, usize> = BTreeMap::new();
     for trace_step in &trace.steps {
         let action = trace_step.action;
         match action {
@@ -131,15 +105,7 @@ pub(super) fn rebuild(
             | Action::Lag { .. }
             | Action::CatchUp { .. }
             | Action::Heal { .. } => {
-                let round = rounds.len() - 1;
-                admit_process_fault(
-                    config,
-                    &state,
-                    action,
-                    &mut paused_in,
-                    round,
-                    trace_step.number,
-                )?;
+                admit_process_fault(&state, action)?;
                 state = step(config, &state, action)?;
                 if let Some(round) = rounds.last_mut() {
                     round.lifecycle.push(action);

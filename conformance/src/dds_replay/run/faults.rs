@@ -46,7 +46,8 @@ impl Run<'_> {
             };
             return Err(self.failure(true, problem));
         }
-        self.after_takeover(round, real)
+        self.after_takeover(round, real)?;
+        self.resume_within_round(round, real)
     }
 
     /// The starved links of the round after real round `real` begin, at [`STARVE_ONSET_MS`]
@@ -119,6 +120,7 @@ impl Run<'_> {
             .partition(|a| matches!(a, Action::Pause { .. } | Action::Resume { .. }));
         for action in signals.iter().chain(&in_force_at_round_end(&others)) {
             match *action {
+                _ if round.resumes_within(*action) => {}
                 Action::Crash { controller } => self.kill(controller, real)?,
                 Action::Join { controller } | Action::Restart { controller } => {
                     self.admit(controller, real)?;
@@ -240,14 +242,24 @@ impl Run<'_> {
         Ok(())
     }
 
-    /// SIGSTOP (`stop`) or SIGCONT in real round `real`. The model's resume stands for a
-    /// stall of at least a peer deadline, which is what the runtime restarts after
-    /// (impl/layer/src/stall.rs), so SIGCONT waits until the process has stood still that long.
+    /// SIGSTOP (`stop`) or SIGCONT in real round `real`. The model's resume starts a new
+    /// incarnation (F12), which the runtime does after a stall of a peer deadline, or after a
+    /// stop of a command deadline that it is continued from (impl/layer/src/stall.rs). So
+    /// SIGCONT waits until the process has stood still that long: a peer deadline where the
+    /// trace kept it paused across `dead_after` round ends (its peers lose it, as in the
+    /// model), else the command deadline and a margin (`RunTiming::stop_noticed_ms`).
     fn pause(&mut self, id: ControllerId, stop: bool, real: u64) -> Result<(), Failure> {
-        let stall_ms = self.period_ms() * u64::from(self.timing.rounds.dead_after_rounds);
-        let stopped_ms = lives::current_mut(&mut self.lives, id).and_then(|l| l.paused_wall_ms);
-        if let (false, Some(stopped_ms)) = (stop, stopped_ms) {
-            self.sleep_until(stopped_ms + stall_ms + STALL_MARGIN_MS);
+        let dead_after_rounds = u64::from(self.timing.rounds.dead_after_rounds);
+        let stall_ms = self.period_ms() * dead_after_rounds;
+        let stopped = lives::current_mut(&mut self.lives, id)
+            .and_then(|l| l.paused_wall_ms.zip(l.paused_round));
+        if let (false, Some((stopped_ms, paused_round))) = (stop, stopped) {
+            let still_ms = if real.saturating_sub(paused_round) >= dead_after_rounds {
+                stall_ms + STALL_MARGIN_MS
+            } else {
+                self.timing.stop_noticed_ms
+            };
+            self.sleep_until(stopped_ms + still_ms);
         }
         let Some(life) = lives::current_mut(&mut self.lives, id) else {
             return Ok(());
@@ -264,6 +276,21 @@ impl Run<'_> {
         let source_name = life.log.source.clone();
         if let Err(source) = self.processes.signal(&source_name, signal) {
             return Err(self.failure(false, Problem::Signal { id, signal, source }));
+        }
+        Ok(())
+    }
+
+    /// The round's resumes of controllers it paused (`RoundPlan::resumes_within`), after its
+    /// other faults: each waits for a command deadline of the stop.
+    pub(super) fn resume_within_round(
+        &mut self,
+        round: &RoundPlan,
+        real: u64,
+    ) -> Result<(), Failure> {
+        for action in &round.lifecycle {
+            if let (true, Action::Resume { controller }) = (round.resumes_within(*action), action) {
+                self.pause(*controller, false, real)?;
+            }
         }
         Ok(())
     }
