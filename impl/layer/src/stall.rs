@@ -22,10 +22,10 @@
 //!
 //! The voting loop marks the [`LoopClock`] at every iteration and restarts the core when the
 //! gap since the last mark is a stall. The command writer, which runs in the application's
-//! thread and may wake first after a stop, checks the same clock ([`LoopClock::stalled`]) and
-//! writes nothing while the loop has not run for a peer deadline, or for a command deadline
-//! with a SIGCONT since, and after a stall until the loop has put the new, silent core's
-//! status in place ([`LoopClock::resumed`]): in between the status still says what the
+//! thread and may wake first after a stop, checks the same clock
+//! ([`LoopClock::stalled_for_writer`]) and writes nothing while the loop has not run for a
+//! peer deadline, or for a command deadline with a SIGCONT since, and after a stall until the
+//! loop has put the new, silent core's status in place ([`LoopClock::resumed`]): in between the status still says what the
 //! controller was before it stopped.
 
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -119,7 +119,7 @@ impl LoopClock {
     /// The voting loop runs now; returns the stall it comes back from (the gap since the last
     /// mark), if any: a gap of the peer deadline, or of the command deadline with a SIGCONT
     /// since. After a gap of the command deadline without one it waits up to
-    /// [`SIGCONT_SETTLE`] for the SIGCONT's handler to run (only then: a running loop marks
+    /// 30 ms for the SIGCONT's handler to run (only then: a running loop marks
     /// more often). After a stall the clock stays stalled until [`LoopClock::resumed`].
     pub fn mark(&self) -> Option<Duration> {
         // Taken first: a SIGCONT after this mark belongs to the next gap, and one to a
@@ -185,7 +185,7 @@ impl LoopClock {
     /// Whether a writer must write nothing now: the loop has not run for a stall (it is
     /// stopped, or has just resumed and not yet noticed, or is restarting). A writer whose
     /// commands have lapsed for a command deadline while the loop stood still as long (the
-    /// whole process was, or a loaded host starved both) waits up to [`WRITER_WAIT`] for the
+    /// whole process was, or a loaded host starved both) waits up to 50 ms for the
     /// loop to tell a stop from a slow start; one that wrote within the command deadline
     /// cannot have been stopped that long, and never waits.
     pub fn stalled_for_writer(&self) -> bool {
