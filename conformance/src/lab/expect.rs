@@ -142,6 +142,9 @@ pub fn for_fault(fault: &Fault) -> FaultExpected {
         // Controllers follow the Primary's round phase (rl_layer::round_clock), whatever their wall
         // clocks say or however fast their crystals run: a clock fault is a restart.
         Fault::Kill(_) | Fault::Pause(_) | Fault::ClockOffset(..) | Fault::ClockRate(..) => CRASH,
+        // A freeze is a stop without a signal, a starvation a lasting slowness; each is seen
+        // by the controller itself (impl/layer/src/stall.rs) and costs a stall's one move.
+        Fault::Freeze(_) | Fault::Starve(..) => CRASH,
         // A controller that sees every link lose its carrier starts again as a new incarnation
         // at once, as after a stall (F16).
         Fault::Unplug(_) => CRASH,
@@ -268,6 +271,16 @@ pub fn for_scenario(name: &str, faults: &[Fault]) -> Result<Expected, UnknownSce
         "one-way-out" | "one-way-in" => Ok(for_faults(faults)),
         "loss-5" | "loss-20" | "loss-40" | "flap-primary" | "tbf-primary" => Ok(for_faults(faults)),
         "unplug-primary" => Ok(for_faults(faults)),
+        // Each freeze past the command deadline, and each starvation however long, a stall's
+        // one move (the controller steps down, impl/layer/src/stall.rs).
+        "freeze-primary" | "starve-primary" | "starve-primary-long" => Ok(for_faults(faults)),
+        // One controller frozen again and again is one episode: its first freeze deposes it
+        // (one move), the later ones hit a controller the actuator no longer follows.
+        "stutter-primary" => {
+            let later = faults.len().saturating_sub(1);
+            let first = faults.first().map(for_fault).into_iter();
+            Ok(from_each(first.chain(vec![UNFELT; later]).collect()))
+        }
         "clock-0.1s" | "clock-period" | "clock-10s" | "clock-minus-1h" | "clock-drift" => {
             Ok(for_faults(faults))
         }

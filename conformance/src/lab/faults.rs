@@ -1,5 +1,6 @@
 //! The faults, each with `apply` and `heal`: process faults (kill -9 and restart, SIGSTOP and
-//! SIGCONT, a restart with an offset wall clock), network faults as nftables tables in the
+//! SIGCONT, a freeze and a CPU starvation without any signal (crate::lab::cgroup), a restart
+//! with an offset wall clock), network faults as nftables tables in the
 //! namespaces they touch (partition, cut, one-way loss, random loss, multicast drop, one
 //! controller's link into one net), a whole net down (its bridge down), a flapping link (a
 //! thread that takes the host ends of a node's veths down and up at seeded random intervals)
@@ -11,6 +12,7 @@
 //! RL's traffic runs on both, so a fault on one would be a net fault, which the network alarm
 //! participants report and RL's voting rides out.
 
+use super::cgroup;
 use super::error::LabError;
 use super::host;
 use super::lan::{Lan, Net, Node, CONTROLLER_IDS};
@@ -48,6 +50,11 @@ pub enum Fault {
     Kill(Target),
     /// SIGSTOP; healed by SIGCONT.
     Pause(Target),
+    /// Every thread frozen without a signal (a freezer cgroup); healed by thawing it.
+    Freeze(Target),
+    /// The target's process held to this share of one core, in percent (a CPU quota);
+    /// healed by lifting it.
+    Starve(Target, u8),
     /// The target alone on one side, the other two controllers on the other; the actuator and
     /// camera on the target's side or the other.
     Partition {
@@ -139,6 +146,8 @@ impl fmt::Display for Fault {
         match self {
             Fault::Kill(t) => write!(f, "kill -9 {t}, restart"),
             Fault::Pause(t) => write!(f, "SIGSTOP {t}, SIGCONT"),
+            Fault::Freeze(t) => write!(f, "{t} frozen (freezer cgroup, no signal)"),
+            Fault::Starve(t, percent) => write!(f, "{t} starved to {percent}% of a core"),
             Fault::Partition {
                 alone,
                 actuator_with_alone,
@@ -182,6 +191,8 @@ impl Fault {
         match self {
             Fault::Kill(t)
             | Fault::Pause(t)
+            | Fault::Freeze(t)
+            | Fault::Starve(t, _)
             | Fault::Partition { alone: t, .. }
             | Fault::Cut(t)
             | Fault::OneWay(t, _)
@@ -210,6 +221,8 @@ impl Fault {
         match self.clone() {
             Fault::Kill(_) => Fault::Kill(t),
             Fault::Pause(_) => Fault::Pause(t),
+            Fault::Freeze(_) => Fault::Freeze(t),
+            Fault::Starve(_, percent) => Fault::Starve(t, percent),
             Fault::Partition {
                 actuator_with_alone,
                 ..
@@ -246,6 +259,8 @@ pub struct Applied {
     flapper: Option<(Arc<AtomicBool>, JoinHandle<()>)>,
     /// The links it took down (`ip link set down`), to bring up again.
     links_down: Vec<String>,
+    /// The cgroup its process was put in (a freeze or a starvation).
+    group: Option<cgroup::Group>,
 }
 
 /// The other two controllers.
@@ -303,12 +318,24 @@ pub fn apply(
         bridge_down: None,
         flapper: None,
         links_down: Vec::new(),
+        group: None,
     };
     let me = Node::Controller(id);
     let mut rules: Vec<(Node, Rules)> = Vec::new();
     match fault {
         Fault::Kill(_) => procs.kill(id),
         Fault::Pause(_) => procs.pause(id, true)?,
+        Fault::Freeze(_) => {
+            if let Some(pid) = procs.pid(id) {
+                applied.group = Some(cgroup::freeze(pid, table)?);
+                procs.mark_paused(id, true);
+            }
+        }
+        Fault::Starve(_, percent) => {
+            if let Some(pid) = procs.pid(id) {
+                applied.group = Some(cgroup::starve(pid, table, *percent)?);
+            }
+        }
         Fault::Partition {
             actuator_with_alone,
             ..
@@ -397,6 +424,14 @@ pub fn heal(applied: Applied, lan: &Lan, procs: &mut Procs) -> Result<(), LabErr
     match applied.fault {
         Fault::Kill(_) => procs.start_controller(id),
         Fault::Pause(_) => procs.pause(id, false),
+        Fault::Freeze(_) => {
+            if let Some(group) = applied.group {
+                cgroup::thaw(group)?;
+                procs.mark_paused(id, false);
+            }
+            Ok(())
+        }
+        Fault::Starve(..) => applied.group.map_or(Ok(()), cgroup::feed),
         // Restarted onto the true clock at once; the recording takes each life's clock error
         // off its events (`procs::Life::round_clock_correction_ms`).
         Fault::ClockOffset(..) | Fault::ClockRate(..) => {

@@ -2,7 +2,7 @@
 //!
 //! Each run builds a virtual LAN of network namespaces (three controllers, the actuator side,
 //! the camera; two bridges), starts real `rl` processes in it, forms P/S/T, applies a
-//! scenario's faults (kill, pause, partitions, cuts, one-way and random loss, multicast drop,
+//! scenario's faults (kill, pause, a freeze or a CPU starvation without a signal, partitions, cuts, one-way and random loss, multicast drop,
 //! flapping, clock offsets, a rate-limited link, a link into one net or a whole net down,
 //! wrong commands), heals them, lets the system settle, and
 //! judges what the actuators (`rl servo --json` and an RTI Connext reader; `rl servo --vote`
@@ -13,7 +13,7 @@
 //! - [`host`]: root, tools, system commands; [`lan`]: the namespaces, links and bridges, and
 //!   their removal (drop, signals); [`clock`]: the lab clock;
 //! - [`procs`]: the processes in their namespaces; [`session`]: a formed system and its
-//!   schedule; [`faults`] (with [`nft`]): each fault's apply and heal;
+//!   schedule; [`faults`] (with [`nft`] and [`cgroup`]): each fault's apply and heal;
 //! - [`scenario`]: named and seeded random schedules; [`expect`]: what each one's judges
 //!   accept, in one place;
 //! - [`observe`]: the lines taken in, on one clock; [`judge`]: the measurements and the
@@ -31,6 +31,7 @@
 //!   [`cross_talk`], against the other.
 
 pub mod architecture;
+pub mod cgroup;
 pub mod clock;
 pub mod cross_talk;
 pub mod error;

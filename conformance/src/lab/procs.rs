@@ -361,14 +361,25 @@ impl Procs {
                 e.to_string(),
             )
         })?;
+        self.mark_paused_at(id, stop, now);
+        Ok(())
+    }
+
+    /// Records that controller `id` stands still from now (`paused`) or runs again, stopped
+    /// by other means than a signal (a freezer cgroup): the recording's pauses.
+    pub fn mark_paused(&mut self, id: u8, paused: bool) {
+        let now = self.clock.now_ms();
+        self.mark_paused_at(id, paused, now);
+    }
+
+    fn mark_paused_at(&mut self, id: u8, paused: bool, now: f64) {
         if let Some(life) = self.current(id) {
-            if stop {
+            if paused {
                 life.paused.push((now, None));
             } else {
                 close_pause(life, now);
             }
         }
-        Ok(())
     }
 
     /// The DDS domain the processes run on.

@@ -2,7 +2,8 @@
 //! seed picks the faults, their targets and their times). Each step applies a fault at
 //! `at_ms` after judging starts (the system formed, both actuators following the Primary) and
 //! heals it `lasts_ms` later; after the last heal a fault-free liveness phase must settle.
-//! The wrong-output scenarios are `super::wrong_output`'s.
+//! The wrong-output scenarios are `super::wrong_output`'s, the gray process faults' (freeze,
+//! stutter, starvation) `scenario::gray`'s.
 
 use super::architecture::{self, Architecture};
 use super::expect::{self, Expected, UnknownScenario};
@@ -12,6 +13,8 @@ use super::network_alarms::{self, NapExpected};
 use super::session::Setup;
 use super::wrong_output::{self, OutputScenario};
 use rand::{Rng, SeedableRng};
+
+mod gray;
 
 /// One fault of a schedule.
 #[derive(Clone, Debug, PartialEq)]
@@ -347,6 +350,7 @@ const NET_FAULT_S: f64 = 8.0;
 pub fn named() -> Vec<Scenario> {
     let mut all = process_and_split_scenarios();
     all.extend(link_and_clock_scenarios());
+    all.extend(gray::scenarios());
     all.extend(net_scenarios());
     all.extend(wrong_output::scenarios());
     all
@@ -446,13 +450,14 @@ fn involves_everyone(fault: &Fault) -> bool {
     )
 }
 
-/// `at 1.0 s for 3.2 s: kill -9 C2, restart; ...`.
+/// `at 1.0 s for 3.2 s: kill -9 C2, restart; ...` (`for 3 s`, `for 0.15 s`).
 pub fn describe(steps: &[Step]) -> String {
     steps
         .iter()
         .map(|s| {
+            // Whole milliseconds shown as they are: a 150 ms freeze is not "0.1 s".
             format!(
-                "at {:.1} s for {:.1} s: {}",
+                "at {:.1} s for {} s: {}",
                 s.at_ms as f64 / 1000.0,
                 s.lasts_ms as f64 / 1000.0,
                 s.fault

@@ -418,13 +418,25 @@ impl<T: Clone, K: Keying<T>> RoleWriter<T, K> {
             AperiodicPolicy::Republish | AperiodicPolicy::Periodic => strength,
             AperiodicPolicy::PrimaryOnly => strength.filter(|_| role == Some(Role::Primary)),
         };
+        if strength.is_none() {
+            self.shared.loop_clock.holds_no_role();
+        }
         // Back from a stop before the voting loop has noticed: what the status says is stale
         // (a new Primary commands meanwhile), so the writer goes and nothing is written.
         // A reported fault silences it at once, before the voting loop fails it.
-        let allowed = allowed.filter(|_| {
-            !self.shared.loop_clock.stalled_for_writer()
-                && !self.shared.silenced.load(Ordering::SeqCst)
-        });
+        // The Primary beside weaker writers whose commands lapsed for a deadline has lost the
+        // actuator to the next of them: it must not take it back (crate::stall).
+        let owner_beside_others = role == Some(Role::Primary)
+            && matches!(
+                self.policy,
+                AperiodicPolicy::Republish | AperiodicPolicy::Periodic
+            );
+        let silent = || {
+            self.shared.loop_clock.stalled_for_writer()
+                || self.shared.silenced.load(Ordering::SeqCst)
+                || (owner_beside_others && self.shared.loop_clock.owner_lapsed())
+        };
+        let allowed = allowed.filter(|_| !silent());
         self.writer.set_strength(allowed)?;
         let written = match sample {
             Some(sample) => self.writer.write(sample)?,

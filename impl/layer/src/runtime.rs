@@ -374,7 +374,7 @@ impl Voting {
         let id = self.core.config().id;
         let why = match cause {
             Restart::Stalled { stalled_ms } => {
-                format!("C{id} did not run for {stalled_ms} ms (stopped or starved)")
+                format!("C{id} did not run or command for {stalled_ms} ms (stopped or starved)")
             }
             Restart::Detached => format!(
                 "C{id}'s links have all lost their carrier (a pulled cable, a dead switch port)"

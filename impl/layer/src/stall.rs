@@ -17,8 +17,16 @@
 //! the clock also listens for SIGCONT, which only a stopped process is sent by whoever
 //! stopped it (a shell's `fg`, a debugger, the fault lab): a SIGCONT after a gap of at least
 //! the command deadline is a stop the actuator noticed, and the controller starts again as
-//! after a stall. A stop without a signal (a frozen virtual machine, a frozen cgroup) is
-//! seen only once it reaches the peer deadline.
+//! after a stall. A stop without a signal (a frozen virtual machine, a frozen cgroup, a write
+//! blocked on a full disk) is told from load by the kernel's account of the voting thread
+//! (`stall::held`): a gap of a command deadline in which the thread was held (neither running nor
+//! waiting for a CPU) for a command deadline is a stop the actuator noticed too. A loaded
+//! host's lapse is run-queue wait, and restarts nobody.
+//!
+//! A starved process can run its loop on time while its commands reach the wire late, each
+//! gap past the actuator's deadline and each late command at the Primary's strength taking the
+//! actuator back: so the Primary's writer doubts itself ([`LoopClock::owner_lapsed`]) when its
+//! own commands lapsed for a command deadline, writes nothing more, and the loop starts again.
 //!
 //! The voting loop marks the [`LoopClock`] at every iteration and restarts the core when the
 //! gap since the last mark is a stall. The command writer, which runs in the application's
@@ -31,6 +39,8 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
+
+mod held;
 
 /// How long the loop waits for a SIGCONT after finding itself still for a command deadline.
 /// All threads wake at SIGCONT and its handler runs in whichever dequeues it first, which on a
@@ -67,11 +77,30 @@ struct Marks {
     settling: bool,
     /// The loop found a stall and restarts the core: stalled until [`LoopClock::resumed`].
     restarting: bool,
+    /// The writer found its commands as the owner lapsed this long ([`LoopClock::owner_lapsed`]):
+    /// the loop restarts at its next mark.
+    doubted: Option<Duration>,
+    /// The voting thread's held time, opened at its first mark (`None` before, or where the
+    /// kernel keeps no account).
+    held: Option<held::HeldClock>,
+    /// Whether the loop's thread has tried to open `held`.
+    held_opened: bool,
 }
 
 impl Marks {
     fn since_mark(&self, now: Instant) -> Duration {
         now.saturating_duration_since(self.last_mark)
+    }
+
+    /// The loop runs at `now` and the next gap starts: how long its thread was held since
+    /// the last mark (`None`: no account, or no reading at the last mark).
+    fn mark_at(&mut self, now: Instant) -> Option<Duration> {
+        if !self.held_opened {
+            self.held_opened = true;
+            self.held = held::HeldClock::for_this_thread();
+        }
+        self.last_mark = now;
+        self.held.as_mut()?.held_since_last(now)
     }
 }
 
@@ -100,6 +129,9 @@ impl LoopClock {
                 last_write: None,
                 settling: false,
                 restarting: false,
+                doubted: None,
+                held: None,
+                held_opened: false,
             }),
             stall_after: Duration::from_millis(stall_after_ms),
             noticed_after: Duration::from_millis(noticed_after_ms),
@@ -118,7 +150,9 @@ impl LoopClock {
 
     /// The voting loop runs now; returns the stall it comes back from (the gap since the last
     /// mark), if any: a gap of the peer deadline, or of the command deadline with a SIGCONT
-    /// since. After a gap of the command deadline without one it waits up to
+    /// since or with the loop's thread held as long. Only the voting loop's thread may mark:
+    /// the first mark opens that thread's account. After a gap of the command deadline
+    /// without either it waits up to
     /// 30 ms for the SIGCONT's handler to run (only then: a running loop marks
     /// more often). After a stall the clock stays stalled until [`LoopClock::resumed`].
     pub fn mark(&self) -> Option<Duration> {
@@ -128,6 +162,10 @@ impl LoopClock {
         let now = Instant::now();
         let gap = {
             let mut marks = self.marks();
+            if let Some(lapse) = marks.doubted.take() {
+                marks.restarting = true;
+                return Some(lapse);
+            }
             let gap = marks.since_mark(now);
             if marks.restarting
                 || gap >= self.stall_after
@@ -136,9 +174,14 @@ impl LoopClock {
                 marks.restarting = true;
                 return Some(gap);
             }
+            let held = marks.mark_at(now);
             if gap < self.noticed_after {
-                marks.last_mark = now;
                 return None;
+            }
+            if held.is_some_and(|held| held >= self.noticed_after) {
+                // Held, not starved, for a command deadline: stopped without a signal.
+                marks.restarting = true;
+                return Some(gap);
             }
             marks.settling = true;
             gap
@@ -155,7 +198,7 @@ impl LoopClock {
             marks.restarting = true;
             return Some(gap);
         }
-        marks.last_mark = Instant::now();
+        marks.mark_at(Instant::now());
         None
     }
 
@@ -163,13 +206,43 @@ impl LoopClock {
     /// commands may follow that status from now on.
     pub fn resumed(&self) {
         let mut marks = self.marks();
-        marks.last_mark = Instant::now();
+        marks.mark_at(Instant::now());
         marks.restarting = false;
+        // The new life has written nothing: the last life's lapse is not its own.
+        marks.last_write = None;
     }
 
     /// A command of this controller was written now.
     pub fn wrote(&self) {
         self.marks().last_write = Some(Instant::now());
+    }
+
+    /// This controller holds no role now, so writes nothing: a gap in its commands from here
+    /// is no lapse of a writer (a silent life that is given the Primary role later must not
+    /// doubt itself for the silence).
+    pub fn holds_no_role(&self) {
+        self.marks().last_write = None;
+    }
+
+    /// Whether this controller, about to command as the actuator's owner (the Primary, with
+    /// weaker writers beside it), let its commands lapse for a command deadline: its reader
+    /// has taken the next writer's commands meanwhile, and one more at the owner's strength
+    /// would take them back (a starved or stalled process, whatever its loop saw). It doubts
+    /// itself then: it writes nothing more in this life, and the voting loop starts again at
+    /// its next mark, as after a stall.
+    pub fn owner_lapsed(&self) -> bool {
+        let mut marks = self.marks();
+        if marks.doubted.is_some() {
+            return true;
+        }
+        let lapse = marks.last_write.map(|wrote| wrote.elapsed());
+        match lapse {
+            Some(lapse) if lapse >= self.noticed_after => {
+                marks.doubted = Some(lapse);
+                true
+            }
+            _ => false,
+        }
     }
 
     /// Whether the loop is past a stall (restarting, or still for a peer deadline), or still
@@ -178,6 +251,7 @@ impl LoopClock {
         let marks = self.marks();
         let gap = marks.since_mark(Instant::now());
         marks.restarting
+            || marks.doubted.is_some()
             || gap >= self.stall_after
             || (continued && (marks.settling || gap >= self.noticed_after))
     }
@@ -272,11 +346,20 @@ mod tests {
 
     /// (The SIGCONT tests are tests/sigcont_stop.rs: a SIGCONT reaches every clock of the
     /// process, so they run in a process of their own.)
+    /// A loaded host's loop lapses runnable: as far as the scheduler's account goes, as busy
+    /// as a loop that spins.
+    fn busy_for(time: Duration) {
+        let until = Instant::now() + time;
+        while Instant::now() < until {
+            std::hint::spin_loop();
+        }
+    }
+
     #[test]
     fn a_slow_loop_without_a_sigcont_is_no_stall() {
         let clock = LoopClock::new(10_000, 20);
         assert_eq!(clock.mark(), None);
-        std::thread::sleep(Duration::from_millis(40));
+        busy_for(Duration::from_millis(40));
         assert!(!clock.stalled(), "a loaded host's lapse is not a stop");
         clock.wrote();
         assert!(
@@ -288,13 +371,70 @@ mod tests {
             None,
             "after its settling wait, the loop goes on"
         );
-        std::thread::sleep(Duration::from_millis(40));
+        busy_for(Duration::from_millis(40));
         let started = Instant::now();
         assert!(
             !clock.stalled_for_writer(),
             "a writer that lapsed with the loop writes once the loop has decided"
         );
         assert!(started.elapsed() >= WRITER_WAIT, "it waited for the loop");
+    }
+
+    #[test]
+    fn a_held_loop_without_a_sigcont_is_a_stall() {
+        let clock = LoopClock::new(10_000, 40);
+        assert_eq!(clock.mark(), None, "the account's first reading");
+        std::thread::sleep(Duration::from_millis(10));
+        assert_eq!(
+            clock.mark(),
+            None,
+            "held 10 ms: the actuator did not notice"
+        );
+        if held::HeldClock::for_this_thread().is_none() {
+            return; // no account here: tests/freeze_stop.rs says so where it matters
+        }
+        // Off every run queue for a command deadline, as a frozen cgroup is.
+        std::thread::sleep(Duration::from_millis(60));
+        let gap = clock
+            .mark()
+            .expect("held 60 ms: a stop the actuator noticed");
+        assert!(gap >= Duration::from_millis(60), "{gap:?}");
+        assert!(clock.stalled(), "stalled until the loop has restarted");
+        clock.resumed();
+        assert_eq!(clock.mark(), None);
+    }
+
+    #[test]
+    fn an_owner_whose_commands_lapsed_doubts_itself_until_the_loop_restarts() {
+        let clock = LoopClock::new(10_000, 20);
+        assert!(!clock.owner_lapsed(), "nothing written yet: no lapse");
+        clock.wrote();
+        assert!(!clock.owner_lapsed(), "written just now");
+        busy_for(Duration::from_millis(30));
+        assert!(
+            clock.owner_lapsed(),
+            "30 ms without a command: the actuator moved"
+        );
+        assert!(clock.stalled(), "and every writer of it goes silent");
+        clock.wrote();
+        assert!(
+            clock.owner_lapsed(),
+            "a write meanwhile does not lift the doubt"
+        );
+        let lapse = clock.mark().expect("the loop restarts at its next mark");
+        assert!(lapse >= Duration::from_millis(30), "{lapse:?}");
+        assert!(clock.stalled(), "until it has restarted");
+        clock.resumed();
+        assert!(!clock.stalled());
+        assert!(
+            !clock.owner_lapsed(),
+            "the new life has no lapse of its own"
+        );
+        assert_eq!(clock.mark(), None);
+        clock.wrote();
+        clock.holds_no_role();
+        busy_for(Duration::from_millis(30));
+        assert!(!clock.owner_lapsed(), "silent without a role: no lapse");
     }
 
     #[test]

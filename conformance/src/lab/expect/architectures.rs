@@ -76,7 +76,12 @@ fn duplex(fault: &Fault) -> FaultExpected {
     match fault {
         // The Primary stops and comes back (a restarted, resumed or replugged process):
         // preempting, it takes the actuator back at once.
-        Fault::Kill(_) | Fault::Pause(_) | Fault::Unplug(_) | Fault::Flap(..) => bounce_if_primary,
+        Fault::Kill(_)
+        | Fault::Pause(_)
+        | Fault::Freeze(_)
+        | Fault::Starve(..)
+        | Fault::Unplug(_)
+        | Fault::Flap(..) => bounce_if_primary,
         // A clock fault restarts the controller twice, with its clock set wrong and, at the
         // heal, right again: two bounces of the Primary.
         Fault::ClockOffset(..) | Fault::ClockRate(..) if primary => FaultExpected {
@@ -125,6 +130,8 @@ fn pair(fault: &Fault) -> FaultExpected {
         // A new process: it writes at 20 beside its commanding partner.
         Fault::Kill(_)
         | Fault::Pause(_)
+        | Fault::Freeze(_)
+        | Fault::Starve(..)
         | Fault::ClockOffset(..)
         | Fault::ClockRate(..)
         | Fault::Unplug(_) => if_owner(ONCE),
