@@ -431,6 +431,9 @@ impl<T: Clone, K: Keying<T>> RoleWriter<T, K> {
                 self.policy,
                 AperiodicPolicy::Republish | AperiodicPolicy::Periodic
             );
+        if !owner_beside_others {
+            self.shared.loop_clock.not_the_owner();
+        }
         let silent = || {
             self.shared.loop_clock.stalled_for_writer()
                 || self.shared.silenced.load(Ordering::SeqCst)
@@ -443,7 +446,7 @@ impl<T: Clone, K: Keying<T>> RoleWriter<T, K> {
             None => false,
         };
         if written {
-            self.shared.loop_clock.wrote();
+            self.shared.loop_clock.wrote(owner_beside_others);
         }
         Ok(written)
     }
@@ -494,7 +497,7 @@ impl<T: Clone + 'static> VotedWriter<T> {
             value,
         };
         self.writer.write(&answer)?;
-        self.shared.loop_clock.wrote();
+        self.shared.loop_clock.wrote(false);
         self.last = Some((input, Instant::now()));
         Ok(true)
     }

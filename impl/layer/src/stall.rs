@@ -73,6 +73,10 @@ struct Marks {
     last_mark: Instant,
     /// This controller's last command written (any writer of its group); `None`: none yet.
     last_write: Option<Instant>,
+    /// Its last command written as the actuator's owner, with no write in another role since
+    /// (`None`: none in this life): what [`LoopClock::owner_lapsed`] measures from, so a
+    /// Secondary's old write is no lapse of the Primary it becomes.
+    last_owner_write: Option<Instant>,
     /// The loop found itself still for a command deadline and waits for a SIGCONT.
     settling: bool,
     /// The loop found a stall and restarts the core: stalled until [`LoopClock::resumed`].
@@ -127,6 +131,7 @@ impl LoopClock {
             state: Mutex::new(Marks {
                 last_mark: Instant::now(),
                 last_write: None,
+                last_owner_write: None,
                 settling: false,
                 restarting: false,
                 doubted: None,
@@ -210,18 +215,31 @@ impl LoopClock {
         marks.restarting = false;
         // The new life has written nothing: the last life's lapse is not its own.
         marks.last_write = None;
+        marks.last_owner_write = None;
     }
 
-    /// A command of this controller was written now.
-    pub fn wrote(&self) {
-        self.marks().last_write = Some(Instant::now());
+    /// A command of this controller was written now, as the actuator's owner beside weaker
+    /// writers (`as_owner`) or in another role.
+    pub fn wrote(&self, as_owner: bool) {
+        let mut marks = self.marks();
+        let now = Instant::now();
+        marks.last_write = Some(now);
+        marks.last_owner_write = as_owner.then_some(now);
     }
 
     /// This controller holds no role now, so writes nothing: a gap in its commands from here
     /// is no lapse of a writer (a silent life that is given the Primary role later must not
     /// doubt itself for the silence).
     pub fn holds_no_role(&self) {
-        self.marks().last_write = None;
+        let mut marks = self.marks();
+        marks.last_write = None;
+        marks.last_owner_write = None;
+    }
+
+    /// This controller is not the actuator's owner now (a Secondary or Tertiary, or a Primary
+    /// with no weaker writer beside it): a gap in its commands from here is no owner's lapse.
+    pub fn not_the_owner(&self) {
+        self.marks().last_owner_write = None;
     }
 
     /// Whether this controller, about to command as the actuator's owner (the Primary, with
@@ -235,7 +253,7 @@ impl LoopClock {
         if marks.doubted.is_some() {
             return true;
         }
-        let lapse = marks.last_write.map(|wrote| wrote.elapsed());
+        let lapse = marks.last_owner_write.map(|wrote| wrote.elapsed());
         match lapse {
             Some(lapse) if lapse >= self.noticed_after => {
                 marks.doubted = Some(lapse);
@@ -361,7 +379,7 @@ mod tests {
         assert_eq!(clock.mark(), None);
         busy_for(Duration::from_millis(40));
         assert!(!clock.stalled(), "a loaded host's lapse is not a stop");
-        clock.wrote();
+        clock.wrote(false);
         assert!(
             !clock.stalled_for_writer(),
             "a writer that wrote within the deadline was not stopped"
@@ -408,7 +426,13 @@ mod tests {
     fn an_owner_whose_commands_lapsed_doubts_itself_until_the_loop_restarts() {
         let clock = LoopClock::new(10_000, 20);
         assert!(!clock.owner_lapsed(), "nothing written yet: no lapse");
-        clock.wrote();
+        clock.wrote(false);
+        busy_for(Duration::from_millis(30));
+        assert!(
+            !clock.owner_lapsed(),
+            "a Secondary's old write is no lapse of the Primary it becomes"
+        );
+        clock.wrote(true);
         assert!(!clock.owner_lapsed(), "written just now");
         busy_for(Duration::from_millis(30));
         assert!(
@@ -416,7 +440,7 @@ mod tests {
             "30 ms without a command: the actuator moved"
         );
         assert!(clock.stalled(), "and every writer of it goes silent");
-        clock.wrote();
+        clock.wrote(true);
         assert!(
             clock.owner_lapsed(),
             "a write meanwhile does not lift the doubt"
@@ -431,10 +455,14 @@ mod tests {
             "the new life has no lapse of its own"
         );
         assert_eq!(clock.mark(), None);
-        clock.wrote();
+        clock.wrote(true);
         clock.holds_no_role();
         busy_for(Duration::from_millis(30));
         assert!(!clock.owner_lapsed(), "silent without a role: no lapse");
+        clock.wrote(true);
+        clock.not_the_owner();
+        busy_for(Duration::from_millis(30));
+        assert!(!clock.owner_lapsed(), "silent in another role: no lapse");
     }
 
     #[test]

@@ -39,7 +39,7 @@ fn freezes_past_the_command_deadline_are_stalls_and_shorter_ones_are_none() {
         })
     };
     std::thread::sleep(Duration::from_millis(50));
-    clock.wrote();
+    clock.wrote(false);
     freeze_self_for(Duration::from_millis(150));
     assert!(
         clock.stalled_for_writer(),
@@ -51,7 +51,7 @@ fn freezes_past_the_command_deadline_are_stalls_and_shorter_ones_are_none() {
     assert!(gap >= Duration::from_millis(100), "{gap:?}");
     resume.send(()).expect("the loop waits");
     std::thread::sleep(Duration::from_millis(50));
-    clock.wrote();
+    clock.wrote(false);
     assert!(!clock.stalled_for_writer(), "running again");
     freeze_self_for(Duration::from_millis(20));
     std::thread::sleep(Duration::from_millis(50));

@@ -16,7 +16,7 @@ fn continued_stops_past_the_command_deadline_are_stalls_and_others_are_none() {
         std::thread::sleep(Duration::from_millis(10));
         assert_eq!(clock.mark(), None, "a SIGCONT to a running loop is no stop");
     }
-    clock.wrote();
+    clock.wrote(false);
     assert!(!clock.stalled_for_writer());
     // Stopped for 150 ms by a child, continued by it.
     assert_eq!(clock.mark(), None);
@@ -33,7 +33,7 @@ fn continued_stops_past_the_command_deadline_are_stalls_and_others_are_none() {
     );
     clock.resumed();
     assert_eq!(clock.mark(), None, "the SIGCONT was taken by the stall");
-    clock.wrote();
+    clock.wrote(false);
     assert!(!clock.stalled_for_writer());
     // A stop shorter than the command deadline: nobody noticed.
     stop_self_for(Duration::from_millis(20));
