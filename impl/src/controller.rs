@@ -184,12 +184,14 @@ fn track(
             if shape.value.color == config.tracker.color {
                 let input = shape.source_timestamp.map_or(0, |t| t.to_ticks());
                 let ball = (shape.value.x, shape.value.y);
+                let (input, ball) = wrong_input(rl, input, ball);
                 tracker.answer_frame(input, ball, &mut alignment, &mut outputs.cross_check);
                 fresh = true;
             }
         }
         if fresh || last_written.elapsed() >= republish {
-            outputs.write(rl, tracker.frame, tracker.command(), tracker.compare());
+            let frame = (tracker.frame, tracker.frame_digest);
+            outputs.write(rl, frame, tracker.command(), tracker.compare());
             last_written = Instant::now();
         }
         let wait = republish.saturating_sub(last_written.elapsed());
@@ -246,7 +248,8 @@ impl Outputs {
         true
     }
 
-    /// Writes `command`, the answer to camera frame `frame`, on both topics (each only while
+    /// Writes `command`, the answer to camera frame `frame` (its values' digest
+    /// `frame_digest`), on both topics (each only while
     /// this controller may command; on the voted one each new frame's answer, and the same
     /// again only every half deadline) unless the cross-check says leave; failures are
     /// counted and logged sparingly. A lockstep pair's controller first compares the output
@@ -254,7 +257,7 @@ impl Outputs {
     fn write(
         &mut self,
         rl: &Redundancy,
-        frame: u64,
+        (frame, frame_digest): (u64, u64),
         command: crate::tracker::ServoCommand,
         compare: Option<(&Lockstep, crate::tracker::ServoCommand)>,
     ) {
@@ -274,14 +277,14 @@ impl Outputs {
         if !write_first && self.leaves_on_mismatch(rl, frame, sample, compare) {
             return;
         }
-        if let Judgement::Leave(reason) = self.cross_check.answer(frame, sample) {
+        if let Judgement::Leave(reason) = self.cross_check.answer(frame, frame_digest, sample) {
             self.left = true;
             rl.report_odd_one_out(reason);
             return;
         }
         let exclusive = self.commands.write(sample);
         let voted = match self.voted.as_mut() {
-            Some(voted) => voted.write_when_due(frame, sample),
+            Some(voted) => voted.write_when_due(frame, frame_digest, sample),
             None => Ok(false),
         };
         for written in [exclusive, voted] {
@@ -356,6 +359,12 @@ struct WrongOutput {
     frame_fault: Option<(u64, rl_layer::runtime::OutputFault)>,
     #[cfg(feature = "fault-injection")]
     frozen_at: Option<ServoControl>,
+    /// When the drift asked for began (its rate, and the first frame it applied to).
+    #[cfg(feature = "fault-injection")]
+    drift_since: Option<(i32, Instant)>,
+    /// The drift's offset at the frame it was last applied to.
+    #[cfg(feature = "fault-injection")]
+    drift_at: Option<(u64, i32)>,
 }
 
 #[cfg(feature = "fault-injection")]
@@ -373,9 +382,35 @@ impl WrongOutput {
         if fault != OutputFault::Frozen {
             self.frozen_at = None;
         }
+        let drift_rate = match fault {
+            OutputFault::Drift(rate) => Some(rate),
+            _ => None,
+        };
+        if self.drift_since.map(|(rate, _)| rate) != drift_rate {
+            self.drift_since = drift_rate.map(|rate| (rate, Instant::now()));
+        }
         match fault {
             OutputFault::None => sample,
             OutputFault::Offset(offset) => {
+                let pan = (i32::from(sample.pan) + offset).clamp(0, 1000);
+                ServoControl {
+                    pan: u16::try_from(pan).unwrap_or(sample.pan),
+                    ..sample
+                }
+            }
+            OutputFault::Drift(rate) => {
+                // Fixed at the frame's first answer: a re-publication repeats it.
+                let since = self
+                    .drift_since
+                    .map_or(0.0, |(_, at)| at.elapsed().as_secs_f64());
+                let grown = (f64::from(rate) * since).clamp(-1000.0, 1000.0) as i32;
+                let offset = match self.drift_at {
+                    Some((at, offset)) if at == frame => offset,
+                    _ => {
+                        self.drift_at = Some((frame, grown));
+                        grown
+                    }
+                };
                 let pan = (i32::from(sample.pan) + offset).clamp(0, 1000);
                 ServoControl {
                     pan: u16::try_from(pan).unwrap_or(sample.pan),
@@ -402,6 +437,26 @@ impl WrongOutput {
     fn apply(&mut self, _: &Redundancy, _: u64, sample: ServoControl) -> ServoControl {
         sample
     }
+}
+
+/// The camera frame `input` with the ball at `ball` as the fault-injection control asks the
+/// tracker to read it (`wrong-input` on stdin): the ball's x off by an offset, or another
+/// camera's frame (an input the group never has, one tick after the group's, the ball 40 px
+/// away).
+#[cfg(feature = "fault-injection")]
+fn wrong_input(rl: &Redundancy, input: u64, ball: (i32, i32)) -> (u64, (i32, i32)) {
+    use rl_layer::runtime::InputFault;
+    match rl.injected_input_fault() {
+        InputFault::None => (input, ball),
+        InputFault::Offset(offset) => (input, (ball.0.saturating_add(offset), ball.1)),
+        InputFault::Foreign => (input.wrapping_add(1), (ball.0.saturating_add(40), ball.1)),
+    }
+}
+
+/// Without the fault-injection control: the frame as it came.
+#[cfg(not(feature = "fault-injection"))]
+fn wrong_input(_: &Redundancy, input: u64, ball: (i32, i32)) -> (u64, (i32, i32)) {
+    (input, ball)
 }
 
 /// SplitMix64's output function: well-mixed bits from a counter.

@@ -68,7 +68,7 @@ fn pinned_state_count_and_our_search_agrees_with_stateright() {
     assert_eq!(ours, PINNED_DEFAULT_STATES);
 }
 
-const PINNED_DEFAULT_STATES: usize = 2788;
+const PINNED_DEFAULT_STATES: usize = 3028;
 
 #[test]
 fn the_bound_is_n_for_every_limit() {
@@ -116,6 +116,37 @@ fn closing_the_comparison_after_the_next_command_breaks_k() {
         .controllers
         .iter()
         .any(|c| c.exclusive_wrong + c.exclusive_missed == bound + 1));
+}
+
+const INPUT_WITHIN_N: &str = "a masked wrong input is found within N inputs";
+
+#[test]
+fn comparing_outputs_only_never_finds_a_masked_wrong_input() {
+    let explored = explored(mutated(OutputMutation::NoInputCongruence));
+    let mut failed = explored.failed();
+    failed.sort();
+    assert_eq!(
+        failed,
+        vec!["a controller with a wrong input leaves", INPUT_WITHIN_N],
+        "only the input bound breaks, and its witness is never reached"
+    );
+    let path = counterexample(&explored, INPUT_WITHIN_N);
+    let end = last(&path);
+    let wrong = end
+        .controllers
+        .iter()
+        .find(|c| c.fault == Some(Fault::WrongInput))
+        .expect("a controller reading a wrong input");
+    assert!(
+        wrong.role.is_some(),
+        "it is still in its role: {}",
+        path.render()
+    );
+    assert!(!wrong.ever_sent_wrong, "its output was right throughout");
+    assert!(
+        end.voting.dissent.iter().all(|alarm| !alarm),
+        "and no receiver can name it"
+    );
 }
 
 #[test]
@@ -213,7 +244,7 @@ fn the_command_line_checks_and_prints_the_finding() {
     let (code, out) = run_check(&[]);
     assert_eq!(code, Some(0), "{out}");
     assert!(
-        out.contains("result: all 20 properties as expected"),
+        out.contains("result: all 23 properties as expected"),
         "{out}"
     );
     let (code, out) = run_check(&["--wrong", "2"]);

@@ -25,11 +25,15 @@ use std::process::ExitCode;
 /// runs two redundancy groups (nav, act) on one LAN, kills both Primaries at once and judges
 /// each group as kill-primary is judged, and for cross-talk between the groups. The
 /// wrong-output scenarios (wrong-primary, wrong-primary-vote-camera, wrong-secondary,
-/// frozen-primary, random-primary, two-wrong; not in matrix --ci) need an rl built with the
-/// fault-injection feature; they add a voting reader (rl servo --vote --json) beside the two
-/// exclusive ones and are judged on the wrong commands each reader took, the wrong
-/// controller's odd-one-out decision, exit and return, and the voting reader's dissent and
-/// hold; the camera's tracking error is drawn to OUT/NAME-seedN-tracking.svg.
+/// frozen-primary, drift-primary, wrong-input-primary, random-primary, two-wrong; not in
+/// matrix --ci) need an rl built with the fault-injection feature; they add a voting reader
+/// (rl servo --vote --json) beside the two exclusive ones and are judged on the wrong commands
+/// each reader took, the wrong controller's odd-one-out decision (on input for
+/// wrong-input-primary, with its input_disagrees alarm), exit and return, and the voting
+/// reader's dissent and hold; the camera's tracking error is drawn to
+/// OUT/NAME-seedN-tracking.svg. The gray process faults (freeze-primary, stutter-primary,
+/// starve-primary, starve-primary-long) freeze or starve the Primary in a cgroup (v1 freezer,
+/// cpu quota).
 /// Controllers get --network-a and --network-b (their addresses on A and B) when the rl takes them; a judge that cannot
 /// run (an rl without them, no Connext connector) is an error unless --lenient skips it. A run leaves its recording, result.json and
 /// timeline in OUT/NAME-seedN/ and its picture in

@@ -88,45 +88,71 @@ pub enum Fault {
     LinkDown(Target, Net),
     /// A whole net dead for every node (a switch without power).
     NetworkDown(Net),
-    /// The target's commands wrong (`wrong-commands ...` on its stdin, a `fault-injection`
-    /// build of `rl`) while its heartbeats, and so its role, stay right; healed by
-    /// `wrong-commands none` (a restarted process starts right anyway).
-    WrongCommands(Target, WrongOutput),
+    /// The target's answers wrong (`wrong-commands ...` or `wrong-input ...` on its stdin, a
+    /// `fault-injection` build of `rl`) while its heartbeats, and so its role, stay right;
+    /// healed by `wrong-commands none` and `wrong-input none` (a restarted process starts
+    /// right anyway).
+    WrongCommands(Target, WrongAnswer),
 }
 
-/// How a controller's commands are wrong (docs/protocol.md, "Output voting": the output
-/// model's wrong values and frozen output).
+/// How a controller's answers are wrong (docs/protocol.md, "Output voting": the output
+/// model's wrong values and frozen output; and a wrong input, which the tracker's alignment
+/// to the group may mask in its output).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
-pub enum WrongOutput {
+pub enum WrongAnswer {
     /// Pan off by this much (clamped to the servo's 0..=1000).
     Offset(i32),
     /// The last command it sent before the fault, whatever the camera shows.
     Frozen,
     /// Random pan and tilt at every camera frame.
     Random,
+    /// Pan off by this much more every second: an error growing slowly through the
+    /// tolerance.
+    Drift(i32),
+    /// Another camera's frames: inputs the group never has, the ball 40 px away.
+    ForeignInput,
 }
 
-impl WrongOutput {
+impl WrongAnswer {
     /// The line that asks a controller for this fault on its stdin.
     pub fn line(self) -> String {
         match self {
-            WrongOutput::Offset(n) => format!("wrong-commands offset {n}"),
-            WrongOutput::Frozen => "wrong-commands frozen".into(),
-            WrongOutput::Random => "wrong-commands random".into(),
+            WrongAnswer::Offset(n) => format!("wrong-commands offset {n}"),
+            WrongAnswer::Frozen => "wrong-commands frozen".into(),
+            WrongAnswer::Random => "wrong-commands random".into(),
+            WrongAnswer::Drift(n) => format!("wrong-commands drift {n}"),
+            WrongAnswer::ForeignInput => "wrong-input foreign".into(),
+        }
+    }
+
+    /// Whether the fault is in the input (judged by input congruence), not the output.
+    pub fn in_input(self) -> bool {
+        self == WrongAnswer::ForeignInput
+    }
+
+    /// What the controller logs when it takes the fault's line (impl/layer/src/runtime/
+    /// fault_injection.rs).
+    pub fn acknowledgement(self) -> &'static str {
+        if self.in_input() {
+            "fault injection: input wrong"
+        } else {
+            "fault injection: commands wrong"
         }
     }
 }
 
-/// The line that makes a controller's commands right again.
-pub const RIGHT_COMMANDS_LINE: &str = "wrong-commands none";
+/// The lines that make a controller's answers right again.
+pub const RIGHT_COMMANDS_LINE: &str = "wrong-commands none\nwrong-input none";
 
-impl fmt::Display for WrongOutput {
+impl fmt::Display for WrongAnswer {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            WrongOutput::Offset(n) => write!(f, "pan {n:+}"),
-            WrongOutput::Frozen => f.write_str("frozen"),
-            WrongOutput::Random => f.write_str("random"),
+            WrongAnswer::Offset(n) => write!(f, "pan {n:+}"),
+            WrongAnswer::Frozen => f.write_str("frozen"),
+            WrongAnswer::Random => f.write_str("random"),
+            WrongAnswer::Drift(n) => write!(f, "pan drifting {n:+}/s"),
+            WrongAnswer::ForeignInput => f.write_str("another camera's input"),
         }
     }
 }

@@ -14,7 +14,7 @@
 
 use super::clock::LabClock;
 use super::error::LabError;
-use super::faults::{WrongOutput, RIGHT_COMMANDS_LINE};
+use super::faults::{WrongAnswer, RIGHT_COMMANDS_LINE};
 use super::host::LIBFAKETIME;
 use super::lan::{Lan, Net, Node};
 use super::wrong_output::Injection;
@@ -284,13 +284,13 @@ impl Procs {
     pub fn inject_wrong_output(
         &mut self,
         id: u8,
-        wrong: Option<WrongOutput>,
+        wrong: Option<WrongAnswer>,
     ) -> Result<(), LabError> {
         let now = self.clock.now_ms();
         let Some(life) = self.current(id).map(|l| l.label()) else {
             return Ok(());
         };
-        let line = wrong.map_or_else(|| RIGHT_COMMANDS_LINE.to_string(), WrongOutput::line);
+        let line = wrong.map_or_else(|| RIGHT_COMMANDS_LINE.to_string(), WrongAnswer::line);
         if let Some(stdin) = self.stdins.get_mut(&id) {
             let _ = writeln!(stdin, "{line}").and_then(|()| stdin.flush());
         }

@@ -26,7 +26,7 @@ pub mod verdict;
 use super::architecture::Architecture;
 use super::error::LabError;
 use super::expect::GAP_SLACK_MS;
-use super::faults::{Fault, Target, WrongOutput};
+use super::faults::{Fault, Target, WrongAnswer};
 use super::judge::FaultRecord;
 use super::observe::{Observations, OwnerSpan};
 use super::procs::Life;
@@ -67,7 +67,7 @@ pub struct Injection {
     pub id: u8,
     /// `C1`, `C1#2`: the life that was asked.
     pub life: String,
-    pub wrong: WrongOutput,
+    pub wrong: WrongAnswer,
     /// When the line was written to its stdin.
     pub from_ms: f64,
     /// When `wrong-commands none` was written to its controller id's stdin.
@@ -90,6 +90,12 @@ pub enum Kind {
     /// Two controllers wrong at once, never agreeing: the voting reader holds, nobody leaves,
     /// the exclusive readers follow the wrong Primary.
     TwoWrong,
+    /// The Primary's pan drifting off slowly: wrong once past the tolerance, then as
+    /// `WrongPrimary`.
+    DriftPrimary,
+    /// The Primary reading another camera: its answers are to inputs the group never has,
+    /// so no voter compares them; its input congruence takes it out, alarmed by name.
+    WrongInputPrimary,
 }
 
 impl Kind {
@@ -97,10 +103,27 @@ impl Kind {
     pub fn primary_alone(self) -> bool {
         matches!(
             self,
-            Kind::WrongPrimary | Kind::FrozenPrimary | Kind::RandomPrimary
+            Kind::WrongPrimary
+                | Kind::FrozenPrimary
+                | Kind::RandomPrimary
+                | Kind::DriftPrimary
+                | Kind::WrongInputPrimary
         )
     }
+
+    /// Whether the fault is in the controller's input (judged on input congruence).
+    pub fn in_input(self) -> bool {
+        self == Kind::WrongInputPrimary
+    }
 }
+
+/// A controller's odd answers before it leaves on input: [`FOREIGN_LIMIT`] inputs the group
+/// never had, in a row (rl_layer::cross_check), where an output fault leaves at N.
+pub const FOREIGN_LIMIT: usize = rl_layer::cross_check::FOREIGN_LIMIT;
+
+/// The drift of `drift-primary`, pan per second: past the tolerance 1.25 s after the fault,
+/// about a pan unit a frame, so the controller is a little wrong for a few frames first.
+pub const DRIFT_PER_S: i32 = 20;
 
 /// What makes a scenario a wrong-output one.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -125,7 +148,7 @@ fn scenario(name: &str, about: &str, output: OutputScenario, steps: Vec<Step>) -
 }
 
 /// The wrong outputs at 2 s into judging, as every named scenario applies its fault.
-fn wrong(target: Target, wrong: WrongOutput, lasts_s: f64) -> Step {
+fn wrong(target: Target, wrong: WrongAnswer, lasts_s: f64) -> Step {
     Step {
         at_ms: 2000,
         fault: Fault::WrongCommands(target, wrong),
@@ -140,7 +163,7 @@ pub fn scenarios() -> Vec<Scenario> {
         kind,
         camera: Camera::Exclusive,
     };
-    let offset = WrongOutput::Offset(OFFSET);
+    let offset = WrongAnswer::Offset(OFFSET);
     vec![
         scenario(
             "wrong-primary",
@@ -168,13 +191,26 @@ pub fn scenarios() -> Vec<Scenario> {
             "frozen-primary",
             "the Primary's output frozen, 5 s: it leaves once the ball has moved away",
             exclusive(Kind::FrozenPrimary),
-            vec![wrong(p, WrongOutput::Frozen, 5.0)],
+            vec![wrong(p, WrongAnswer::Frozen, 5.0)],
+        ),
+        // Past the tolerance after 1.25 s; 4 s leaves room for the decision.
+        scenario(
+            "drift-primary",
+            "the Primary's pan drifting 20 a second, 4 s: it leaves once past the tolerance, at N = 2 odd frames",
+            exclusive(Kind::DriftPrimary),
+            vec![wrong(p, WrongAnswer::Drift(DRIFT_PER_S), 4.0)],
+        ),
+        scenario(
+            "wrong-input-primary",
+            "the Primary reading another camera, 3 s: no voter compares its answers; it leaves on input within 5 frames, alarmed by name",
+            exclusive(Kind::WrongInputPrimary),
+            vec![wrong(p, WrongAnswer::ForeignInput, 3.0)],
         ),
         scenario(
             "random-primary",
             "the Primary's commands random at every frame, 3 s",
             exclusive(Kind::RandomPrimary),
-            vec![wrong(p, WrongOutput::Random, 3.0)],
+            vec![wrong(p, WrongAnswer::Random, 3.0)],
         ),
         // The camera follows the vote: the plant is then driven by the reader that must fail
         // safe. Following the exclusive topic it follows the wrong Primary, the ball leaves
@@ -191,7 +227,7 @@ pub fn scenarios() -> Vec<Scenario> {
             },
             vec![
                 wrong(p, offset, 0.6),
-                wrong(s, WrongOutput::Offset(-OFFSET), 0.6),
+                wrong(s, WrongAnswer::Offset(-OFFSET), 0.6),
             ],
         ),
     ]
@@ -202,7 +238,16 @@ pub fn scenarios() -> Vec<Scenario> {
 /// first wrong frame, so the actuator has no writer until one is restarted and has waited out
 /// its initialization window: a silence no gap bound covers. The pair promises a right writer
 /// after one failure (the model's pair property), not after two; docs/architectures.md.
+///
+/// A wrong input (`wrong-input-primary`) is judged under voting only: the duplex compares
+/// nothing, and a pair's two implementations read the same input, so its compare passes a
+/// wrong one (A2 of docs/findings.md: a fault both share); only three inputs can outvote one.
 pub fn not_run_under(scenario: OutputScenario, architecture: Architecture) -> Option<&'static str> {
+    if scenario.kind.in_input() && architecture != Architecture::Voting {
+        return Some(
+            "a wrong input is caught only by comparing inputs across three controllers: the duplex compares nothing, and a pair's two implementations read the same input (A2)",
+        );
+    }
     (scenario.kind == Kind::TwoWrong && architecture == Architecture::Pair).then_some(
         "both members wrong at once are two failures: both leave the bus, and the actuator has no writer until one is restarted (the pair promises a right writer after one failure)",
     )
@@ -249,6 +294,10 @@ pub struct OutAndBack {
     /// cleared (after that).
     pub dissent_raised_after_ms: Option<f64>,
     pub dissent_cleared_after_ms: Option<f64>,
+    /// What its decision says it was odd on (`output`, `input`).
+    pub odd_on: Option<String>,
+    /// Its `input_disagrees` alarm about itself (input congruence).
+    pub input_alarm_after_ms: Option<f64>,
 }
 
 /// The voting reader's figures.
@@ -469,12 +518,14 @@ fn out_and_back(recorded: &Recorded, injection: &Injection) -> OutAndBack {
         back_as: back.map(|(.., role)| role),
         dissent_raised_after_ms: raised.map(|d| after(d.at_ms)),
         dissent_cleared_after_ms: cleared.map(|d| after(d.at_ms)),
+        odd_on: decision.and_then(|o| o.on.clone()),
+        input_alarm_after_ms: recorded
+            .observed
+            .outputs
+            .input_alarm_of(&injection.life)
+            .map(after),
     }
 }
-
-/// What a `fault-injection` build logs when it takes a `wrong-commands` line
-/// (`impl/layer/src/runtime/fault_injection.rs`).
-const ACKNOWLEDGED: &str = "fault injection: commands wrong";
 
 /// An error unless every life asked for wrong commands said on stderr (`(source, text)`)
 /// that it took them: a PASS of a run whose controllers ignored the fault would say nothing.
@@ -488,7 +539,7 @@ pub fn require_acknowledged(
         .filter(|i| {
             !stderr
                 .iter()
-                .any(|(source, text)| *source == i.life && text.contains(ACKNOWLEDGED))
+                .any(|(source, text)| *source == i.life && text.contains(i.wrong.acknowledgement()))
         })
         .map(|i| i.life.as_str())
         .collect();
@@ -558,12 +609,14 @@ pub fn summary(report: &OutputReport) -> String {
             continue;
         }
         text.push_str(&format!(
-            "  {}: odd one out {} after the fault ({} odd inputs after it, {} before, {} late), {exited_and_back}; dissent raised {}, cleared {}\n",
+            "  {}: odd one out on {} {} after the fault ({} odd inputs after it, {} before, {} late), input alarm {}, {exited_and_back}; dissent raised {}, cleared {}\n",
             o.life,
+            o.odd_on.as_deref().unwrap_or("?"),
             ms(o.decided_after_ms),
             o.odd_after_fault.map_or("?".into(), |n| n.to_string()),
             o.odd_before_fault.map_or("?".into(), |n| n.to_string()),
             o.late.map_or("?".into(), |n| n.to_string()),
+            ms(o.input_alarm_after_ms),
             ms(o.dissent_raised_after_ms),
             ms(o.dissent_cleared_after_ms),
         ));

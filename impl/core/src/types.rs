@@ -281,4 +281,9 @@ pub enum AlarmReason {
     /// that one was alive: another process configured with its id, or a forgery. The
     /// adapter raises it (the core never sees such samples).
     Impostor,
+    /// Its input disagreed with the input two agreeing peers answered (input congruence),
+    /// whatever its output: another value of the same input, or inputs neither peer
+    /// received. The controller raises it about itself before it leaves (the application's
+    /// cross-check; the core never sees inputs).
+    InputDisagrees,
 }

@@ -108,6 +108,7 @@ fn pure(inputs: u64) {
             let answer = Voted {
                 from,
                 input,
+                input_digest: 0,
                 value: servo(pan + u16::from(from)),
             };
             let offered = Instant::now();

@@ -282,6 +282,13 @@ impl Redundancy {
         runtime::injected_output_fault()
     }
 
+    /// With the `fault-injection` feature: how the test control asked this controller's
+    /// input to be wrong (`wrong-input offset <n>|foreign|none` on stdin).
+    #[cfg(feature = "fault-injection")]
+    pub fn injected_input_fault(&self) -> runtime::InputFault {
+        runtime::injected_input_fault()
+    }
+
     /// With the `mutation` feature: the deliberately broken rule this controller runs
     /// (`RL_MUTATION`), if any; the application reads it for the rules it applies itself (a
     /// lockstep pair's compare before writing).
@@ -476,11 +483,13 @@ pub struct VotedWriter<T: Clone> {
 
 impl<T: Clone + 'static> VotedWriter<T> {
     /// Writes `value` as this controller's answer to `input` (the application's tag of the
-    /// input it computed from: the tracker's is the camera sample's source timestamp) if this
-    /// controller holds a role now (and is not FAILED); returns whether it was written. Write at least once per
-    /// command deadline (again with the same input while no new input comes), so a receiver
-    /// keeps counting this controller.
-    pub fn write(&mut self, input: u64, value: T) -> Result<bool, DdsError> {
+    /// input it computed from: the tracker's is the camera sample's source timestamp), with
+    /// `input_digest`, the digest of the input's values as it received them
+    /// ([`crate::wire::input_digest`]; 0: none), if this controller holds a role now (and is
+    /// not FAILED); returns whether it was written. Write at least once per command deadline
+    /// (again with the same input while no new input comes), so a receiver keeps counting
+    /// this controller.
+    pub fn write(&mut self, input: u64, input_digest: u64, value: T) -> Result<bool, DdsError> {
         let (id, role_held) = {
             let report = &self.shared.status().report;
             let failed = report.phase == crate::core::Phase::Failed;
@@ -494,6 +503,7 @@ impl<T: Clone + 'static> VotedWriter<T> {
         let answer = Voted {
             from: id,
             input,
+            input_digest,
             value,
         };
         self.writer.write(&answer)?;
@@ -507,14 +517,19 @@ impl<T: Clone + 'static> VotedWriter<T> {
     /// output more often than its inputs change (the tracker re-publishes every
     /// `command_republish_ms` on the exclusive topic), so that a receiver hears each new answer
     /// at once and a live controller at least twice per deadline, without the re-publications.
-    pub fn write_when_due(&mut self, input: u64, value: T) -> Result<bool, DdsError> {
+    pub fn write_when_due(
+        &mut self,
+        input: u64,
+        input_digest: u64,
+        value: T,
+    ) -> Result<bool, DdsError> {
         let due = self
             .last
             .is_none_or(|(last, at)| last != input || at.elapsed() >= self.republish);
         if !due {
             return Ok(false);
         }
-        self.write(input, value)
+        self.write(input, input_digest, value)
     }
 
     /// The name of the topic it writes.

@@ -34,6 +34,24 @@
 //!   wrong. This is the model's timing assumption, answers to an input arriving before the
 //!   next input, met for both inputs; without it an input is not compared, as in the model.
 //!
+//! Input congruence (the triplex flight controls' rule: a channel is compared on what it read
+//! as well as on what it computed), judged before the output and whether or not in step, since
+//! an application that aligns its state to the group's can compute the group's output from a
+//! wrong input, and the fault is then masked and latent:
+//!
+//! - **Another value of the same input**: two peers answered the input with the same digest
+//!   ([`crate::wire::Voted::input_digest`]) and its own differs: odd on input, counted per life
+//!   toward the same N as odd outputs ([`OddOn::Input`]; the output model's rule 4).
+//! - **Inputs the group never had**: its input has no peer's answer, while two peers, agreeing
+//!   on an input between them, both answered inputs newer than it (a peer answers its inputs
+//!   in order, and reliably enough that a peer's answer to one of them is seldom missed):
+//!   a foreign input. [`FOREIGN_LIMIT`] of them in a row, none of its inputs shared with a
+//!   peer in between, and it leaves: a controller reading another camera, or a replayed or
+//!   frozen stream. In a row, as a frame both peers skipped under load (their camera readers
+//!   keep only the newest frame) is no fault of its own; and only for an answer judged within
+//!   three of its own answers after it, as one kept while the peers' answers were not coming
+//!   (a cut) is no evidence when they come again for newer inputs.
+//!
 //! Where it differs from the model: a controller that omits its answers judges nothing (its
 //! own answer is what it compares), so an omission is the receiver's to catch (a silent
 //! controller goes stale at the voting reader; the exclusive reader's deadline moves on).
@@ -59,10 +77,38 @@ pub const PENDING_KEPT: usize = 4;
 /// late answers since the last agreement report this many).
 const LATE_KEPT: usize = 64;
 
+/// Foreign inputs in a row (see the module's rules) at which a controller leaves: at 30
+/// camera frames a second, 5 frames are 167 ms, judged at most [`PENDING_KEPT`] frames later.
+pub const FOREIGN_LIMIT: usize = 5;
+
+/// A foreign input counts only when judged within this many of its own answers after it: the
+/// peers' answer to the group's next frame arrives as it answers its own next one, so a
+/// foreign frame is judged one or two answers on (three on a loaded host); an answer kept
+/// longer (its peers' answers not coming, then coming again for newer inputs after a cut) is
+/// no evidence. Of the [`PENDING_KEPT`] answers kept through a cut, at most this many look
+/// foreign when it heals, so one more lost answer after it still leaves fewer than
+/// [`FOREIGN_LIMIT`].
+const FOREIGN_JUDGED_WITHIN: usize = 3;
+
+/// What a controller was the odd one out of three on.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum OddOn {
+    /// Its answers: its output agreed with neither of two agreeing peers'.
+    #[default]
+    Output,
+    /// Its input, at one of the odd inputs at least: another value of an input two agreeing
+    /// peers answered alike, or inputs neither of them received (input congruence).
+    Input,
+}
+
 /// Why a controller leaves: the inputs at which it was the odd one out of three.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct OddOneOut {
-    /// The odd-one-out inputs of this life, oldest first (`odd_limit` of them).
+    /// What it was odd on.
+    pub on: OddOn,
+    /// The odd-one-out inputs of this life, oldest first (`odd_limit` of them; on input,
+    /// the odd or foreign inputs).
     pub inputs: Vec<u64>,
     /// N.
     pub odd_limit: u32,
@@ -78,6 +124,20 @@ pub struct OddOneOut {
 impl std::fmt::Display for OddOneOut {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let peers: Vec<String> = self.peers.iter().map(|id| format!("C{id}")).collect();
+        if self.on == OddOn::Input {
+            return write!(
+                f,
+                "the odd one out of three on input at {} inputs of this life ({}): its input \
+                 disagrees with both of {}, which agree",
+                self.inputs.len(),
+                self.inputs
+                    .iter()
+                    .map(u64::to_string)
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                peers.join(" and ")
+            );
+        }
         write!(
             f,
             "the odd one out of three at {} inputs of this life ({}): its answers disagree \
@@ -114,9 +174,13 @@ pub enum Judgement {
 #[derive(Clone, Debug)]
 struct OwnAnswer<T> {
     input: u64,
+    /// The digest of the input's values (0: none).
+    digest: u64,
     value: T,
     /// Computed from the group's position at the input answered before.
     in_step: bool,
+    /// Its own answers to later inputs so far (1 when judged on time).
+    answered_after: usize,
 }
 
 /// One controller's cross-check (see the module's rules).
@@ -125,8 +189,9 @@ pub struct CrossCheck<T, R> {
     own: ControllerId,
     rule: R,
     odd_limit: u32,
-    /// Peers' answers by input, the newest [`INPUTS_KEPT`] inputs.
-    peers: BTreeMap<u64, BTreeMap<ControllerId, T>>,
+    /// Peers' answers by input, the newest [`INPUTS_KEPT`] inputs: each with its input's
+    /// digest.
+    peers: BTreeMap<u64, BTreeMap<ControllerId, (u64, T)>>,
     /// Its own answers not judged yet, oldest first: the input it answers now (judged at the
     /// next input) and earlier ones whose peers' answers are not all in.
     pending: Vec<OwnAnswer<T>>,
@@ -139,6 +204,11 @@ pub struct CrossCheck<T, R> {
     group_formed: bool,
     /// This life's odd-one-out inputs.
     odd_inputs: Vec<u64>,
+    /// This life's inputs whose value disagreed with two agreeing peers' (odd on input; also
+    /// in `odd_inputs`, which counts both grounds toward N).
+    odd_on_input: Vec<u64>,
+    /// The foreign inputs since its last input shared with a peer.
+    foreign: Vec<u64>,
     /// Decided to leave, and why: nothing more is answered in this life.
     left: Option<OddOneOut>,
 }
@@ -157,17 +227,23 @@ impl<T: Clone, R: VoteRule<T>> CrossCheck<T, R> {
             aligned_to: None,
             group_formed: false,
             odd_inputs: Vec::new(),
+            odd_on_input: Vec::new(),
+            foreign: Vec::new(),
             left: None,
         }
     }
 
-    /// A peer's answer `value` to `input`, as it arrived (trusted: its participant speaks for
-    /// `from`). Its own answers, read back, are ignored: it compares what it computed.
-    pub fn peer_answer(&mut self, from: ControllerId, input: u64, value: T) {
+    /// A peer's answer `value` to `input`, whose values had the digest `digest` (0: none), as
+    /// it arrived (trusted: its participant speaks for `from`). Its own answers, read back, are
+    /// ignored: it compares what it computed.
+    pub fn peer_answer(&mut self, from: ControllerId, input: u64, digest: u64, value: T) {
         if from == self.own {
             return;
         }
-        self.peers.entry(input).or_default().insert(from, value);
+        self.peers
+            .entry(input)
+            .or_default()
+            .insert(from, (digest, value));
         while self.peers.len() > INPUTS_KEPT {
             self.peers.pop_first();
         }
@@ -188,10 +264,11 @@ impl<T: Clone, R: VoteRule<T>> CrossCheck<T, R> {
         self.aligned_to = self.aligned_to.max(Some(input));
     }
 
-    /// Its answer `value` to `input`, before it goes out: judges the inputs it answered before
-    /// (rule 5; late ones as soon as the peers' answers are in) and says whether to publish.
-    /// Answering the same input again (a re-publication) only replaces the answer kept for it.
-    pub fn answer(&mut self, input: u64, value: T) -> Judgement {
+    /// Its answer `value` to `input`, whose values had the digest `digest` (0: none), before
+    /// it goes out: judges the inputs it answered before (rule 5 and input congruence; late
+    /// ones as soon as the peers' answers are in) and says whether to publish. Answering the
+    /// same input again (a re-publication) only replaces the answer kept for it.
+    pub fn answer(&mut self, input: u64, digest: u64, value: T) -> Judgement {
         if let Some(left) = &self.left {
             return Judgement::Leave(left.clone());
         }
@@ -204,11 +281,12 @@ impl<T: Clone, R: VoteRule<T>> CrossCheck<T, R> {
         // group answered an input it did not (a camera frame lost to it, or peers ahead), and
         // its law's memory of the last frame (the PD's previous error) is not the group's.
         let in_step = self.group_formed && previous.is_some_and(|p| self.aligned_to == Some(p));
-        for answer in std::mem::take(&mut self.pending) {
+        for mut answer in std::mem::take(&mut self.pending) {
             if answer.input > input {
                 continue;
             }
             let on_time = Some(answer.input) == previous;
+            answer.answered_after += 1;
             if let Some(verdict) = self.judge(answer, on_time) {
                 self.left = Some(verdict.clone());
                 return Judgement::Leave(verdict);
@@ -220,8 +298,10 @@ impl<T: Clone, R: VoteRule<T>> CrossCheck<T, R> {
         }
         self.pending.push(OwnAnswer {
             input,
+            digest,
             value,
             in_step,
+            answered_after: 0,
         });
         Judgement::Answer
     }
@@ -229,8 +309,40 @@ impl<T: Clone, R: VoteRule<T>> CrossCheck<T, R> {
     /// Judges its earlier `answer` (`on_time`: at the input after it): kept pending while the
     /// peers' answers are not all in; the verdict when it is the N-th odd input of the life.
     fn judge(&mut self, answer: OwnAnswer<T>, on_time: bool) -> Option<OddOneOut> {
+        let mut input = self.compare_input(answer.input, answer.digest);
+        let kept_long = answer.answered_after > FOREIGN_JUDGED_WITHIN;
+        if matches!(input, InputComparison::Foreign(_)) && kept_long {
+            // Kept while the peers' answers were not coming (a cut, a loaded host): that they
+            // came back for newer inputs says nothing of the peers' answers to this one.
+            input = InputComparison::Unknown;
+        }
+        match input {
+            InputComparison::Odd(peers) => {
+                self.odd_on_input.push(answer.input);
+                self.odd_inputs.push(answer.input);
+                self.odd_inputs.sort_unstable();
+                let limit = self.odd_limit as usize;
+                return (limit > 0 && self.odd_inputs.len() >= limit)
+                    .then(|| self.odd_on(OddOn::Input, self.odd_inputs.clone(), peers));
+            }
+            InputComparison::Foreign(peers) => {
+                if !on_time {
+                    self.note_late(answer.input);
+                }
+                self.foreign.push(answer.input);
+                return (self.odd_limit > 0 && self.foreign.len() >= FOREIGN_LIMIT)
+                    .then(|| self.odd_on(OddOn::Input, self.foreign.clone(), peers));
+            }
+            InputComparison::Shared => self.foreign.clear(),
+            InputComparison::Unknown => {}
+        }
         if !answer.in_step {
-            self.note_late(answer.input);
+            if input == InputComparison::Unknown && !self.peers.is_empty() {
+                // Its input is judged once the peers' answers are in (or let go).
+                self.pending.push(answer);
+            } else {
+                self.note_late(answer.input);
+            }
             return None;
         }
         match self.compare(answer.input, &answer.value) {
@@ -249,13 +361,65 @@ impl<T: Clone, R: VoteRule<T>> CrossCheck<T, R> {
                 self.odd_inputs.push(answer.input);
                 self.odd_inputs.sort_unstable();
                 let limit = self.odd_limit as usize;
-                (limit > 0 && self.odd_inputs.len() >= limit).then(|| OddOneOut {
-                    inputs: self.odd_inputs.clone(),
-                    odd_limit: self.odd_limit,
-                    peers,
-                    late: u32::try_from(self.late.len()).unwrap_or(u32::MAX),
-                })
+                // Odd on input at any of them, it says so (the model's input alarm).
+                let on = if self.odd_on_input.is_empty() {
+                    OddOn::Output
+                } else {
+                    OddOn::Input
+                };
+                (limit > 0 && self.odd_inputs.len() >= limit)
+                    .then(|| self.odd_on(on, self.odd_inputs.clone(), peers))
             }
+        }
+    }
+
+    /// The verdict: odd `on` at `inputs`, against `peers`.
+    fn odd_on(&self, on: OddOn, inputs: Vec<u64>, peers: Vec<ControllerId>) -> OddOneOut {
+        OddOneOut {
+            on,
+            inputs,
+            odd_limit: self.odd_limit,
+            peers,
+            late: u32::try_from(self.late.len()).unwrap_or(u32::MAX),
+        }
+    }
+
+    /// How its input `input`, whose values had the digest `digest`, compares with the
+    /// peers' (see the module's rules on input congruence).
+    fn compare_input(&self, input: u64, digest: u64) -> InputComparison {
+        if let Some(answers) = self.peers.get(&input) {
+            let digests: Vec<(ControllerId, u64)> = answers
+                .iter()
+                .map(|(from, (peer_digest, _))| (*from, *peer_digest))
+                .filter(|(_, peer_digest)| *peer_digest != 0)
+                .collect();
+            if digest == 0 || digests.iter().any(|(_, d)| *d == digest) {
+                return InputComparison::Shared;
+            }
+            return match agreeing_pair(&digests) {
+                Some(peers) => InputComparison::Odd(peers),
+                None if answers.len() >= 2 => InputComparison::Shared,
+                None => InputComparison::Unknown,
+            };
+        }
+        // Not one peer answered it. Foreign once two peers that agree on an input both
+        // answered newer ones (and its input is not older than every input kept).
+        let kept_from = self.peers.keys().next().copied();
+        if digest == 0 || kept_from.is_none_or(|oldest| input < oldest) {
+            return InputComparison::Unknown;
+        }
+        let newer = (std::ops::Bound::Excluded(input), std::ops::Bound::Unbounded);
+        let agreeing_later = self.peers.range(newer).rev().find_map(|(_, answers)| {
+            let digests: Vec<(ControllerId, u64)> = answers
+                .iter()
+                .map(|(from, (d, _))| (*from, *d))
+                .filter(|(_, d)| *d != 0)
+                .collect();
+            agreeing_pair(&digests)
+        });
+        match agreeing_later {
+            Some(peers) => InputComparison::Foreign(peers),
+            None => InputComparison::Unknown,
         }
     }
 
@@ -274,6 +438,8 @@ impl<T: Clone, R: VoteRule<T>> CrossCheck<T, R> {
         self.aligned_to = None;
         self.group_formed = false;
         self.odd_inputs.clear();
+        self.odd_on_input.clear();
+        self.foreign.clear();
         self.left = None;
     }
 
@@ -288,7 +454,12 @@ impl<T: Clone, R: VoteRule<T>> CrossCheck<T, R> {
         let answers: Vec<(&ControllerId, &T)> = self
             .peers
             .get(&input)
-            .map(|peers| peers.iter().collect())
+            .map(|peers| {
+                peers
+                    .iter()
+                    .map(|(from, (_, value))| (from, value))
+                    .collect()
+            })
             .unwrap_or_default();
         if answers.iter().any(|(_, peer)| self.rule.agree(value, peer)) {
             return Comparison::NotOdd;
@@ -306,6 +477,28 @@ impl<T: Clone, R: VoteRule<T>> CrossCheck<T, R> {
     }
 }
 
+/// Two peers whose input digests (non-zero) are equal, if any.
+fn agreeing_pair(digests: &[(ControllerId, u64)]) -> Option<Vec<ControllerId>> {
+    digests.iter().enumerate().find_map(|(i, (first, digest))| {
+        let second = digests[i + 1..].iter().find(|(_, d)| d == digest)?;
+        Some(vec![*first, second.0])
+    })
+}
+
+/// How a controller's input compares with its peers' inputs.
+#[derive(Clone, Debug, PartialEq, Eq)]
+enum InputComparison {
+    /// A peer had the same value of it, or it gives no digest, or the peers that answered it
+    /// agree on no value: nothing to say on input.
+    Shared,
+    /// Not known yet: too few peers' answers.
+    Unknown,
+    /// Two peers answered it with one value, and its own differs: these two.
+    Odd(Vec<ControllerId>),
+    /// No peer answered it, while these two, agreeing, answered newer inputs.
+    Foreign(Vec<ControllerId>),
+}
+
 /// How a controller's answer compares with its peers' answers to the same input.
 enum Comparison {
     /// Fewer than two peers' answers, none agreeing with it: not judged yet.
@@ -316,5 +509,7 @@ enum Comparison {
     Odd(Vec<ControllerId>),
 }
 
+#[cfg(test)]
+mod input_tests;
 #[cfg(test)]
 mod tests;

@@ -14,6 +14,7 @@
 
 use crate::core::network::{AlarmCause, Network, Verdict};
 use crate::core::{AlarmReason, Assignment, ControllerId, Incarnation, Role, Status, Strength};
+use crate::cross_check::OddOn;
 use crate::failed_exit::{Failure, FailureCause, EXIT_STATUS};
 use crate::wire::Certainty;
 use serde::{Deserialize, Serialize};
@@ -144,6 +145,10 @@ pub enum Event {
     /// this life (crate::cross_check): it reports a local fault and leaves (a `stopped` line
     /// with reason `local_fault` follows).
     OddOneOut {
+        /// What it was odd on: its output, or its input (input congruence; an
+        /// `input_disagrees` alarm about itself precedes the line).
+        #[serde(default)]
+        on: OddOn,
         /// The inputs (the application's tags) at which it was the odd one out, oldest first.
         inputs: Vec<u64>,
         /// N: the odd inputs in one life at which a controller leaves.

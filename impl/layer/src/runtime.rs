@@ -580,13 +580,20 @@ mod commands_in;
 mod fault_injection;
 
 #[cfg(feature = "fault-injection")]
-pub use fault_injection::OutputFault;
+pub use fault_injection::{InputFault, OutputFault};
 
 /// With the `fault-injection` feature: how the test control asked the application's commands
 /// to be wrong (`wrong-commands ...` on stdin).
 #[cfg(feature = "fault-injection")]
 pub fn injected_output_fault() -> OutputFault {
     fault_injection::output_fault()
+}
+
+/// With the `fault-injection` feature: how the test control asked the application's input
+/// to be wrong (`wrong-input ...` on stdin).
+#[cfg(feature = "fault-injection")]
+pub fn injected_input_fault() -> InputFault {
+    fault_injection::input_fault()
 }
 mod heartbeat_delay;
 mod impostors;

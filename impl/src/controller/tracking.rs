@@ -13,7 +13,16 @@ use rl_layer::core::types::ControllerId;
 use rl_layer::cross_check::CrossCheck;
 use rl_layer::owner_feed::OwnerFeed;
 use rl_layer::vote_reader::{ServoRule, VoteEvent, VoteSettings};
-use rl_layer::wire::{ServoControl, VOTED_SERVO_CONTROL_TYPE_NAME};
+use rl_layer::wire::{input_digest, ServoControl, VOTED_SERVO_CONTROL_TYPE_NAME};
+
+/// The digest of a camera frame's values as the law reads them: the ball's x, then y, each
+/// as 4 little-endian bytes.
+pub(super) fn frame_digest(ball: (i32, i32)) -> u64 {
+    let mut bytes = [0u8; 8];
+    bytes[..4].copy_from_slice(&ball.0.to_le_bytes());
+    bytes[4..].copy_from_slice(&ball.1.to_le_bytes());
+    input_digest(&bytes)
+}
 
 /// The tracker's control law (and a lockstep pair's second implementation beside it), the
 /// camera frame it answered last, and its answers to that frame.
@@ -23,6 +32,9 @@ pub(super) struct Tracker {
     lockstep: Option<Lockstep>,
     /// The camera frame the commands answer (its source timestamp), for the voted topic.
     pub(super) frame: u64,
+    /// The digest of that frame's values as the law read them (the ball's x and y; 0: no
+    /// frame yet), compared with the peers' on the voted topic (input congruence).
+    pub(super) frame_digest: u64,
     /// Its answer to that frame: a re-publication repeats it. The tracker's state, aligned to
     /// the group since, is for the next frame; a re-publication computed from it would be a
     /// second, different answer to the same frame (two wrong values per frame from a wrong
@@ -40,6 +52,7 @@ impl Tracker {
             lockstep: (config.architecture == ArchitectureName::Pair)
                 .then(|| Lockstep::beside(law, frequency_hz)),
             frame: 0,
+            frame_digest: 0,
             answer: None,
             second_answer: None,
         }
@@ -67,6 +80,7 @@ impl Tracker {
         self.answer = Some(self.pan_tilt.update(ball.0, ball.1));
         self.second_answer = self.lockstep.as_mut().map(|l| l.update(ball.0, ball.1));
         self.frame = input;
+        self.frame_digest = frame_digest(ball);
     }
 
     /// The command to write: its answer to the frame, or the law's position before any.
@@ -177,7 +191,12 @@ impl Alignment {
         if let Some(votes) = self.votes.as_mut() {
             let answers = &mut self.answers;
             let events = votes.take_seeing(now_ms, |answer| {
-                cross_check.peer_answer(answer.from, answer.input, answer.value);
+                cross_check.peer_answer(
+                    answer.from,
+                    answer.input,
+                    answer.input_digest,
+                    answer.value,
+                );
                 answers
                     .entry(answer.input)
                     .or_default()

@@ -3,7 +3,8 @@
 //! bound K follows), and the deliberately broken rules the mutation tests use.
 //!
 //! Everything else about the scope is fixed: three controllers, each with a role, and the
-//! four ways an output can go wrong (`super::state::Fault`).
+//! five ways an answer can go wrong (`super::state::Fault`: four of the output, one of the
+//! input).
 
 use serde::{Deserialize, Serialize};
 
@@ -62,6 +63,9 @@ pub enum OutputMutation {
     /// A controller closes its comparison of an input only after it has answered the next
     /// one (the cross-check lags one input behind the commands).
     CompareAfterNextCommand,
+    /// The cross-check compares outputs only, not inputs: a controller whose input is wrong
+    /// and whose output is right is never the odd one out.
+    NoInputCongruence,
 }
 
 /// The output model's configuration.
@@ -182,6 +186,7 @@ impl OutputConfig {
             let name = match mutation {
                 OutputMutation::AcceptSingleSource => "accept-single-source",
                 OutputMutation::CompareAfterNextCommand => "compare-after-next-command",
+                OutputMutation::NoInputCongruence => "no-input-congruence",
             };
             flags.push_str(&format!(" --output-mutation {name}"));
         }

@@ -69,6 +69,12 @@ pub fn catalogue() -> Vec<OutputPropertyInfo> {
         p("a wrong controller leaves within N wrong commands", Always,
           "while at most one is wrong, a controller that sent N wrong or missing commands in one life answers no further input in it",
           wrong_leaves_within_n),
+        p("a masked wrong input is found within N inputs", Always,
+          "while at most one is wrong, a controller that answered N inputs from a wrong input in one life (its output right, aligned) answers no further input in it",
+          wrong_input_found_within_n),
+        p("a controller that leaves for its input is alarmed by name", Always,
+          "a controller that left with a wrong input has its input alarm about itself up until it restarts",
+          wrong_input_alarmed),
         p("an exclusive receiver takes at most K wrong or missing commands", Always,
           "while at most one is wrong, an exclusive-ownership receiver takes at most K wrong or missing commands from one controller's life",
           exclusive_bounded),
@@ -84,6 +90,9 @@ pub fn catalogue() -> Vec<OutputPropertyInfo> {
         p("an erratic controller leaves", Sometimes,
           "an intermittently wrong controller leaves after N odd-one-out inputs",
           left_erratic),
+        p("a controller with a wrong input leaves", Sometimes,
+          "a controller whose wrong input its aligned output masks is the odd one out on input and leaves, alarmed",
+          left_with_wrong_input),
         p("a wrong Primary leaves and the exclusive receiver follows the next", Sometimes,
           "the Primary leaves with a local fault and the exclusive receiver's owner is another controller",
           wrong_primary_replaced),
@@ -177,6 +186,29 @@ fn wrong_leaves_within_n(model: &OutputModel, state: &OutputState) -> bool {
             .controllers
             .iter()
             .all(|c| c.command != Command::Pending || c.wrong_in_life < limit)
+}
+
+fn wrong_input_found_within_n(model: &OutputModel, state: &OutputState) -> bool {
+    let limit = model.config.odd_limit;
+    state.two_wrong_at_once
+        || state
+            .controllers
+            .iter()
+            .all(|c| c.command != Command::Pending || c.wrong_input_in_life < limit)
+}
+
+fn wrong_input_alarmed(_: &OutputModel, state: &OutputState) -> bool {
+    state.two_wrong_at_once
+        || state.controllers.iter().all(|c| {
+            !(c.phase == Phase::Failed && c.fault == Some(Fault::WrongInput)) || c.input_alarm
+        })
+}
+
+fn left_with_wrong_input(_: &OutputModel, state: &OutputState) -> bool {
+    state
+        .controllers
+        .iter()
+        .any(|c| c.phase == Phase::Failed && c.fault == Some(Fault::WrongInput) && c.input_alarm)
 }
 
 fn exclusive_bounded(model: &OutputModel, state: &OutputState) -> bool {

@@ -154,13 +154,19 @@ fn forget_bounded_counts(state: &mut OutputState) {
         c.wrong_in_life = 0;
         c.exclusive_wrong = 0;
         c.exclusive_missed = 0;
+        c.wrong_input_in_life = 0;
     }
 }
 
 /// The ways controller `id`'s output may go wrong. With `wrong_values_differ`, a frozen
 /// value another wrong controller is frozen at is left out (the two would agree).
 fn fault_choices(config: &OutputConfig, state: &OutputState, id: Id) -> Vec<Fault> {
-    let mut faults = vec![Fault::WrongValue, Fault::Omitted, Fault::Erratic];
+    let mut faults = vec![
+        Fault::WrongValue,
+        Fault::Omitted,
+        Fault::Erratic,
+        Fault::WrongInput,
+    ];
     for value in Value::ALL {
         let frozen_by_another = state
             .controllers
@@ -186,7 +192,8 @@ pub fn command_choices(config: &OutputConfig, state: &OutputState, id: Id) -> Ve
         .filter(|value| *value != state.right && !excluded.contains(value))
         .map(Command::Sent);
     match c.fault {
-        None => vec![Command::Sent(state.right)],
+        // Aligned to the group's position, a wrong input yields the right command.
+        None | Some(Fault::WrongInput) => vec![Command::Sent(state.right)],
         Some(Fault::WrongValue) => wrong.collect(),
         Some(Fault::Frozen(value)) => vec![Command::Sent(value)],
         Some(Fault::Omitted) => vec![Command::Missing],
@@ -253,6 +260,9 @@ fn publish(config: &OutputConfig, state: &mut OutputState, id: Id, command: Comm
     if command.value().is_some_and(|value| value != right) {
         c.ever_sent_wrong = true;
     }
+    if c.fault == Some(Fault::WrongInput) && command.value().is_some() {
+        c.wrong_input_in_life = count_up(c.wrong_input_in_life, cap);
+    }
     if owns_exclusive {
         match command {
             Command::Sent(value) if value != right => {
@@ -307,7 +317,10 @@ fn close_input(config: &OutputConfig, state: &mut OutputState) {
     } else {
         closing
     };
-    cross_check(config, state, &judged);
+    let inputs_wrong = state
+        .controllers
+        .map(|c| c.fault == Some(Fault::WrongInput));
+    cross_check(config, state, &judged, &inputs_wrong);
     for (c, command) in state.controllers.iter_mut().zip(closing) {
         c.previous = if lagging && c.has_role() {
             command
@@ -355,12 +368,43 @@ pub fn odd_one_out(judged: &[Command; CONTROLLERS]) -> Option<Id> {
         .and_then(|index| Id::try_from(index + 1).ok())
 }
 
-/// Each controller with a role compares its own command with the two others': the odd one
-/// out counts the input, and leaves once it has counted N (`OutputConfig::odd_limit`).
-fn cross_check(config: &OutputConfig, state: &mut OutputState, judged: &[Command; CONTROLLERS]) {
+/// The controller whose input differs from two others' that agree (input congruence): each
+/// command carries the digest of the input it answers, so only controllers that sent a
+/// command are compared, and a wrong input agrees with no other input (two wrong inputs
+/// differ).
+pub fn odd_on_input(
+    judged: &[Command; CONTROLLERS],
+    inputs_wrong: &[bool; CONTROLLERS],
+) -> Option<Id> {
+    if judged.iter().any(|command| command.value().is_none()) {
+        return None;
+    }
+    let wrong: Vec<usize> = (0..CONTROLLERS).filter(|&i| inputs_wrong[i]).collect();
+    match wrong[..] {
+        [odd] => Id::try_from(odd + 1).ok(),
+        _ => None,
+    }
+}
+
+/// Each controller with a role compares its own command, and the input it answered, with the
+/// two others': the odd one out on either counts the input, and leaves once it has counted N
+/// (`OutputConfig::odd_limit`), raising its input alarm about itself if it was odd on input.
+fn cross_check(
+    config: &OutputConfig,
+    state: &mut OutputState,
+    judged: &[Command; CONTROLLERS],
+    inputs_wrong: &[bool; CONTROLLERS],
+) {
     let odd = odd_one_out(judged);
+    let odd_input = match config.mutation {
+        Some(OutputMutation::NoInputCongruence) => None,
+        _ => odd_on_input(judged, inputs_wrong),
+    };
     for c in state.controllers.iter_mut().filter(|c| c.has_role()) {
-        if odd == Some(c.id) {
+        if odd_input == Some(c.id) {
+            c.odd_on_input = true;
+        }
+        if odd == Some(c.id) || odd_input == Some(c.id) {
             c.odd_count = count_up(c.odd_count, config.odd_limit);
         } else if config.cross_check == CrossCheck::Consecutive {
             c.odd_count = 0;
@@ -373,6 +417,8 @@ fn cross_check(config: &OutputConfig, state: &mut OutputState, judged: &[Command
         .map(|c| c.id)
         .collect();
     for id in &leavers {
+        let c = state.controller_mut(*id);
+        c.input_alarm = c.odd_on_input;
         leave(state, *id);
     }
     if !leavers.is_empty() {

@@ -46,6 +46,10 @@ pub enum Fault {
     Omitted,
     /// Input by input: the right command, a wrong one, or none (an intermittent fault).
     Erratic,
+    /// Its input differs from the group's (another camera, a miscalibrated sensor) while its
+    /// output, aligned to the group's position, is the right command: masked at every
+    /// receiver, and found only by comparing inputs (input congruence).
+    WrongInput,
 }
 
 impl fmt::Display for Fault {
@@ -55,6 +59,7 @@ impl fmt::Display for Fault {
             Fault::Frozen(value) => write!(f, "frozen at {value}"),
             Fault::Omitted => write!(f, "omits its commands"),
             Fault::Erratic => write!(f, "erratic"),
+            Fault::WrongInput => write!(f, "reads a wrong input"),
         }
     }
 }
@@ -109,6 +114,14 @@ pub struct Controller {
     pub left_as: Option<Role>,
     /// Ghost: this controller (any life) has sent a wrong value at some input.
     pub ever_sent_wrong: bool,
+    /// Ghost: inputs it answered from a wrong input in this life (saturating at N + 1).
+    pub wrong_input_in_life: u8,
+    /// It was the odd one out on input in this life (its input differed from two agreeing
+    /// peers').
+    pub odd_on_input: bool,
+    /// Its `input_disagrees` alarm about itself is up: raised as it leaves odd on input,
+    /// gone with the life.
+    pub input_alarm: bool,
 }
 
 impl Controller {
@@ -128,6 +141,9 @@ impl Controller {
             exclusive_missed: 0,
             left_as: None,
             ever_sent_wrong: false,
+            wrong_input_in_life: 0,
+            odd_on_input: false,
+            input_alarm: false,
         }
     }
 

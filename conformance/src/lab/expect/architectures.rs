@@ -181,7 +181,7 @@ pub fn two_at_top_by_design(architecture: Architecture) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lab::faults::{Direction, WrongOutput};
+    use crate::lab::faults::{Direction, WrongAnswer};
 
     fn changes(architecture: Architecture, fault: Fault) -> OwnerChanges {
         for_fault(architecture, &fault, 3000).owner_changes
@@ -218,7 +218,7 @@ mod tests {
                 (with_two, OwnerChanges::AtMost(2)),
                 (Fault::Loss(Target::Primary, 20), OwnerChanges::AtMost(0)),
                 (
-                    Fault::WrongCommands(Target::Primary, WrongOutput::Offset(300)),
+                    Fault::WrongCommands(Target::Primary, WrongAnswer::Offset(300)),
                     OwnerChanges::AtMost(0),
                 ),
             ],
@@ -246,11 +246,11 @@ mod tests {
                     OwnerChanges::AtMost(0),
                 ),
                 (
-                    Fault::WrongCommands(Target::Primary, WrongOutput::Random),
+                    Fault::WrongCommands(Target::Primary, WrongAnswer::Random),
                     OwnerChanges::AtMost(1),
                 ),
                 (
-                    Fault::WrongCommands(Target::Secondary, WrongOutput::Frozen),
+                    Fault::WrongCommands(Target::Secondary, WrongAnswer::Frozen),
                     OwnerChanges::AtMost(0),
                 ),
             ],

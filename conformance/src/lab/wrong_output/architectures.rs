@@ -23,7 +23,7 @@ use super::delivered::Delivered;
 use super::{camera_period_ms, Kind, OutputReport, Recorded};
 use crate::lab::architecture::Architecture;
 use crate::lab::expect::GAP_SLACK_MS;
-use crate::lab::faults::WrongOutput;
+use crate::lab::faults::WrongAnswer;
 use crate::lab::procs::Life;
 
 /// The longest from asking a pair member for a value wrong at every frame to its logged
@@ -96,7 +96,7 @@ fn pair(report: &OutputReport, recorded: &Recorded) -> Vec<String> {
         let life = &out.life;
         let timed = matches!(
             injection.wrong,
-            WrongOutput::Offset(_) | WrongOutput::Random
+            WrongAnswer::Offset(_) | WrongAnswer::Random
         );
         match out.mismatch_after_ms {
             None => failed.push(format!(

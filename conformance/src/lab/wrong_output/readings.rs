@@ -80,6 +80,8 @@ pub struct OddOneOut {
     /// Its answers that went out before they could be judged at their next input (the
     /// timing assumption broken), when its JSON event says.
     pub late: Option<u64>,
+    /// What it was odd on (`output`, `input`), when its JSON event says.
+    pub on: Option<String>,
 }
 
 /// Everything the wrong-output judges read.
@@ -93,6 +95,9 @@ pub struct Readings {
     /// A lockstep pair member's mismatches between its two implementations (it leaves the
     /// bus at its first): the life and when its log line was read.
     pub mismatches: Vec<(String, f64)>,
+    /// The `input_disagrees` alarms controller lives raised about themselves (input
+    /// congruence): the life and when (its event's time).
+    pub input_alarms: Vec<(String, f64)>,
     /// Each helper's clock origin on the lab clock: the smallest read time minus its own time
     /// (its lines carry milliseconds since it started).
     voter_origin_ms: Option<f64>,
@@ -211,6 +216,7 @@ impl Readings {
                     inputs_at_ms: Vec::new(),
                     odd_limit: None,
                     late: None,
+                    on: None,
                 });
             }
             return;
@@ -218,9 +224,6 @@ impl Readings {
         let Ok(value) = serde_json::from_str::<serde_json::Value>(&line.text) else {
             return;
         };
-        if value["event"] != "odd_one_out" {
-            return;
-        }
         let Some(t_ms) = value["t_ms"].as_u64() else {
             return;
         };
@@ -228,6 +231,19 @@ impl Readings {
             .iter()
             .find(|l| l.label() == life)
             .map_or(0.0, |l| l.round_clock_correction_ms(t_ms) as f64);
+        let about_itself = value["about"].as_u64() == value["id"].as_u64();
+        if value["event"] == "alarm"
+            && value["reason"] == "input_disagrees"
+            && value["raised"] == true
+            && about_itself
+            && !self.input_alarms.iter().any(|(l, _)| l == life)
+        {
+            let at_ms = clock.of_wall_ms(t_ms as f64 - correction_ms);
+            self.input_alarms.push((life.to_string(), at_ms));
+        }
+        if value["event"] != "odd_one_out" {
+            return;
+        }
         let inputs: Vec<u64> = value["inputs"]
             .as_array()
             .map(|inputs| inputs.iter().filter_map(|i| i.as_u64()).collect())
@@ -242,6 +258,7 @@ impl Readings {
             inputs,
             odd_limit: value["odd_limit"].as_u64(),
             late: value["late"].as_u64(),
+            on: value["on"].as_str().map(String::from),
         };
         // The event, when there is one, says when it decided; the log line only when it was
         // read.
@@ -284,6 +301,11 @@ impl Readings {
     /// When life `life` logged a lockstep mismatch, if it did.
     pub fn mismatch_of(&self, life: &str) -> Option<f64> {
         self.mismatches.iter().find(|m| m.0 == life).map(|m| m.1)
+    }
+
+    /// When life `life` raised its `input_disagrees` alarm about itself, if it did.
+    pub fn input_alarm_of(&self, life: &str) -> Option<f64> {
+        self.input_alarms.iter().find(|a| a.0 == life).map(|a| a.1)
     }
 
     /// When life `life` decided it was the odd one out, if it did.

@@ -34,7 +34,7 @@ fn c1_wrong() -> Vec<Injection> {
     vec![Injection {
         id: 1,
         life: "C1".into(),
-        wrong: WrongOutput::Offset(300),
+        wrong: WrongAnswer::Offset(300),
         from_ms: 2000.0,
         healed_ms: Some(5000.0),
     }]
@@ -222,6 +222,8 @@ pub(super) fn report(kind: Kind) -> OutputReport {
             back_as: Some("tertiary".into()),
             dissent_raised_after_ms: Some(40.0),
             dissent_cleared_after_ms: Some(2700.0),
+            odd_on: Some("output".into()),
+            input_alarm_after_ms: None,
         }],
         tracking: tracking::Tracking::default(),
         failures: Vec::new(),
@@ -341,7 +343,7 @@ fn a_missing_decision_or_dissent_fails() {
         .any(|f| f.contains("never raised a dissent alarm")));
     // A frozen Primary's decision is not bound in time.
     let mut slow = report(Kind::FrozenPrimary);
-    slow.injections[0].wrong = WrongOutput::Frozen;
+    slow.injections[0].wrong = WrongAnswer::Frozen;
     slow.out_and_back[0].decided_after_ms = Some(1500.0);
     slow.out_and_back[0].dissent_raised_after_ms = Some(1490.0);
     assert_eq!(judged(&slow, &observed, &lives()), Vec::<String>::new());
@@ -354,6 +356,79 @@ fn a_missing_decision_or_dissent_fails() {
     let mut uncleared = report(Kind::WrongPrimary);
     uncleared.out_and_back[0].dissent_cleared_after_ms = None;
     assert!(judged(&uncleared, &observed, &lives())[0].contains("never cleared"));
+}
+
+/// C1 reading another camera from 2000 ms: it left on input after 5 foreign frames, 2 of them
+/// judged a frame late, its input alarm with its decision; the voting reader named nobody.
+fn wrong_input_report() -> OutputReport {
+    let mut report = report(Kind::WrongInputPrimary);
+    report.injections[0].wrong = WrongAnswer::ForeignInput;
+    report.voter.dissents_raised.clear();
+    report.servo.distinct = 5;
+    report.servo.last_ms = Some(2005.0 + 6.0 * camera_period_ms());
+    let out = &mut report.out_and_back[0];
+    out.decided_after_ms = Some(230.0);
+    out.odd_after_fault = Some(5);
+    out.late = Some(2);
+    out.odd_on = Some("input".into());
+    out.input_alarm_after_ms = Some(230.0);
+    out.dissent_raised_after_ms = None;
+    out.dissent_cleared_after_ms = None;
+    report
+}
+
+#[test]
+fn a_primary_wrong_on_input_must_leave_on_input_alarmed_within_its_bound() {
+    let observed = Observations::default();
+    let lives = lives();
+    assert_eq!(
+        judged(&wrong_input_report(), &observed, &lives),
+        Vec::<String>::new(),
+        "the voting reader cannot name it, and need not"
+    );
+    let mut unalarmed = wrong_input_report();
+    unalarmed.out_and_back[0].input_alarm_after_ms = None;
+    let failed = judged(&unalarmed, &observed, &lives);
+    assert!(
+        failed
+            .iter()
+            .any(|f| f.contains("no input_disagrees alarm")),
+        "{failed:?}"
+    );
+    let mut on_output = wrong_input_report();
+    on_output.out_and_back[0].odd_on = Some("output".into());
+    let failed = judged(&on_output, &observed, &lives);
+    assert!(
+        failed.iter().any(|f| f.contains("expected on input")),
+        "{failed:?}"
+    );
+    // 5 foreign frames + 1 + 2 late periods, the flag's 100 ms and the slack: 386.7 ms.
+    let bound = super::verdict::decision_bound_of_ms(Kind::WrongInputPrimary, 2);
+    assert!((bound - 386.67).abs() < 0.01, "{bound}");
+    let mut slow = wrong_input_report();
+    slow.out_and_back[0].decided_after_ms = Some(400.0);
+    slow.out_and_back[0].input_alarm_after_ms = Some(400.0);
+    let failed = judged(&slow, &observed, &lives);
+    assert_eq!(
+        failed.len(),
+        2,
+        "the decision and the alarm both late: {failed:?}"
+    );
+    let mut many = wrong_input_report();
+    many.servo.distinct = 8;
+    let failed = judged(&many, &observed, &lives);
+    assert!(
+        failed
+            .iter()
+            .any(|f| f.contains("8 distinct wrong commands (expected at most 5")),
+        "{failed:?}"
+    );
+    // Only three inputs can outvote one: neither the duplex nor the pair runs it.
+    use crate::lab::architecture::Architecture;
+    let input = wrong_input_report().scenario;
+    assert!(not_run_under(input, Architecture::Voting).is_none());
+    assert!(not_run_under(input, Architecture::Duplex).is_some());
+    assert!(not_run_under(input, Architecture::Pair).is_some());
 }
 
 #[test]
@@ -376,7 +451,7 @@ fn two_wrong_report() -> OutputReport {
     two.injections.push(Injection {
         id: 2,
         life: "C2".into(),
-        wrong: WrongOutput::Offset(-300),
+        wrong: WrongAnswer::Offset(-300),
         from_ms: 2000.5,
         healed_ms: Some(5000.0),
     });
@@ -436,6 +511,7 @@ fn two_wrong_controllers_must_leave_the_voting_reader_holding_and_nobody_out() {
         inputs_at_ms: vec![],
         odd_limit: Some(2),
         late: Some(0),
+        on: None,
     });
     let exited = vec![life(1, 1, 0.0, Some(2100.0), Some("exit status: 75"))];
     let failed = judged(&two, &observed, &exited);
@@ -490,8 +566,28 @@ fn the_readers_lines_are_read_on_the_lab_clock() {
     readings.ingest_controller("C1", &line(9.0, odd), false, &clock, &[]);
     let decided = readings.odd_one_out_of("C1").cloned();
     assert_eq!(
-        decided.map(|d| (d.inputs, d.odd_limit)),
-        Some((vec![7, 8], Some(2)))
+        decided.map(|d| (d.inputs, d.odd_limit, d.on)),
+        Some((vec![7, 8], Some(2), None))
+    );
+    // An input alarm counts only when raised, about itself, for input_disagrees.
+    let alarm = |about: u8, reason: &str, raised: bool| {
+        format!(
+            r#"{{"t_ms":6000,"id":2,"incarnation":1,"event":"alarm","about":{about},"reason":"{reason}","raised":{raised}}}"#
+        )
+    };
+    for other in [
+        alarm(1, "input_disagrees", true),
+        alarm(2, "failed", true),
+        alarm(2, "input_disagrees", false),
+    ] {
+        readings.ingest_controller("C2", &line(10.0, &other), false, &clock, &[]);
+    }
+    assert_eq!(readings.input_alarm_of("C2"), None);
+    let raised = alarm(2, "input_disagrees", true);
+    readings.ingest_controller("C2", &line(11.0, &raised), false, &clock, &[]);
+    assert_eq!(
+        readings.input_alarm_of("C2"),
+        Some(clock.of_wall_ms(6000.0))
     );
 }
 
@@ -537,20 +633,24 @@ fn the_wrong_output_scenarios_are_named_with_their_faults_and_not_in_ci() {
             "wrong-primary-vote-camera",
             "wrong-secondary",
             "frozen-primary",
+            "drift-primary",
+            "wrong-input-primary",
             "random-primary",
             "two-wrong"
         ]
     );
     assert!(all.iter().all(|s| !s.in_ci && s.output.is_some()));
-    let two = &all[5].steps;
+    let two = &all[7].steps;
     assert_eq!(two.len(), 2);
     assert_eq!(
         (two[0].at_ms, two[0].lasts_ms),
         (two[1].at_ms, two[1].lasts_ms)
     );
     assert_eq!(
-        WrongOutput::Offset(-300).line(),
+        WrongAnswer::Offset(-300).line(),
         "wrong-commands offset -300"
     );
-    assert_eq!(WrongOutput::Frozen.line(), "wrong-commands frozen");
+    assert_eq!(WrongAnswer::Frozen.line(), "wrong-commands frozen");
+    assert_eq!(WrongAnswer::Drift(20).line(), "wrong-commands drift 20");
+    assert_eq!(WrongAnswer::ForeignInput.line(), "wrong-input foreign");
 }

@@ -26,6 +26,16 @@
 //!   looks at the application's fault flag at least every 100 ms (`FLAG_CHECK_MS`,
 //!   impl/layer/src/runtime.rs), so the event may come that much after the decision. A frozen Primary is wrong only once the ball has moved the tolerance
 //!   away, so its decision is not bound in time, but the rest is.
+//! - **A Primary reading another camera** (`wrong-input-primary`): its answers are to inputs
+//!   the group never has, so the voting reader compares them with nothing and names nobody;
+//!   its input congruence takes it out instead (rl_layer::cross_check: [`FOREIGN_LIMIT`]
+//!   foreign inputs in a row, each judged when it answers the next, once both peers have
+//!   answered a newer frame). It decides within `FOREIGN_LIMIT` + 1 camera periods of the
+//!   fault (and one more per late answer), raises an `input_disagrees` alarm about itself
+//!   first, and leaves as a wrong Primary does; at each exclusive reader one owner change, at
+//!   most `FOREIGN_LIMIT` distinct wrong commands over as many periods.
+//! - **A drifting Primary** (`drift-primary`): as a frozen one, wrong only once past the
+//!   tolerance, so its decision is not bound in time; the rest is.
 //! - **A wrong Secondary**: the exclusive readers follow the Primary throughout and take no
 //!   wrong sample.
 //! - **Two wrong that never agree** (`two-wrong`): the voting reader holds (`no_majority`)
@@ -42,16 +52,27 @@
 
 use super::delivered::Delivered;
 use super::{
-    camera_period_ms, Kind, OutAndBack, OutputReport, Recorded, ODD_LIMIT, VOTER_DISSENT_AFTER,
+    camera_period_ms, Kind, OutAndBack, OutputReport, Recorded, FOREIGN_LIMIT, ODD_LIMIT,
+    VOTER_DISSENT_AFTER,
 };
 use crate::lab::expect::GAP_SLACK_MS;
-use crate::lab::faults::WrongOutput;
+use crate::lab::faults::WrongAnswer;
 
 /// The longest from the first wrong sample of a wrong Primary at an exclusive reader to its
 /// last: N camera periods, and the slack; `late` periods more when that many of its answers
 /// went out before they could be judged at their next input (its `odd_one_out` event says).
 pub fn wrong_span_bound_ms(late: u64) -> f64 {
     (ODD_LIMIT as u64 + late) as f64 * camera_period_ms() + GAP_SLACK_MS
+}
+
+/// The wrong answers of one life a kind of fault lets out before the controller leaves: N for
+/// an output fault, [`FOREIGN_LIMIT`] for an input the group never has.
+pub fn answers_before_leaving(kind: Kind) -> u64 {
+    if kind.in_input() {
+        FOREIGN_LIMIT as u64
+    } else {
+        ODD_LIMIT as u64
+    }
 }
 
 /// The longest the voting thread sleeps before it looks at the application's fault flag and
@@ -62,7 +83,14 @@ pub const FAULT_FLAG_CHECK_MS: f64 = 100.0;
 /// `odd_one_out` event: N + 1 camera periods to the decision (and one more per late answer,
 /// as for [`wrong_span_bound_ms`]), the voting thread's look at the fault flag, and the slack.
 pub fn decision_bound_ms(late: u64) -> f64 {
-    (ODD_LIMIT as u64 + 1 + late) as f64 * camera_period_ms() + FAULT_FLAG_CHECK_MS + GAP_SLACK_MS
+    decision_bound_of_ms(Kind::WrongPrimary, late)
+}
+
+/// As [`decision_bound_ms`], for `kind`: [`answers_before_leaving`] + 1 camera periods.
+pub fn decision_bound_of_ms(kind: Kind, late: u64) -> f64 {
+    (answers_before_leaving(kind) + 1 + late) as f64 * camera_period_ms()
+        + FAULT_FLAG_CHECK_MS
+        + GAP_SLACK_MS
 }
 
 /// The failures of a wrong-output run against its scenario's promises.
@@ -86,9 +114,9 @@ pub fn failures(report: &OutputReport, recorded: &Recorded) -> Vec<String> {
     for (injection, out) in report.injections.iter().zip(&report.out_and_back) {
         let timed = matches!(
             injection.wrong,
-            WrongOutput::Offset(_) | WrongOutput::Random
+            WrongAnswer::Offset(_) | WrongAnswer::Random | WrongAnswer::ForeignInput
         );
-        failed.extend(leaves(out, timed));
+        failed.extend(leaves(out, timed, kind));
     }
     for (reader, delivered, path) in report.exclusive_readers() {
         if kind.primary_alone() {
@@ -146,19 +174,23 @@ fn one_wrong_voter(report: &OutputReport) -> Vec<String> {
 /// A wrong life reported it was the odd one out, no later than the voting reader's alarm
 /// allows and (`timed`: a wrong value at every frame) within [`decision_bound_ms`], exited 75
 /// and came back as the Tertiary, and the voting reader named it and cleared it.
-fn leaves(out: &OutAndBack, timed: bool) -> Vec<String> {
+fn leaves(out: &OutAndBack, timed: bool, kind: Kind) -> Vec<String> {
     let life = &out.life;
     let late = out.late.unwrap_or(0);
+    let answers = answers_before_leaving(kind);
+    let bound = decision_bound_of_ms(kind, late);
     let mut failed = Vec::new();
     match out.decided_after_ms {
         None => failed.push(format!(
-            "{life} never reported that it was the odd one out (expected: it leaves after N = {ODD_LIMIT} wrong answers)"
+            "{life} never reported that it was the odd one out (expected: it leaves after {answers} wrong answers)"
         )),
-        Some(after) if timed && after > decision_bound_ms(late) => failed.push(format!(
-            "{life} reported that it was the odd one out {after:.0} ms after its fault (expected within {:.0} ms: N + 1 + {late} late camera periods and the voting thread's look at the fault flag)",
-            decision_bound_ms(late)
+        Some(after) if timed && after > bound => failed.push(format!(
+            "{life} reported that it was the odd one out {after:.0} ms after its fault (expected within {bound:.0} ms: {answers} + 1 + {late} late camera periods and the voting thread's look at the fault flag)"
         )),
         Some(_) => {}
+    }
+    if kind.in_input() {
+        failed.extend(named_on_input(out, bound));
     }
     if !out.exit.as_deref().is_some_and(|e| e.ends_with(" 75")) {
         failed.push(format!(
@@ -174,8 +206,9 @@ fn leaves(out: &OutAndBack, timed: bool) -> Vec<String> {
     }
     // The reader hears as many wrong answers as the life had odd inputs after its fault: fewer
     // than it counts to when an earlier glitch of the same life was counted (per life, O2).
+    // Answers to inputs the group never had are compared with nothing: the reader cannot name.
     let heard = out.odd_after_fault.unwrap_or(ODD_LIMIT);
-    let named = heard >= VOTER_DISSENT_AFTER as usize;
+    let named = heard >= VOTER_DISSENT_AFTER as usize && !kind.in_input();
     match (out.dissent_raised_after_ms, out.decided_after_ms) {
         (None, _) if named => failed.push(format!(
             "the voting reader never raised a dissent alarm about {life}'s controller (it answered {heard} inputs wrongly; the reader raises at {VOTER_DISSENT_AFTER})"
@@ -195,8 +228,35 @@ fn leaves(out: &OutAndBack, timed: bool) -> Vec<String> {
     failed
 }
 
+/// A life wrong on input said so: its decision was on input, and its `input_disagrees` alarm
+/// about itself came within `bound` of the fault, no later than the decision.
+fn named_on_input(out: &OutAndBack, bound: f64) -> Vec<String> {
+    let life = &out.life;
+    let mut failed = Vec::new();
+    if out.decided_after_ms.is_some() && out.odd_on.as_deref() != Some("input") {
+        failed.push(format!(
+            "{life} left as the odd one out on {} (expected on input: its output was never compared)",
+            out.odd_on.as_deref().unwrap_or("an unnamed ground")
+        ));
+    }
+    match (out.input_alarm_after_ms, out.decided_after_ms) {
+        (None, _) => failed.push(format!(
+            "{life} raised no input_disagrees alarm about itself (expected within {bound:.0} ms of the fault)"
+        )),
+        (Some(alarm), _) if alarm > bound => failed.push(format!(
+            "{life} raised its input_disagrees alarm {alarm:.0} ms after the fault (expected within {bound:.0} ms)"
+        )),
+        (Some(alarm), Some(decided)) if alarm > decided + GAP_SLACK_MS => failed.push(format!(
+            "{life} raised its input_disagrees alarm {alarm:.0} ms after the fault, after its decision at {decided:.0} ms (expected with it)"
+        )),
+        _ => {}
+    }
+    failed
+}
+
 /// At an exclusive reader, a wrong Primary: one owner change away from it, at most N wrong
-/// commands over at most N camera periods.
+/// commands over at most N camera periods (for an input the group never had, at most
+/// [`FOREIGN_LIMIT`] of each).
 fn primary_left(
     reader: &str,
     wrong: &Delivered,
@@ -212,7 +272,9 @@ fn primary_left(
         .first()
         .and_then(|o| o.late)
         .unwrap_or(0);
-    let bound = ODD_LIMIT as u64 + late;
+    let answers = answers_before_leaving(report.scenario.kind);
+    let bound = answers + late;
+    let span_bound = (answers + late) as f64 * camera_period_ms() + GAP_SLACK_MS;
     let wrong_id = report.injections.first().map(|i| format!("C{}", i.id));
     let away = path.len() == 2
         && path.first().map(String::as_str) == wrong_life
@@ -225,17 +287,13 @@ fn primary_left(
     }
     if wrong.distinct as u64 > bound {
         failed.push(format!(
-            "{reader} took {} distinct wrong commands (expected at most K = N = {ODD_LIMIT}, and {late} for its late answers)",
+            "{reader} took {} distinct wrong commands (expected at most {answers}, and {late} for its late answers)",
             wrong.distinct
         ));
     }
-    if let Some(span) = wrong
-        .span_ms()
-        .filter(|span| *span > wrong_span_bound_ms(late))
-    {
+    if let Some(span) = wrong.span_ms().filter(|span| *span > span_bound) {
         failed.push(format!(
-            "{reader} took wrong commands for {span:.0} ms (expected at most {:.0} ms: N + {late} late camera periods)",
-            wrong_span_bound_ms(late)
+            "{reader} took wrong commands for {span:.0} ms (expected at most {span_bound:.0} ms: {answers} + {late} late camera periods)"
         ));
     }
     failed

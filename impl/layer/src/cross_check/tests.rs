@@ -44,9 +44,9 @@ fn round_unaligned(
     pan2: u16,
     pan3: u16,
 ) -> Judgement {
-    let judgement = check.answer(input, servo(own));
-    check.peer_answer(2, input, servo(pan2));
-    check.peer_answer(3, input, servo(pan3));
+    let judgement = check.answer(input, 0, servo(own));
+    check.peer_answer(2, input, 0, servo(pan2));
+    check.peer_answer(3, input, 0, servo(pan3));
     judgement
 }
 
@@ -57,8 +57,9 @@ fn a_wrong_controller_leaves_before_answering_after_its_second_odd_input() {
     assert_eq!(round(&mut check, 2, 810, 510, 512), Judgement::Answer);
     assert_eq!(check.odd_inputs(), &[1]);
     // Input 2 is judged when input 3 is answered, and that answer does not go out.
-    let judgement = check.answer(3, servo(820));
+    let judgement = check.answer(3, 0, servo(820));
     let expected = OddOneOut {
+        on: OddOn::Output,
         inputs: vec![1, 2],
         odd_limit: 2,
         peers: vec![2, 3],
@@ -66,7 +67,7 @@ fn a_wrong_controller_leaves_before_answering_after_its_second_odd_input() {
     };
     assert_eq!(judgement, Judgement::Leave(expected.clone()));
     // Nothing more in this life.
-    assert_eq!(check.answer(4, servo(500)), Judgement::Leave(expected));
+    assert_eq!(check.answer(4, 0, servo(500)), Judgement::Leave(expected));
 }
 
 #[test]
@@ -76,7 +77,10 @@ fn odd_inputs_count_in_a_life_in_a_row_or_not() {
     assert_eq!(round(&mut check, 2, 500, 500, 500), Judgement::Answer);
     assert_eq!(round(&mut check, 3, 800, 500, 500), Judgement::Answer);
     assert_eq!(check.odd_inputs(), &[1], "input 3 is judged at input 4");
-    assert!(matches!(check.answer(4, servo(500)), Judgement::Leave(_)));
+    assert!(matches!(
+        check.answer(4, 0, servo(500)),
+        Judgement::Leave(_)
+    ));
     assert_eq!(check.odd_inputs(), &[1, 3]);
 }
 
@@ -105,8 +109,8 @@ fn agreeing_with_one_peer_is_not_odd() {
 fn an_input_only_one_peer_answered_judges_nobody() {
     let mut check = in_step_c1();
     for input in 1..10 {
-        assert_eq!(check.answer(input, servo(900)), Judgement::Answer);
-        check.peer_answer(2, input, servo(500));
+        assert_eq!(check.answer(input, 0, servo(900)), Judgement::Answer);
+        check.peer_answer(2, input, 0, servo(500));
         check.aligned(input);
     }
     assert!(check.odd_inputs().is_empty());
@@ -134,19 +138,22 @@ fn an_answer_not_computed_from_the_groups_position_is_not_judged() {
     round(&mut check, 7, 900, 500, 500);
     assert_eq!(check.odd_inputs(), &[5], "input 6 was not in step");
     // Aligned at 6 and 7: its answer to 7 is judged when it answers 8.
-    assert!(matches!(check.answer(8, servo(900)), Judgement::Leave(_)));
+    assert!(matches!(
+        check.answer(8, 0, servo(900)),
+        Judgement::Leave(_)
+    ));
     assert_eq!(check.odd_inputs(), &[5, 7]);
 }
 
 #[test]
 fn a_repeated_answer_replaces_the_one_judged() {
     let mut check = in_step_c1();
-    assert_eq!(check.answer(1, servo(900)), Judgement::Answer);
+    assert_eq!(check.answer(1, 0, servo(900)), Judgement::Answer);
     // Re-published with the value corrected before the next input: the last one is judged.
-    assert_eq!(check.answer(1, servo(500)), Judgement::Answer);
-    check.peer_answer(2, 1, servo(500));
-    check.peer_answer(3, 1, servo(500));
-    assert_eq!(check.answer(2, servo(500)), Judgement::Answer);
+    assert_eq!(check.answer(1, 0, servo(500)), Judgement::Answer);
+    check.peer_answer(2, 1, 0, servo(500));
+    check.peer_answer(3, 1, 0, servo(500));
+    assert_eq!(check.answer(2, 0, servo(500)), Judgement::Answer);
     assert!(check.odd_inputs().is_empty());
 }
 
@@ -167,7 +174,10 @@ fn a_new_life_counts_from_zero_once_in_step_again() {
     );
     round(&mut check, 5, 900, 500, 500);
     assert_eq!(round(&mut check, 6, 900, 500, 500), Judgement::Answer);
-    assert!(matches!(check.answer(7, servo(900)), Judgement::Leave(_)));
+    assert!(matches!(
+        check.answer(7, 0, servo(900)),
+        Judgement::Leave(_)
+    ));
 }
 
 #[test]
@@ -185,9 +195,9 @@ fn with_no_limit_it_counts_and_never_leaves() {
 fn its_own_answers_read_back_are_not_a_peer() {
     let mut check = in_step_c1();
     for input in 1..10 {
-        assert_eq!(check.answer(input, servo(900)), Judgement::Answer);
-        check.peer_answer(1, input, servo(900));
-        check.peer_answer(2, input, servo(500));
+        assert_eq!(check.answer(input, 0, servo(900)), Judgement::Answer);
+        check.peer_answer(1, input, 0, servo(900));
+        check.peer_answer(2, input, 0, servo(500));
         check.aligned(input);
     }
     assert!(
@@ -199,21 +209,22 @@ fn its_own_answers_read_back_are_not_a_peer() {
 #[test]
 fn peers_answers_to_old_inputs_are_forgotten() {
     let mut check = in_step_c1();
-    assert_eq!(check.answer(1, servo(900)), Judgement::Answer);
-    check.peer_answer(2, 1, servo(500));
-    check.peer_answer(3, 1, servo(500));
+    assert_eq!(check.answer(1, 0, servo(900)), Judgement::Answer);
+    check.peer_answer(2, 1, 0, servo(500));
+    check.peer_answer(3, 1, 0, servo(500));
     check.aligned(1);
     // Peers far ahead push input 1's answers out before it is judged.
     for input in 100..100 + INPUTS_KEPT as u64 {
-        check.peer_answer(2, input, servo(500));
+        check.peer_answer(2, input, 0, servo(500));
     }
-    assert_eq!(check.answer(2, servo(900)), Judgement::Answer);
+    assert_eq!(check.answer(2, 0, servo(900)), Judgement::Answer);
     assert!(check.odd_inputs().is_empty());
 }
 
 #[test]
 fn the_reason_names_the_inputs_and_the_agreeing_peers() {
     let reason = OddOneOut {
+        on: OddOn::Output,
         inputs: vec![17, 19],
         odd_limit: 2,
         peers: vec![2, 3],
@@ -229,50 +240,52 @@ fn the_reason_names_the_inputs_and_the_agreeing_peers() {
 #[test]
 fn an_input_whose_peers_answer_late_is_judged_later_and_counted_late() {
     let mut check = in_step_c1();
-    assert_eq!(check.answer(1, servo(900)), Judgement::Answer);
+    assert_eq!(check.answer(1, 0, servo(900)), Judgement::Answer);
     // The peers' answers to 1, and so the group's position at 1, come after its answer to 2
     // (a loaded host): 2 was not computed from the group's position.
-    assert_eq!(check.answer(2, servo(900)), Judgement::Answer);
+    assert_eq!(check.answer(2, 0, servo(900)), Judgement::Answer);
     for input in 1..=2 {
-        check.peer_answer(2, input, servo(500));
-        check.peer_answer(3, input, servo(500));
+        check.peer_answer(2, input, 0, servo(500));
+        check.peer_answer(3, input, 0, servo(500));
         check.aligned(input);
     }
     // At 3, input 1 is judged late (odd) and 2 never (not in step): two late answers, and 0.
-    assert_eq!(check.answer(3, servo(900)), Judgement::Answer);
+    assert_eq!(check.answer(3, 0, servo(900)), Judgement::Answer);
     assert_eq!(check.odd_inputs(), &[1]);
-    check.peer_answer(2, 3, servo(500));
-    check.peer_answer(3, 3, servo(500));
+    check.peer_answer(2, 3, 0, servo(500));
+    check.peer_answer(3, 3, 0, servo(500));
     check.aligned(3);
     let expected = OddOneOut {
+        on: OddOn::Output,
         inputs: vec![1, 3],
         odd_limit: 2,
         peers: vec![2, 3],
         late: 3,
     };
     // Three wrong answers went out (1, 2, 3): N = 2 and one more per late answer bound it.
-    assert_eq!(check.answer(4, servo(900)), Judgement::Leave(expected));
+    assert_eq!(check.answer(4, 0, servo(900)), Judgement::Leave(expected));
 }
 
 #[test]
 fn a_second_peer_late_by_one_input_still_counts_the_input_odd() {
     let mut check = in_step_c1();
-    assert_eq!(check.answer(1, servo(900)), Judgement::Answer);
-    check.peer_answer(2, 1, servo(500));
+    assert_eq!(check.answer(1, 0, servo(900)), Judgement::Answer);
+    check.peer_answer(2, 1, 0, servo(500));
     check.aligned(1);
-    assert_eq!(check.answer(2, servo(900)), Judgement::Answer);
+    assert_eq!(check.answer(2, 0, servo(900)), Judgement::Answer);
     assert!(check.odd_inputs().is_empty(), "one peer: not judged yet");
-    check.peer_answer(3, 1, servo(505));
-    check.peer_answer(2, 2, servo(500));
-    check.peer_answer(3, 2, servo(500));
+    check.peer_answer(3, 1, 0, servo(505));
+    check.peer_answer(2, 2, 0, servo(500));
+    check.peer_answer(3, 2, 0, servo(500));
     check.aligned(2);
     let expected = OddOneOut {
+        on: OddOn::Output,
         inputs: vec![1, 2],
         odd_limit: 2,
         peers: vec![2, 3],
         late: 2,
     };
-    assert_eq!(check.answer(3, servo(900)), Judgement::Leave(expected));
+    assert_eq!(check.answer(3, 0, servo(900)), Judgement::Leave(expected));
 }
 
 #[test]
@@ -287,7 +300,7 @@ fn an_agreement_forgets_the_late_answers_before_it() {
     round(&mut check, 5, 500, 500, 500);
     round(&mut check, 6, 900, 500, 500);
     round(&mut check, 7, 900, 500, 500);
-    let Judgement::Leave(reason) = check.answer(8, servo(900)) else {
+    let Judgement::Leave(reason) = check.answer(8, 0, servo(900)) else {
         panic!("C1 stays at its second odd input");
     };
     assert_eq!((reason.inputs, reason.late), (vec![6, 7], 0));
@@ -296,6 +309,7 @@ fn an_agreement_forgets_the_late_answers_before_it() {
 #[test]
 fn the_reason_says_how_many_answers_went_out_late() {
     let reason = OddOneOut {
+        on: OddOn::Output,
         inputs: vec![17, 19],
         odd_limit: 2,
         peers: vec![2, 3],
@@ -311,8 +325,8 @@ fn an_answer_after_an_input_it_never_answered_is_not_judged() {
     let mut check = in_step_c1();
     round(&mut check, 1, 500, 500, 500);
     // Input 2 was lost to it: the group answered it, and it took the group's position there.
-    check.peer_answer(2, 2, servo(500));
-    check.peer_answer(3, 2, servo(500));
+    check.peer_answer(2, 2, 0, servo(500));
+    check.peer_answer(3, 2, 0, servo(500));
     check.aligned(2);
     // Its answer to 3 comes from a law that last saw input 1: not the group's to compare.
     round(&mut check, 3, 900, 500, 500);

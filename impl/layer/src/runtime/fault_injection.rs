@@ -7,7 +7,9 @@
 //! still succeed (the watchdog test); `wrong-commands offset <n>|frozen|random|none` asks the
 //! application to make its commands wrong (crate::api::Redundancy::injected_output_fault: a
 //! controller that heartbeats on but computes wrong commands, for the output voting tests and
-//! the lab); `skew-commands <n>` is `wrong-commands offset <n>`; `delay-commands <ms>` and
+//! the lab); `wrong-input offset <n>|foreign|none` asks it to read its input wrong
+//! (crate::api::Redundancy::injected_input_fault: a miscalibrated sensor, or another camera
+//! than the group's); `skew-commands <n>` is `wrong-commands offset <n>`; `delay-commands <ms>` and
 //! `hold-commands` make its commands late or missing, as a starved link does
 //! (crate::dds::command_link). Under `RL_HOLD_START` the
 //! controller waits for `start-voting` before its clock starts ([`hold_until_started`]).
@@ -21,6 +23,40 @@ use std::time::Duration;
 static DROPPED: Mutex<BTreeSet<u8>> = Mutex::new(BTreeSet::new());
 static STALL: Mutex<Option<Duration>> = Mutex::new(None);
 static OUTPUT_FAULT: Mutex<OutputFault> = Mutex::new(OutputFault::None);
+static INPUT_FAULT: Mutex<InputFault> = Mutex::new(InputFault::None);
+
+/// How the application's input is to be wrong (`wrong-input`); the application applies it to
+/// what it received, as a miswired or miscalibrated sensor would.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum InputFault {
+    /// Right (`wrong-input none`).
+    #[default]
+    None,
+    /// The same inputs, a value off by this much (the tracker: the ball's x, in pixels;
+    /// `wrong-input offset <n>`).
+    Offset(i32),
+    /// Another source's inputs (`wrong-input foreign`): none of them is an input the group
+    /// has, and their values differ (the tracker: another camera's frames).
+    Foreign,
+}
+
+impl InputFault {
+    /// The fault a `wrong-input` line's words after the verb name; `None` if they name none.
+    pub fn parse<'a>(mut words: impl Iterator<Item = &'a str>) -> Option<InputFault> {
+        let fault = match (words.next()?, words.next()) {
+            ("none", None) => InputFault::None,
+            ("foreign", None) => InputFault::Foreign,
+            ("offset", Some(n)) => InputFault::Offset(n.parse().ok()?),
+            _ => return None,
+        };
+        words.next().is_none().then_some(fault)
+    }
+}
+
+/// The input fault asked for.
+pub fn input_fault() -> InputFault {
+    *INPUT_FAULT.lock().unwrap_or_else(|e| e.into_inner())
+}
 
 /// How the application's commands are to be wrong (`wrong-commands`); the application applies
 /// it to what it computed, as a bug in it would.
@@ -35,6 +71,10 @@ pub enum OutputFault {
     Frozen,
     /// Random pan and tilt at every input (`wrong-commands random`).
     Random,
+    /// Pan off by this much more every second from when it was asked (`wrong-commands drift
+    /// <n>`): an error growing slowly through the comparison's tolerance, as a drifting
+    /// integrator or a sensor bias would.
+    Drift(i32),
 }
 
 impl OutputFault {
@@ -45,6 +85,7 @@ impl OutputFault {
             ("frozen", None) => OutputFault::Frozen,
             ("random", None) => OutputFault::Random,
             ("offset", Some(n)) => OutputFault::Offset(n.parse().ok()?),
+            ("drift", Some(n)) => OutputFault::Drift(n.parse().ok()?),
             _ => return None,
         };
         words.next().is_none().then_some(fault)
@@ -136,7 +177,7 @@ fn break_dds_event_loops() {
 }
 
 /// Reads `drop-heartbeats-from <id>`, `accept-heartbeats-from <id>`,
-/// `stall-voting-loop <ms>`, `wrong-commands ...`, `skew-commands <offset>`,
+/// `stall-voting-loop <ms>`, `wrong-commands ...`, `wrong-input ...`, `skew-commands <offset>`,
 /// `delay-commands <ms>`, `hold-commands` and `break-dds-event-loop` lines.
 pub fn listen_on_stdin() {
     let _ = std::thread::Builder::new()
@@ -237,6 +278,16 @@ fn obey(line: &str) {
         set_output_fault(line, OutputFault::parse(words));
         return;
     }
+    if verb == "wrong-input" {
+        match InputFault::parse(line.split_whitespace().skip(1)) {
+            Some(fault) => {
+                *INPUT_FAULT.lock().unwrap_or_else(|e| e.into_inner()) = fault;
+                tracing::warn!("fault injection: input wrong: {fault:?}");
+            }
+            None => tracing::warn!("fault injection: bad input fault in {line:?}"),
+        }
+        return;
+    }
     if verb == "skew-commands" {
         let fault = id.parse().ok().map(|offset| match offset {
             0 => OutputFault::None,
@@ -281,7 +332,18 @@ fn obey(line: &str) {
 
 #[cfg(test)]
 mod tests {
-    use super::OutputFault;
+    use super::{InputFault, OutputFault};
+
+    #[test]
+    fn input_faults_parse_from_their_words() {
+        let parse = |line: &str| InputFault::parse(line.split_whitespace());
+        assert_eq!(parse("none"), Some(InputFault::None));
+        assert_eq!(parse("foreign"), Some(InputFault::Foreign));
+        assert_eq!(parse("offset 40"), Some(InputFault::Offset(40)));
+        for bad in ["", "offset", "offset x", "foreign 2", "offset 3 4"] {
+            assert_eq!(parse(bad), None, "{bad:?}");
+        }
+    }
 
     #[test]
     fn output_faults_parse_from_their_words() {
@@ -290,6 +352,7 @@ mod tests {
         assert_eq!(parse("frozen"), Some(OutputFault::Frozen));
         assert_eq!(parse("random"), Some(OutputFault::Random));
         assert_eq!(parse("offset -300"), Some(OutputFault::Offset(-300)));
+        assert_eq!(parse("drift 20"), Some(OutputFault::Drift(20)));
         for bad in [
             "",
             "offset",

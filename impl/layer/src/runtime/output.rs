@@ -3,7 +3,8 @@
 //! loop, which decides, so each stays short.
 
 use super::{Leds, Voting};
-use crate::core::Status;
+use crate::core::{AlarmReason, Status};
+use crate::cross_check::OddOn;
 use crate::event::{Event, EventLine};
 use crate::leds::{LedBank, LedPattern};
 use std::io::Write;
@@ -107,8 +108,15 @@ impl Voting {
             .unwrap_or_else(|e| e.into_inner())
             .take();
         if let Some(reason) = reason {
-            warn!("C{} leaves: {reason}", self.core.config().id);
+            let id = self.core.config().id;
+            warn!("C{id} leaves: {reason}");
+            if reason.on == OddOn::Input {
+                // Its input, not only its output, is wrong: named so before it leaves, as
+                // the FAILED its peers alarm says only that it failed.
+                self.alarm(id, AlarmReason::InputDisagrees, true);
+            }
             self.event(Event::OddOneOut {
+                on: reason.on,
                 inputs: reason.inputs,
                 odd_limit: reason.odd_limit,
                 peers: reason.peers,

@@ -18,6 +18,7 @@ fn answer(from: ControllerId, input: u64, pan: u16, tilt: u16) -> Voted<ServoCon
     Voted {
         from,
         input,
+        input_digest: 0,
         value: servo(pan, tilt),
     }
 }

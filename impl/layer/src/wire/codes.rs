@@ -30,6 +30,9 @@ pub const REASON_LOST: u8 = 1;
 pub const REASON_FAILED: u8 = 2;
 /// Alarm reason code: samples in the controller's name came from another participant.
 pub const REASON_IMPOSTOR: u8 = 3;
+/// Alarm reason code: the controller's input disagreed with two agreeing peers' (raised by
+/// the controller about itself as it leaves).
+pub const REASON_INPUT_DISAGREES: u8 = 4;
 
 /// Strength 0 on the wire: the controller does not command.
 pub const STRENGTH_NONE: u8 = 0;
@@ -80,6 +83,7 @@ pub fn reason_code(reason: AlarmReason) -> u8 {
         AlarmReason::Lost => REASON_LOST,
         AlarmReason::Failed => REASON_FAILED,
         AlarmReason::Impostor => REASON_IMPOSTOR,
+        AlarmReason::InputDisagrees => REASON_INPUT_DISAGREES,
     }
 }
 
@@ -88,6 +92,7 @@ pub(super) fn reason_from_code(field: &'static str, code: u8) -> Result<AlarmRea
         REASON_LOST => Ok(AlarmReason::Lost),
         REASON_FAILED => Ok(AlarmReason::Failed),
         REASON_IMPOSTOR => Ok(AlarmReason::Impostor),
+        REASON_INPUT_DISAGREES => Ok(AlarmReason::InputDisagrees),
         other => Err(WireError::new(
             field,
             format!("unknown alarm reason code {other}"),

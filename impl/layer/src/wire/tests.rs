@@ -330,6 +330,13 @@ fn alarm_round_trips_and_rejects_bad_fields() {
         ..alarm
     };
     assert_eq!(round_trip::<AlarmSample>(&impostor).unwrap(), impostor);
+    let input = ControllerAlarm {
+        reason: AlarmReason::InputDisagrees,
+        about: 1,
+        ..alarm
+    };
+    assert_eq!(AlarmSample::encode(&input).reason, 4);
+    assert_eq!(round_trip::<AlarmSample>(&input).unwrap(), input);
 
     let good = AlarmSample::encode(&alarm);
     let cases = [
@@ -348,7 +355,7 @@ fn alarm_round_trips_and_rejects_bad_fields() {
             "alarm.about_id",
         ),
         (AlarmSample { reason: 0, ..good }, "alarm.reason"),
-        (AlarmSample { reason: 4, ..good }, "alarm.reason"),
+        (AlarmSample { reason: 5, ..good }, "alarm.reason"),
         (
             AlarmSample {
                 about_incarnation_valid: false,

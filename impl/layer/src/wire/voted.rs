@@ -24,8 +24,25 @@ pub struct Voted<T> {
     /// DDS source timestamp, `rustdds::Timestamp::to_ticks`); answers are compared only when
     /// they answer the same input.
     pub input: u64,
+    /// A digest of the input's values as this controller received them ([`input_digest`]; 0:
+    /// the application gives none): controllers that answered the same input compare it, so
+    /// an input that differs is found even where the output it led to agrees (input
+    /// congruence, crate::cross_check).
+    pub input_digest: u64,
     /// The application's value (a servo command).
     pub value: T,
+}
+
+/// The digest of an input's values, `bytes` as the application's law reads them (FNV-1a, 64
+/// bits; never 0, which means "no digest"). Controllers digest the same bytes of the same
+/// input alike on any machine: the application names the fields and their order.
+pub fn input_digest(bytes: &[u8]) -> u64 {
+    const OFFSET_BASIS: u64 = 0xcbf2_9ce4_8422_2325;
+    const PRIME: u64 = 0x0100_0000_01b3;
+    let digest = bytes.iter().fold(OFFSET_BASIS, |hash, byte| {
+        (hash ^ u64::from(*byte)).wrapping_mul(PRIME)
+    });
+    digest.max(1)
 }
 
 /// The voted sample on the wire, keyed by the controller id, so each controller writes its own
@@ -37,6 +54,8 @@ pub struct VotedSample<T> {
     pub from_id: u8,
     /// The input it answers ([`Voted::input`]).
     pub input: u64,
+    /// The digest of that input's values ([`Voted::input_digest`]).
+    pub input_digest: u64,
     /// The application's value, taken as it is: the rule that votes on it decides what
     /// agrees (crate::vote_reader::VoteRule).
     pub value: T,
@@ -62,6 +81,7 @@ impl<T: Clone> WireSample for VotedSample<T> {
         Ok(Voted {
             from: controller_id("voted.from_id", self.from_id)?,
             input: self.input,
+            input_digest: self.input_digest,
             value: self.value,
         })
     }
@@ -70,6 +90,7 @@ impl<T: Clone> WireSample for VotedSample<T> {
         VotedSample {
             from_id: voted.from,
             input: voted.input,
+            input_digest: voted.input_digest,
             value: voted.value.clone(),
         }
     }

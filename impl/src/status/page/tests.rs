@@ -80,6 +80,21 @@ fn an_impostor_alarm_lights_no_led() {
 }
 
 #[test]
+fn an_input_alarm_a_controller_raised_about_itself_is_in_the_metrics_by_its_reason() {
+    let mut board = Board::for_group("nav");
+    three_steady(&mut board, 0);
+    let mut alarm = lost(1, 1);
+    alarm.reason = AlarmReason::InputDisagrees;
+    board.alarm(&alarm, None);
+    let view = board.view(10, 500);
+    let text = metrics::render(&[(&view, &Watch::default())]);
+    let line = "rl_controller_alarm{group=\"nav\",about=\"1\",reason=\"input_disagrees\"} 1";
+    assert!(text.lines().any(|l| l == line), "no {line:?} in\n{text}");
+    let json = serde_json::to_string(&view).expect("the view serializes");
+    assert!(json.contains("\"reason\":\"input_disagrees\""), "{json}");
+}
+
+#[test]
 fn the_watch_counts_commander_changes_and_the_gap() {
     let mut board = Board::default();
     let mut watch = Watch::default();

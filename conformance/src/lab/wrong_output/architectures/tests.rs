@@ -147,7 +147,7 @@ fn the_summary_tells_a_lockstep_mismatch_from_an_odd_one_out() {
     assert!(!text.contains("odd one out"), "{text}");
     let voting = super::super::summary(&report(Kind::WrongPrimary));
     assert!(
-        voting.contains("C1: odd one out 75 ms after the fault"),
+        voting.contains("C1: odd one out on output 75 ms after the fault"),
         "{voting}"
     );
     assert!(!voting.contains("lockstep mismatch"), "{voting}");

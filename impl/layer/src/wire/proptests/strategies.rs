@@ -181,7 +181,12 @@ pub fn controller_alarm() -> impl Strategy<Value = ControllerAlarm> {
         incarnation(),
         controller_id(),
         proptest::option::of(incarnation()),
-        select(vec![AlarmReason::Lost, AlarmReason::Failed]),
+        select(vec![
+            AlarmReason::Lost,
+            AlarmReason::Failed,
+            AlarmReason::Impostor,
+            AlarmReason::InputDisagrees,
+        ]),
         any::<bool>(),
     )
         .prop_map(
@@ -277,22 +282,26 @@ pub fn servo_control() -> impl Strategy<Value = ServoControl> {
 
 /// Any valid voted servo command: a controller id, any input tag, any command.
 pub fn voted_servo_control() -> impl Strategy<Value = Voted<ServoControl>> {
-    (controller_id(), any::<u64>(), servo_control()).prop_map(|(from, input, value)| Voted {
-        from,
-        input,
-        value,
-    })
+    (controller_id(), any::<u64>(), any::<u64>(), servo_control()).prop_map(
+        |(from, input, input_digest, value)| Voted {
+            from,
+            input,
+            input_digest,
+            value,
+        },
+    )
 }
 
 /// Voted servo command samples with any field values (id 0 among them).
 pub fn voted_servo_control_sample() -> BoxedStrategy<VotedServoControl> {
-    let any_fields = (code(), any::<u64>(), servo_control()).prop_map(|(from_id, input, value)| {
-        VotedServoControl {
+    let any_fields = (code(), any::<u64>(), any::<u64>(), servo_control()).prop_map(
+        |(from_id, input, input_digest, value)| VotedServoControl {
             from_id,
             input,
+            input_digest,
             value,
-        }
-    });
+        },
+    );
     sample_of(voted_servo_control(), any_fields)
 }
 
