@@ -589,8 +589,7 @@ pub fn injected_output_fault() -> OutputFault {
     fault_injection::output_fault()
 }
 
-/// With the `fault-injection` feature: how the test control asked the application's input
-/// to be wrong (`wrong-input ...` on stdin).
+/// With `fault-injection`: how the test control asked the input to be wrong (`wrong-input`).
 #[cfg(feature = "fault-injection")]
 pub fn injected_input_fault() -> InputFault {
     fault_injection::input_fault()
