@@ -292,6 +292,18 @@ pub fn flood_with_garbage(cluster: &mut Cluster, domain: u16) -> u32 {
     sent
 }
 
+/// What RustDDS prints about a datagram it ignores: its count (fix 19), and the per-datagram
+/// lines it printed before.
+const MALFORMED_LINES: [&str; 4] = [
+    "malformed datagram",
+    "unknown start of header",
+    "RTPS deserialize error",
+    "shorter than RTPS header",
+];
+/// A controller's participants (RL's and its ROS 2 node's), each reporting the first
+/// malformed datagram of a period, within the attack's 3 s: a margin over 2.
+const MALFORMED_LINES_PER_CONTROLLER: usize = 4;
+
 #[test]
 fn garbage_datagrams_on_the_dds_ports_change_nothing() {
     let domain = 165;
@@ -300,6 +312,18 @@ fn garbage_datagrams_on_the_dds_ports_change_nothing() {
     let sent = flood_with_garbage(&mut cluster, domain);
     println!("sent {sent} garbage datagrams in {ATTACK:?}");
     assert!(sent > 10_000, "only {sent} sent");
+    // The flood reaches the operator's console as one line per participant and report period
+    // (RustDDS fix 19), not a line or two per datagram written from the DDS event loop.
+    for id in 1..=3u8 {
+        let lines = cluster
+            .lines_from(&format!("C{id}!"))
+            .filter(|line| MALFORMED_LINES.iter().any(|m| line.contains(m)))
+            .count();
+        assert!(
+            lines <= MALFORMED_LINES_PER_CONTROLLER,
+            "C{id} printed {lines} lines about malformed datagrams"
+        );
+    }
     assert_eq!(
         outputs_since(&cluster, since),
         Vec::<String>::new(),

@@ -14,7 +14,12 @@ use crate::{
   messages::{protocol_version::ProtocolVersion, submessages::submessages::*, vendor_id::VendorId},
   network::udp_listener::PacketOrigin,
   polling::WakeSender,
-  rtps::{reader::Reader, transmit::InterfaceObservations, Message, Submessage, SubmessageBody},
+  rtps::{
+    malformed_datagrams::{Malformed, MalformedDatagrams},
+    reader::Reader,
+    transmit::InterfaceObservations,
+    Message, Submessage, SubmessageBody,
+  },
   structure::{
     entity::RTPSEntity,
     guid::{EntityId, GuidPrefix, GUID},
@@ -134,6 +139,9 @@ pub(crate) struct MessageReceiver {
   pub source_timestamp: Option<Timestamp>,
 
   submessage_count: usize, // Used in tests and error messages only?
+  // Malformed datagrams are counted, not logged one by one (a flood of them would put the
+  // logger in the path of every send).
+  malformed: MalformedDatagrams,
   secure_receiver_state: Option<SecureReceiverState>,
   #[cfg(feature = "security")]
   secure_rtps_wrapped: Option<SecureWrapping>,
@@ -168,6 +176,7 @@ impl MessageReceiver {
       source_timestamp: None,
 
       submessage_count: 0,
+      malformed: MalformedDatagrams::default(),
       secure_receiver_state: None,
       #[cfg(feature = "security")]
       secure_rtps_wrapped: None,
@@ -234,7 +243,20 @@ impl MessageReceiver {
     self.available_readers.get_mut(&reader_id)
   }
 
+  /// A malformed datagram was ignored: counted, and logged when a report is due.
+  fn ignore_malformed(&mut self, why: Malformed, msg_bytes: &Bytes) {
+    if let Some(report) = self.malformed.ignored(why, std::time::Instant::now()) {
+      warn!("{report}");
+    }
+    debug!("Data was {msg_bytes:?}");
+  }
+
   pub fn handle_received_packet(&mut self, msg_bytes: &Bytes, origin: PacketOrigin) {
+    if self.malformed.counting() {
+      if let Some(report) = self.malformed.due(std::time::Instant::now()) {
+        warn!("{report}");
+      }
+    }
     // Check for RTPS ping message. At least RTI implementation sends these.
     // What should we do with them? The spec does not say.
     if msg_bytes.len() < RTPS_MESSAGE_HEADER_SIZE {
@@ -246,8 +268,7 @@ impl MessageReceiver {
         info!("Received RTPS PING. Do not know how to respond.");
         debug!("Data was {:?}", msg_bytes);
       } else {
-        warn!("Message is shorter than RTPS header. Cannot deserialize.");
-        debug!("Data was {:?}", msg_bytes);
+        self.ignore_malformed(Malformed::Short, msg_bytes);
       }
       return;
     }
@@ -264,7 +285,7 @@ impl MessageReceiver {
         info!("Received message with RTPX header. Ignoring.");
         return;
       } else {
-        warn!("Received message with unknown start of header {magic:x?}. Ignoring.");
+        self.ignore_malformed(Malformed::NotRtps, msg_bytes);
         return;
       }
     }
@@ -274,8 +295,8 @@ impl MessageReceiver {
     let rtps_message = match Message::read_from_buffer(msg_bytes) {
       Ok(m) => m,
       Err(speedy_err) => {
-        warn!("RTPS deserialize error {speedy_err:?}");
-        debug!("Data was {msg_bytes:?}");
+        debug!("RTPS deserialize error {speedy_err:?}");
+        self.ignore_malformed(Malformed::Undecodable, msg_bytes);
         return;
       }
     };
