@@ -219,12 +219,16 @@ impl LoopClock {
     }
 
     /// A command of this controller was written now, as the actuator's owner beside weaker
-    /// writers (`as_owner`) or in another role.
+    /// writers (`as_owner`) or not (another role, or another topic: the voted one). Only
+    /// [`LoopClock::not_the_owner`] and a new life forget the owner's last write: the voted
+    /// writer beside the owner's writes too, and must not hide the owner's lapse.
     pub fn wrote(&self, as_owner: bool) {
         let mut marks = self.marks();
         let now = Instant::now();
         marks.last_write = Some(now);
-        marks.last_owner_write = as_owner.then_some(now);
+        if as_owner {
+            marks.last_owner_write = Some(now);
+        }
     }
 
     /// This controller holds no role now, so writes nothing: a gap in its commands from here
@@ -441,6 +445,7 @@ mod tests {
         );
         assert!(clock.stalled(), "and every writer of it goes silent");
         clock.wrote(true);
+        clock.wrote(false);
         assert!(
             clock.owner_lapsed(),
             "a write meanwhile does not lift the doubt"
@@ -463,6 +468,19 @@ mod tests {
         clock.not_the_owner();
         busy_for(Duration::from_millis(30));
         assert!(!clock.owner_lapsed(), "silent in another role: no lapse");
+    }
+
+    #[test]
+    fn a_voted_answer_between_the_owners_commands_hides_no_lapse() {
+        let clock = LoopClock::new(10_000, 20);
+        clock.wrote(true);
+        clock.wrote(false);
+        busy_for(Duration::from_millis(30));
+        clock.wrote(false);
+        assert!(
+            clock.owner_lapsed(),
+            "the owner's commands lapsed 30 ms, its voted answers written all along"
+        );
     }
 
     #[test]

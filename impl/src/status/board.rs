@@ -11,15 +11,27 @@ use rl_layer::core::Heartbeat;
 use rl_layer::wire::{Certainty, ControllerAlarm, NetworkAlarm};
 use std::collections::BTreeMap;
 
+/// A raised controller alarm as the board keeps it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct RaisedAlarm {
+    reason: AlarmReason,
+    since_ms: Option<u64>,
+    /// The reporter's life that raised it: a later life of the reporter (its heartbeat says)
+    /// no longer holds it, as a process that ended cannot clear what it raised (a controller
+    /// that left with its `input_disagrees` alarm up, then restarted).
+    reporter_incarnation: rl_layer::core::types::Incarnation,
+}
+
 /// The latest heartbeat per controller and the raised alarms of one redundancy group.
 #[derive(Clone, Debug, Default)]
 pub struct Board {
     /// The redundancy group whose topics feed it.
     group: String,
     heartbeats: BTreeMap<ControllerId, (Heartbeat, u64)>,
-    /// (about, reporter, impostor) -> reason, for raised alarms: one protocol alarm per
-    /// controller and reporter (Failed replaces Lost), an impostor alarm beside it.
-    alarms: BTreeMap<(ControllerId, ControllerId, bool), (AlarmReason, Option<u64>)>,
+    /// (about, reporter, impostor) -> reason, first raise and the reporter's life that raised
+    /// it, for raised alarms: one protocol alarm per controller and reporter (Failed replaces
+    /// Lost), an impostor alarm beside it.
+    alarms: BTreeMap<(ControllerId, ControllerId, bool), RaisedAlarm>,
     /// (subject, reporter) -> how sure and why, for raised network alarms.
     network_alarms: BTreeMap<(AlarmSubject, ControllerId), (Certainty, String)>,
 }
@@ -55,8 +67,16 @@ impl Board {
             let since_ms = self
                 .alarms
                 .get(&key)
-                .map_or(stamped_ms, |(_, since)| *since);
-            self.alarms.insert(key, (alarm.reason, since_ms));
+                .filter(|kept| kept.reporter_incarnation == alarm.reporter_incarnation)
+                .map_or(stamped_ms, |kept| kept.since_ms);
+            self.alarms.insert(
+                key,
+                RaisedAlarm {
+                    reason: alarm.reason,
+                    since_ms,
+                    reporter_incarnation: alarm.reporter_incarnation,
+                },
+            );
         } else {
             self.alarms.remove(&key);
         }
@@ -124,10 +144,18 @@ impl Board {
             .collect()
     }
 
-    /// One entry per controller and reason, with every reporter and the first raise's time.
+    /// One entry per controller and reason, with every reporter and the first raise's time;
+    /// an alarm whose reporter has been heard in a later life since is gone with the life
+    /// that raised it.
     fn alarm_views(&self) -> Vec<AlarmView> {
         let mut alarms: Vec<AlarmView> = Vec::new();
-        for (&(about, reporter, _), &(reason, since_ms)) in &self.alarms {
+        let current =
+            |(&(_, reporter, _), raised): &(&(ControllerId, ControllerId, bool), &RaisedAlarm)| {
+                self.latest(reporter)
+                    .is_none_or(|h| h.incarnation <= raised.reporter_incarnation)
+            };
+        for (&(about, reporter, _), raised) in self.alarms.iter().filter(current) {
+            let (reason, since_ms) = (raised.reason, raised.since_ms);
             match alarms
                 .iter_mut()
                 .find(|a| a.about == about && a.reason == reason)
@@ -245,6 +273,51 @@ mod tests {
         assert_eq!(board.view(0, 500).alarms[0].raised_by, vec![3]);
         board.alarm(&alarm(3, false), None);
         assert!(board.view(0, 500).alarms.is_empty());
+    }
+
+    #[test]
+    fn an_alarm_goes_with_the_reporters_life_that_raised_it() {
+        let mut board = Board::default();
+        let input = ControllerAlarm {
+            reporter: 1,
+            reporter_incarnation: 7,
+            about: 1,
+            about_incarnation: None,
+            reason: AlarmReason::InputDisagrees,
+            raised: true,
+        };
+        board.alarm(&input, Some(1_000));
+        let heartbeat = |incarnation| Heartbeat {
+            id: 1,
+            incarnation,
+            phase: rl_layer::core::types::Phase::Initializing,
+            role: None,
+            strength: None,
+            agreed: None,
+            vote: None,
+            epoch: 0,
+            provisional: false,
+            established_strength: None,
+            took_over_from: None,
+        };
+        board.heartbeat(heartbeat(7), 1_000);
+        assert_eq!(
+            board.view(1_000, 500).alarms.len(),
+            1,
+            "its life still runs"
+        );
+        // It left and restarted: the new life never raised it, and the old one cannot clear it.
+        board.heartbeat(heartbeat(8), 3_000);
+        assert!(board.view(3_000, 500).alarms.is_empty());
+        // Raised again by the new life, it shows again, from the new raise.
+        board.alarm(
+            &ControllerAlarm {
+                reporter_incarnation: 8,
+                ..input
+            },
+            Some(4_000),
+        );
+        assert_eq!(board.view(4_000, 500).alarms[0].since_ms, Some(4_000));
     }
 
     #[test]
