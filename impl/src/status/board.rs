@@ -287,19 +287,7 @@ mod tests {
             raised: true,
         };
         board.alarm(&input, Some(1_000));
-        let heartbeat = |incarnation| Heartbeat {
-            id: 1,
-            incarnation,
-            phase: rl_layer::core::types::Phase::Initializing,
-            role: None,
-            strength: None,
-            agreed: None,
-            vote: None,
-            epoch: 0,
-            provisional: false,
-            established_strength: None,
-            took_over_from: None,
-        };
+        let heartbeat = |incarnation| Heartbeat::initial(1, incarnation);
         board.heartbeat(heartbeat(7), 1_000);
         assert_eq!(
             board.view(1_000, 500).alarms.len(),
