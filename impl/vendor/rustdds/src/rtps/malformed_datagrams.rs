@@ -59,23 +59,18 @@ pub(crate) struct MalformedDatagrams {
 impl MalformedDatagrams {
   /// A malformed datagram was ignored at `now`: the report to log, if one is due.
   pub(crate) fn ignored(&mut self, why: Malformed, now: Instant) -> Option<Report> {
-    match self.last_report {
-      Some(at) if now.saturating_duration_since(at) < REPORT_PERIOD => {
-        self.unreported += 1;
-        self.latest = Some(why);
-        None
-      }
-      _ if self.unreported > 0 => {
-        // A period has passed with datagrams counted: report them with this one.
-        self.unreported += 1;
-        self.latest = Some(why);
-        self.due(now)
-      }
-      _ => {
-        self.last_report = Some(now);
-        Some(Report::First(why))
-      }
+    let quiet_period = match self.last_report {
+      None => true,
+      Some(at) => self.unreported == 0 && now.saturating_duration_since(at) >= REPORT_PERIOD,
+    };
+    if quiet_period {
+      self.last_report = Some(now);
+      return Some(Report::First(why));
     }
+    // Counted; reported with this one if a period has passed since the last report.
+    self.unreported += 1;
+    self.latest = Some(why);
+    self.due(now)
   }
 
   /// Whether datagrams are counted and not reported yet (then [`Self::due`] may report).
