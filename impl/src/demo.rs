@@ -388,6 +388,19 @@ impl Demo {
                 );
             }
             Some(ServoEvent::Command { pan, tilt, .. }) => self.last_pan_tilt = (pan, tilt),
+            Some(ServoEvent::Expired {
+                controller_id,
+                late_ms,
+                lifespan_ms,
+                ..
+            }) => {
+                let label = self.servo_group_label();
+                let from = controller_id.map_or("-".into(), |id| format!("{label}C{id}"));
+                println!(
+                    "{} servo: dropped a command of {from} {late_ms} ms late (lifespan {lifespan_ms} ms)",
+                    self.stamp(line.at)
+                );
+            }
             None => {}
         }
     }

@@ -359,9 +359,12 @@ mod tests {
                 strength: rl_layer::core::Strength(30),
                 pan: 500,
                 tilt: 400,
-                frequency: 60
+                frequency: 60,
+                late_ms: None,
             })
         );
+        let expired = r#"{"event":"expired","t_ms":40,"writer_guid":"01","controller_id":1,"late_ms":290,"lifespan_ms":100}"#;
+        assert_eq!(parse_servo_event(expired).map(|e| e.t_ms()), Some(40));
         let change = r#"{"event":"owner_changed","t_ms":99,"from_controller_id":1,"to_controller_id":2,"gap_ms":104,"from_writer_guid":"01","to_writer_guid":"02","strength":20}"#;
         assert!(matches!(
             parse_servo_event(change),

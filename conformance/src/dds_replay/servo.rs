@@ -36,9 +36,7 @@ pub enum OwnerSeen {
 impl ServoView {
     /// Takes in one servo line that arrived at `arrival_wall_ms`.
     pub fn take(&mut self, arrival_wall_ms: u64, event: &ServoEvent) {
-        let t_ms = match event {
-            ServoEvent::Command { t_ms, .. } | ServoEvent::OwnerChanged { t_ms, .. } => *t_ms,
-        };
+        let t_ms = event.t_ms();
         let offset = arrival_wall_ms as i64 - t_ms as i64;
         self.offset_ms = Some(self.offset_ms.map_or(offset, |o| o.min(offset)));
         if let ServoEvent::Command { controller_id, .. } = event {
@@ -109,6 +107,15 @@ pub fn describe(event: &ServoEvent) -> Option<String> {
                 gap_ms.map_or("-".to_string(), |g| g.to_string())
             ))
         }
+        ServoEvent::Expired {
+            controller_id,
+            late_ms,
+            lifespan_ms,
+            ..
+        } => Some(format!(
+            "dropped a command of {} {late_ms} ms late (lifespan {lifespan_ms} ms)",
+            controller_id.map_or("?".to_string(), |id| format!("C{id}"))
+        )),
         ServoEvent::Command { .. } => None,
     }
 }
@@ -126,6 +133,7 @@ mod tests {
             pan: 500,
             tilt: 500,
             frequency: 60,
+            late_ms: None,
         }
     }
 

@@ -49,6 +49,9 @@ pub struct Observations {
     pub controller_lines: BTreeMap<String, Vec<String>>,
     /// Accepted commands at `rl servo`.
     pub servo_commands: Vec<ActuatorSample>,
+    /// Commands `rl servo` dropped as older than their writer's lifespan, with how late each
+    /// came (ms).
+    pub servo_expired: Vec<(ActuatorSample, i64)>,
     /// Samples at the Connext reader.
     pub connext: Vec<ActuatorSample>,
     /// The controller id of each participant, as the servo learned it.
@@ -122,12 +125,26 @@ impl Observations {
         let Some(event) = rl::procs::parse_servo_event(&line.text) else {
             return;
         };
-        let (ServoEvent::Command { t_ms, .. } | ServoEvent::OwnerChanged { t_ms, .. }) = &event;
-        let own_ms = *t_ms as f64;
+        let own_ms = event.t_ms() as f64;
         let origin = self
             .servo_origin_ms
             .map_or(line.at_ms - own_ms, |o| o.min(line.at_ms - own_ms));
         self.servo_origin_ms = Some(origin);
+        if let ServoEvent::Expired {
+            writer_guid,
+            late_ms,
+            ..
+        } = &event
+        {
+            let sample = ActuatorSample {
+                at_ms: origin + own_ms,
+                participant: participant_of(writer_guid),
+                writer_entity: entity_of(writer_guid),
+                own_ms,
+                pan_tilt: None,
+            };
+            self.servo_expired.push((sample, *late_ms));
+        }
         if let ServoEvent::Command {
             writer_guid,
             controller_id,

@@ -322,18 +322,34 @@ pub fn write_outputs(
 
 /// Every sample both actuators took, in time order: lab seconds, the reader, the writer's
 /// participant (the controller id where known) and entity id, so a switch can be traced to
-/// the very writer (a controller re-creates its writer at each new strength), and the command.
+/// the very writer (a controller re-creates its writer at each new strength), and the command;
+/// and the commands `rl servo` dropped as past their writer's lifespan.
 fn actuator_samples(observed: &super::observe::Observations) -> String {
-    let mut lines: Vec<(f64, String)> = Vec::new();
+    let who = |sample: &super::observe::ActuatorSample| {
+        observed
+            .participant_ids
+            .get(&sample.participant)
+            .map_or_else(|| sample.participant.clone(), |id| format!("C{id}"))
+    };
+    let mut lines: Vec<(f64, String)> = observed
+        .servo_expired
+        .iter()
+        .map(|(sample, late_ms)| {
+            let line = format!(
+                "{:9.3} s  servo    {} writer {} expired, {late_ms} ms late\n",
+                sample.at_ms / 1000.0,
+                who(sample),
+                sample.writer_entity
+            );
+            (sample.at_ms, line)
+        })
+        .collect();
     for (reader, samples) in [
         ("servo", &observed.servo_commands),
         ("connext", &observed.connext),
     ] {
         for sample in samples {
-            let who = observed
-                .participant_ids
-                .get(&sample.participant)
-                .map_or_else(|| sample.participant.clone(), |id| format!("C{id}"));
+            let who = who(sample);
             let command = sample.pan_tilt.map_or(String::new(), |(pan, tilt)| {
                 format!(" pan {pan} tilt {tilt}")
             });

@@ -165,6 +165,15 @@ impl Core {
         sent_ms < self.round_end_ms.saturating_sub(period_ms)
     }
 
+    /// Whether a heartbeat sent at `sent_ms` (on the caller's clock) was sent after the round
+    /// now running should have ended: it is the next round's, and a caller that fell behind (a
+    /// starved or stalled loop, which takes the next round's heartbeats before its overdue
+    /// round end) ends this round first ([`Core::due_timer`] at `sent_ms`). Deciding this
+    /// round with it would act on what the model's controller hears only a round later.
+    pub fn sent_after_this_round(&self, sent_ms: u64) -> bool {
+        sent_ms >= self.round_end_ms
+    }
+
     /// Whether a heartbeat arriving at `now_ms` may set this controller's round phase
     /// ([`Input::HeartbeatArrival`]). A new life ([`Input::StartAgain`]) follows no phase
     /// before the next round boundary: the datagrams the kernel kept while the process stood

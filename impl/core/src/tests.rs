@@ -576,5 +576,19 @@ fn a_heartbeat_sent_before_this_round_began_is_late() {
     assert!(!c.sent_before_this_round(312));
 }
 
+#[test]
+fn a_heartbeat_sent_after_this_round_should_have_ended_is_the_next_rounds() {
+    let mut c = core(1, 7, 0);
+    // The round 0..250 runs: a peer's heartbeat of it goes out at 62, the next round's at 312.
+    assert!(!c.sent_after_this_round(62));
+    assert!(!c.sent_after_this_round(249));
+    assert!(c.sent_after_this_round(250));
+    assert!(c.sent_after_this_round(312));
+    // A loop that takes the next round's heartbeat late ends this round first.
+    assert_eq!(c.due_timer(312), Some(Timer::RoundEnd));
+    advance(&mut c, 300);
+    assert!(!c.sent_after_this_round(312), "now its own round");
+}
+
 mod takeover;
 mod v2;

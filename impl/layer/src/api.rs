@@ -176,11 +176,17 @@ impl Redundancy {
         writer: StrengthWriter<T, K>,
         policy: AperiodicPolicy,
     ) -> RoleWriter<T, K> {
+        let republish = Duration::from_millis(self.config.timing.command_republish_ms);
+        let republishes = matches!(policy, AperiodicPolicy::Republish).then_some(republish);
         RoleWriter {
             shared: Arc::clone(&self.shared),
             writer,
             policy,
-            republish: Duration::from_millis(self.config.timing.command_republish_ms),
+            republish,
+            owner_lapse: crate::stall::owner_lapse_bound(
+                self.config.timing.command_deadline(),
+                republishes,
+            ),
             last: None,
         }
     }
@@ -370,6 +376,9 @@ pub struct RoleWriter<T, K: Keying<T> = NoKey> {
     writer: StrengthWriter<T, K>,
     policy: AperiodicPolicy,
     republish: Duration,
+    /// How long its commands as the owner may lapse before it doubts itself
+    /// (crate::stall::owner_lapse_bound).
+    owner_lapse: Duration,
     /// The last sample the application wrote, and when it last went out (or was offered).
     last: Option<(T, Instant)>,
 }
@@ -417,6 +426,8 @@ impl<T: Clone, K: Keying<T>> RoleWriter<T, K> {
     /// Sets the DDS writer's strength from the current role and policy, then writes `sample`
     /// (if any) when there is a writer.
     fn write_if_allowed(&mut self, sample: Option<T>) -> Result<bool, DdsError> {
+        // Taken before the status: a restart after it makes that status the last life's.
+        let restarts_seen = self.shared.loop_clock.restarts();
         let (role, strength) = {
             let status = self.shared.status();
             (status.report.role, status.report.strength)
@@ -442,9 +453,9 @@ impl<T: Clone, K: Keying<T>> RoleWriter<T, K> {
             self.shared.loop_clock.not_the_owner();
         }
         let silent = || {
-            self.shared.loop_clock.stalled_for_writer()
+            self.shared.loop_clock.stalled_for_writer(restarts_seen)
                 || self.shared.silenced.load(Ordering::SeqCst)
-                || (owner_beside_others && self.shared.loop_clock.owner_lapsed())
+                || (owner_beside_others && self.shared.loop_clock.owner_lapsed(self.owner_lapse))
         };
         let allowed = allowed.filter(|_| !silent());
         self.writer.set_strength(allowed)?;
@@ -490,6 +501,8 @@ impl<T: Clone + 'static> VotedWriter<T> {
     /// (again with the same input while no new input comes), so a receiver keeps counting
     /// this controller.
     pub fn write(&mut self, input: u64, input_digest: u64, value: T) -> Result<bool, DdsError> {
+        // Taken before the status, as RoleWriter::write_if_allowed does.
+        let restarts_seen = self.shared.loop_clock.restarts();
         let (id, role_held) = {
             let report = &self.shared.status().report;
             let failed = report.phase == crate::core::Phase::Failed;
@@ -497,7 +510,7 @@ impl<T: Clone + 'static> VotedWriter<T> {
         };
         // Back from a stop before the voting loop has noticed, the role is stale: silent.
         let silenced = self.shared.silenced.load(Ordering::SeqCst);
-        if !role_held || silenced || self.shared.loop_clock.stalled_for_writer() {
+        if !role_held || silenced || self.shared.loop_clock.stalled_for_writer(restarts_seen) {
             return Ok(false);
         }
         let answer = Voted {

@@ -54,6 +54,7 @@ pub mod console;
 pub mod cross_check;
 pub use rl_core as core;
 pub mod dds;
+pub mod delay;
 pub mod error;
 pub mod event;
 pub mod failed_exit;

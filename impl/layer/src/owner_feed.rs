@@ -12,6 +12,16 @@
 //! network delivers a burst): the strongest writer's go first, so ownership passes to the
 //! strongest live writer and not to whichever sample leads the burst.
 //!
+//! LIFESPAN is applied on the reading side too (DDS 1.4 2.2.3.16: a sample is not delivered
+//! past its source timestamp plus the writer's lifespan, which RustDDS's readers do not apply
+//! to unfragmented samples): a sample later than its writer's own best delay of the last 2 s
+//! by more than the lifespan the writer announced ([`crate::delay`]: the clocks need not agree)
+//! is [`Delivery::Expired`] and never offered to the arbiter. A stalled or starved writer's
+//! old command, sent when its process runs again, would otherwise take the actuator back from
+//! the controller it had fallen to (RL's command writers announce a lifespan of one command
+//! deadline, and also drop such samples before sending, RustDDS fix 18; this side holds
+//! whatever delayed the sample after that check).
+//!
 //! `rl servo` reports every sample's fate ([`OwnerFeed::deliveries`]); `rl controller` follows
 //! the commanding controller's commands while it stands by (bumpless transfer), the camera
 //! simulator's gimbal obeys the owner, and an application follows the owner of its own topic
@@ -19,7 +29,8 @@
 
 use crate::arbiter::{Arbiter, Decision};
 use crate::core::types::{ControllerId, Strength};
-use crate::dds::{ControllerDirectory, DdsError, Reader, Session, GUID};
+use crate::dds::{ControllerDirectory, DdsError, Reader, Session, WriterOffer, GUID};
+use crate::delay::{delay_ms, DelayBaseline};
 use crate::trust::{CommandTrust, Refusal};
 use crate::wire::{HeartbeatSample, WireSample};
 use std::collections::BTreeMap;
@@ -39,6 +50,15 @@ pub enum Delivery<V> {
         /// Why.
         refusal: Refusal,
     },
+    /// Older than its writer's lifespan when it arrived: not offered to the arbiter.
+    Expired {
+        /// Its writer.
+        writer: GUID,
+        /// How much later it arrived than the writer's best delay of the last 2 s, in ms.
+        late_ms: i64,
+        /// The lifespan its writer announced, in ms.
+        lifespan_ms: u64,
+    },
     /// Offered to the arbiter at `strength`: accepted (the owner's) or not, and whether it
     /// made its writer the owner.
     Offered {
@@ -50,6 +70,9 @@ pub enum Delivery<V> {
         strength: Strength,
         /// Whether discovery had announced the writer's strength.
         strength_known: bool,
+        /// How much later it arrived than the writer's best delay of the last 2 s, in ms
+        /// (`None`: no source timestamp).
+        late_ms: Option<i64>,
         /// The arbiter's decision.
         decision: Decision<GUID>,
     },
@@ -62,7 +85,9 @@ pub struct OwnerFeed<S: WireSample> {
     arbiter: Arbiter<GUID>,
     trust: CommandTrust,
     directory: ControllerDirectory,
-    strengths: BTreeMap<GUID, Strength>,
+    offers: BTreeMap<GUID, WriterOffer>,
+    /// Each writer's delays, for its samples' age; forgotten with the writer's discovery.
+    delays: BTreeMap<GUID, DelayBaseline>,
     last_refresh_ms: Option<u64>,
 }
 
@@ -117,7 +142,8 @@ impl<S: WireSample + 'static> OwnerFeed<S> {
             arbiter: Arbiter::new(deadline_ms),
             trust,
             directory: ControllerDirectory::new(),
-            strengths: BTreeMap::new(),
+            offers: BTreeMap::new(),
+            delays: BTreeMap::new(),
             last_refresh_ms: None,
         }
     }
@@ -128,11 +154,12 @@ impl<S: WireSample + 'static> OwnerFeed<S> {
     }
 
     fn refresh(&mut self, session: &Session, now_ms: u64) {
-        let current = session.writer_strengths(self.samples.topic_name());
-        for gone in self.strengths.keys().filter(|w| !current.contains_key(w)) {
+        let current = session.writer_offers(self.samples.topic_name());
+        for gone in self.offers.keys().filter(|w| !current.contains_key(w)) {
             self.arbiter.writer_lost(*gone);
         }
-        self.strengths = current;
+        self.delays.retain(|writer, _| current.contains_key(writer));
+        self.offers = current;
         self.last_refresh_ms = Some(now_ms);
     }
 
@@ -152,30 +179,50 @@ impl<S: WireSample + 'static> OwnerFeed<S> {
         if self.refresh_due(now_ms, STRENGTH_REFRESH_MS) {
             self.refresh(session, now_ms);
         }
+        let arrived = rustdds::Timestamp::now();
         let mut batch = Vec::new();
         for sample in self.samples.take() {
-            if !self.strengths.contains_key(&sample.writer)
+            if !self.offers.contains_key(&sample.writer)
                 && self.refresh_due(now_ms, UNKNOWN_WRITER_REFRESH_MS)
             {
                 self.refresh(session, now_ms);
             }
-            let strength = self.strengths.get(&sample.writer).copied();
-            batch.push((strength, sample));
+            let offer = self.offers.get(&sample.writer).copied();
+            let late_ms = sample.source_timestamp.map(|written| {
+                let delays = self.delays.entry(sample.writer).or_default();
+                delays.lateness_ms(now_ms, delay_ms(arrived, written))
+            });
+            batch.push((offer, late_ms, sample));
         }
         // Stable: each writer's samples keep their order.
-        batch.sort_by_key(|(strength, _)| std::cmp::Reverse(strength.unwrap_or_default()));
+        batch.sort_by_key(|(offer, _, _)| {
+            std::cmp::Reverse(offer.map(|o| o.strength).unwrap_or_default())
+        });
         let mut deliveries = Vec::with_capacity(batch.len());
-        for (known, sample) in batch {
-            let (writer, strength) = (sample.writer, known.unwrap_or_default());
+        for (offer, late_ms, sample) in batch {
+            let writer = sample.writer;
+            let strength = offer.map(|o| o.strength).unwrap_or_default();
             if let Err(refusal) = self.trust.admit(writer, strength) {
                 deliveries.push(Delivery::Refused { writer, refusal });
                 continue;
+            }
+            let lifespan_ms = offer.and_then(|o| o.lifespan_ms);
+            if let (Some(late_ms), Some(lifespan_ms)) = (late_ms, lifespan_ms) {
+                if u64::try_from(late_ms).is_ok_and(|late| late > lifespan_ms) {
+                    deliveries.push(Delivery::Expired {
+                        writer,
+                        late_ms,
+                        lifespan_ms,
+                    });
+                    continue;
+                }
             }
             deliveries.push(Delivery::Offered {
                 value: sample.value,
                 writer,
                 strength,
-                strength_known: known.is_some(),
+                strength_known: offer.is_some(),
+                late_ms,
                 decision: self.arbiter.offer(writer, strength, now_ms),
             });
         }

@@ -310,8 +310,8 @@ impl Voting {
             }
             #[cfg(feature = "fault-injection")]
             fault_injection::stall();
-            // Samples first: a heartbeat that arrived before a round boundary belongs to the
-            // round that ends there.
+            // Samples first: a heartbeat sent before a round boundary belongs to the round
+            // that ends there (one sent after it ends that round first: heartbeat_delay.rs).
             self.take_samples();
             self.follow_arrivals(&poll)?;
             self.take_commands();
@@ -450,7 +450,7 @@ impl Voting {
                 });
                 continue;
             }
-            if !self.admit_heartbeat(&heartbeat) || self.arrived_late(&heartbeat) {
+            if !self.admit_heartbeat(&heartbeat) || !self.place_in_its_round(&heartbeat) {
                 continue;
             }
             if on_time == Some(number) {

@@ -34,7 +34,12 @@
 //! ([`LoopClock::stalled_for_writer`]) and writes nothing while the loop has not run for a
 //! peer deadline, or for a command deadline with a SIGCONT since, and after a stall until the
 //! loop has put the new, silent core's status in place ([`LoopClock::resumed`]): in between the status still says what the
-//! controller was before it stopped.
+//! controller was before it stopped. A writer reads the status before it checks the clock, so
+//! it takes the clock's count of restarts first ([`LoopClock::restarts`]) and is stalled when
+//! that count moved: the loop can restart, publish the new status and resume between two of the
+//! writer's looks at the clock, and the status it read is the last life's (measured: a
+//! Primary frozen 300 ms wrote one fresh command at 30 after its restart, and the actuator
+//! went back to it for a moment, 2 runs in 6 of `lab run freeze-primary`).
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
@@ -81,6 +86,8 @@ struct Marks {
     settling: bool,
     /// The loop found a stall and restarts the core: stalled until [`LoopClock::resumed`].
     restarting: bool,
+    /// How many times the loop has started again (each stall or doubt once).
+    restarts: u64,
     /// The writer found its commands as the owner lapsed this long ([`LoopClock::owner_lapsed`]):
     /// the loop restarts at its next mark.
     doubted: Option<Duration>,
@@ -92,6 +99,14 @@ struct Marks {
 }
 
 impl Marks {
+    /// The loop restarts the core: counted once per stall, however many marks see it.
+    fn start_again(&mut self) {
+        if !self.restarting {
+            self.restarts += 1;
+        }
+        self.restarting = true;
+    }
+
     fn since_mark(&self, now: Instant) -> Duration {
         now.saturating_duration_since(self.last_mark)
     }
@@ -134,6 +149,7 @@ impl LoopClock {
                 last_owner_write: None,
                 settling: false,
                 restarting: false,
+                restarts: 0,
                 doubted: None,
                 held: None,
                 held_opened: false,
@@ -168,7 +184,7 @@ impl LoopClock {
         let gap = {
             let mut marks = self.marks();
             if let Some(lapse) = marks.doubted.take() {
-                marks.restarting = true;
+                marks.start_again();
                 return Some(lapse);
             }
             let gap = marks.since_mark(now);
@@ -176,7 +192,7 @@ impl LoopClock {
                 || gap >= self.stall_after
                 || (continued && gap >= self.noticed_after)
             {
-                marks.restarting = true;
+                marks.start_again();
                 return Some(gap);
             }
             let held = marks.mark_at(now);
@@ -185,7 +201,7 @@ impl LoopClock {
             }
             if held.is_some_and(|held| held >= self.noticed_after) {
                 // Held, not starved, for a command deadline: stopped without a signal.
-                marks.restarting = true;
+                marks.start_again();
                 return Some(gap);
             }
             marks.settling = true;
@@ -200,7 +216,7 @@ impl LoopClock {
         let mut marks = self.marks();
         marks.settling = false;
         if continued {
-            marks.restarting = true;
+            marks.start_again();
             return Some(gap);
         }
         marks.mark_at(Instant::now());
@@ -247,19 +263,19 @@ impl LoopClock {
     }
 
     /// Whether this controller, about to command as the actuator's owner (the Primary, with
-    /// weaker writers beside it), let its commands lapse for a command deadline: its reader
-    /// has taken the next writer's commands meanwhile, and one more at the owner's strength
-    /// would take them back (a starved or stalled process, whatever its loop saw). It doubts
-    /// itself then: it writes nothing more in this life, and the voting loop starts again at
-    /// its next mark, as after a stall.
-    pub fn owner_lapsed(&self) -> bool {
+    /// weaker writers beside it), let its commands lapse for `bound`
+    /// ([`owner_lapse_bound`]): its reader has taken, or is about to take, the next writer's
+    /// commands, and one more at the owner's strength would take them back (a starved or
+    /// stalled process, whatever its loop saw). It doubts itself then: it writes nothing more
+    /// in this life, and the voting loop starts again at its next mark, as after a stall.
+    pub fn owner_lapsed(&self, bound: Duration) -> bool {
         let mut marks = self.marks();
         if marks.doubted.is_some() {
             return true;
         }
         let lapse = marks.last_owner_write.map(|wrote| wrote.elapsed());
         match lapse {
-            Some(lapse) if lapse >= self.noticed_after => {
+            Some(lapse) if lapse >= bound => {
                 marks.doubted = Some(lapse);
                 true
             }
@@ -267,25 +283,35 @@ impl LoopClock {
         }
     }
 
-    /// Whether the loop is past a stall (restarting, or still for a peer deadline), or still
-    /// for a command deadline with a SIGCONT since.
-    fn past_a_stall(&self, continued: bool) -> bool {
+    /// How many times the loop has started again: a writer takes it before it reads the
+    /// status, and passes it to [`LoopClock::stalled_for_writer`].
+    pub fn restarts(&self) -> u64 {
+        self.marks().restarts
+    }
+
+    /// Whether the loop is past a stall (restarting, restarted since the writer's
+    /// `restarts_seen`, or still for a peer deadline), or still for a command deadline with a
+    /// SIGCONT since.
+    fn past_a_stall(&self, continued: bool, restarts_seen: u64) -> bool {
         let marks = self.marks();
         let gap = marks.since_mark(Instant::now());
         marks.restarting
+            || marks.restarts != restarts_seen
             || marks.doubted.is_some()
             || gap >= self.stall_after
             || (continued && (marks.settling || gap >= self.noticed_after))
     }
 
     /// Whether a writer must write nothing now: the loop has not run for a stall (it is
-    /// stopped, or has just resumed and not yet noticed, or is restarting). A writer whose
+    /// stopped, or has just resumed and not yet noticed, or is restarting), or it has started
+    /// again since the writer took `restarts_seen` ([`LoopClock::restarts`], taken before the
+    /// status it writes by: that status is the last life's). A writer whose
     /// commands have lapsed for a command deadline while the loop stood still as long (the
     /// whole process was, or a loaded host starved both) waits up to 50 ms for the
     /// loop to tell a stop from a slow start; one that wrote within the command deadline
     /// cannot have been stopped that long, and never waits.
-    pub fn stalled_for_writer(&self) -> bool {
-        if self.past_a_stall(self.continued()) {
+    pub fn stalled_for_writer(&self, restarts_seen: u64) -> bool {
+        if self.past_a_stall(self.continued(), restarts_seen) {
             return true;
         }
         let now = Instant::now();
@@ -302,7 +328,7 @@ impl LoopClock {
         }
         let until = now + WRITER_WAIT;
         while Instant::now() < until {
-            if self.past_a_stall(self.continued()) {
+            if self.past_a_stall(self.continued(), restarts_seen) {
                 return true;
             }
             let decided = {
@@ -314,13 +340,14 @@ impl LoopClock {
             }
             std::thread::sleep(WAIT_STEP);
         }
-        self.past_a_stall(self.continued())
+        self.past_a_stall(self.continued(), restarts_seen)
     }
 
-    /// [`LoopClock::stalled_for_writer`] without waiting, for tests.
+    /// [`LoopClock::stalled_for_writer`] without waiting, for a writer that has just looked
+    /// at the restarts, for tests.
     #[cfg(test)]
     fn stalled(&self) -> bool {
-        self.past_a_stall(self.continued())
+        self.past_a_stall(self.continued(), self.restarts())
     }
 }
 
@@ -329,6 +356,33 @@ impl Drop for LoopClock {
         if let Some(id) = self.sigcont.take() {
             signal_hook::low_level::unregister(id);
         }
+    }
+}
+
+/// How long the owner's commands may lapse, between two of its writes, before it doubts itself
+/// ([`LoopClock::owner_lapsed`]): the command deadline, or, where RL republishes the owner's
+/// last command every `republish` (`AperiodicPolicy::Republish`), half of it, and never less
+/// than two republish periods.
+///
+/// Why half: what the reader sees is the gap between the commands that reach the wire, and in
+/// a starved process the DDS event loop that sends them runs as late as the writing thread
+/// does. A CPU quota lets every thread of the process run about once per scheduling period
+/// (100 ms by default, 2 ms of it at a 2 % quota): writes about 100 ms apart, each sent in the
+/// next window or the one after, so that the reader's gaps reach twice the writes'. Measured
+/// with the command deadline as the bound (`lab run starve-primary`, 100 ms deadline at `rl
+/// servo`): the owner's writes stayed just under 100 ms apart for 1.4 s while `rl servo` saw
+/// gaps of 100-200 ms, 3 to 5 owner changes in 4 runs of 6. A lapse of half the deadline is
+/// five missed republications, and twice the lateness bound at which a Secondary takes over
+/// from a late Primary (F17). Only the owner doubts itself, so a loaded host restarts at most
+/// the controller the actuator follows, once (docs/findings.md, the gray process faults).
+/// An application that writes at its own rate (`Periodic`) keeps the deadline: its period may
+/// be anything below it.
+pub fn owner_lapse_bound(command_deadline: Duration, republish: Option<Duration>) -> Duration {
+    match republish {
+        Some(republish) => (command_deadline / 2)
+            .max(republish.saturating_mul(2))
+            .min(command_deadline),
+        None => command_deadline,
     }
 }
 
@@ -385,7 +439,7 @@ mod tests {
         assert!(!clock.stalled(), "a loaded host's lapse is not a stop");
         clock.wrote(false);
         assert!(
-            !clock.stalled_for_writer(),
+            !clock.stalled_for_writer(clock.restarts()),
             "a writer that wrote within the deadline was not stopped"
         );
         assert_eq!(
@@ -396,7 +450,7 @@ mod tests {
         busy_for(Duration::from_millis(40));
         let started = Instant::now();
         assert!(
-            !clock.stalled_for_writer(),
+            !clock.stalled_for_writer(clock.restarts()),
             "a writer that lapsed with the loop writes once the loop has decided"
         );
         assert!(started.elapsed() >= WRITER_WAIT, "it waited for the loop");
@@ -429,25 +483,31 @@ mod tests {
     #[test]
     fn an_owner_whose_commands_lapsed_doubts_itself_until_the_loop_restarts() {
         let clock = LoopClock::new(10_000, 20);
-        assert!(!clock.owner_lapsed(), "nothing written yet: no lapse");
+        assert!(
+            !clock.owner_lapsed(Duration::from_millis(20)),
+            "nothing written yet: no lapse"
+        );
         clock.wrote(false);
         busy_for(Duration::from_millis(30));
         assert!(
-            !clock.owner_lapsed(),
+            !clock.owner_lapsed(Duration::from_millis(20)),
             "a Secondary's old write is no lapse of the Primary it becomes"
         );
         clock.wrote(true);
-        assert!(!clock.owner_lapsed(), "written just now");
+        assert!(
+            !clock.owner_lapsed(Duration::from_millis(20)),
+            "written just now"
+        );
         busy_for(Duration::from_millis(30));
         assert!(
-            clock.owner_lapsed(),
+            clock.owner_lapsed(Duration::from_millis(20)),
             "30 ms without a command: the actuator moved"
         );
         assert!(clock.stalled(), "and every writer of it goes silent");
         clock.wrote(true);
         clock.wrote(false);
         assert!(
-            clock.owner_lapsed(),
+            clock.owner_lapsed(Duration::from_millis(20)),
             "a write meanwhile does not lift the doubt"
         );
         let lapse = clock.mark().expect("the loop restarts at its next mark");
@@ -456,18 +516,24 @@ mod tests {
         clock.resumed();
         assert!(!clock.stalled());
         assert!(
-            !clock.owner_lapsed(),
+            !clock.owner_lapsed(Duration::from_millis(20)),
             "the new life has no lapse of its own"
         );
         assert_eq!(clock.mark(), None);
         clock.wrote(true);
         clock.holds_no_role();
         busy_for(Duration::from_millis(30));
-        assert!(!clock.owner_lapsed(), "silent without a role: no lapse");
+        assert!(
+            !clock.owner_lapsed(Duration::from_millis(20)),
+            "silent without a role: no lapse"
+        );
         clock.wrote(true);
         clock.not_the_owner();
         busy_for(Duration::from_millis(30));
-        assert!(!clock.owner_lapsed(), "silent in another role: no lapse");
+        assert!(
+            !clock.owner_lapsed(Duration::from_millis(20)),
+            "silent in another role: no lapse"
+        );
     }
 
     #[test]
@@ -478,9 +544,53 @@ mod tests {
         busy_for(Duration::from_millis(30));
         clock.wrote(false);
         assert!(
-            clock.owner_lapsed(),
+            clock.owner_lapsed(Duration::from_millis(20)),
             "the owner's commands lapsed 30 ms, its voted answers written all along"
         );
+    }
+
+    #[test]
+    fn a_writer_that_read_the_last_lifes_status_writes_nothing() {
+        let clock = LoopClock::new(10_000, 20);
+        clock.wrote(true);
+        // The writer takes the restarts, then reads the status (the Primary's) ...
+        let restarts_seen = clock.restarts();
+        // ... and, before it looks at the clock, the loop restarts, publishes the new life's
+        // status and resumes: all within one of the writer's waiting steps.
+        busy_for(Duration::from_millis(30));
+        assert!(
+            clock.owner_lapsed(Duration::from_millis(20)),
+            "the owner's commands lapsed"
+        );
+        assert!(clock.mark().is_some(), "the loop restarts");
+        clock.resumed();
+        assert_eq!(clock.restarts(), restarts_seen + 1, "counted once");
+        assert!(
+            clock.stalled_for_writer(restarts_seen),
+            "the status it read is the last life's: it writes nothing"
+        );
+        assert!(
+            !clock.stalled_for_writer(clock.restarts()),
+            "with the new life's status it may"
+        );
+    }
+
+    #[test]
+    fn a_republishing_owner_doubts_itself_after_half_the_deadline() {
+        let deadline = Duration::from_millis(100);
+        let ms = Duration::from_millis;
+        assert_eq!(owner_lapse_bound(deadline, Some(ms(10))), ms(50));
+        assert_eq!(
+            owner_lapse_bound(deadline, Some(ms(40))),
+            ms(80),
+            "two republications"
+        );
+        assert_eq!(
+            owner_lapse_bound(deadline, Some(ms(90))),
+            deadline,
+            "never past it"
+        );
+        assert_eq!(owner_lapse_bound(deadline, None), deadline);
     }
 
     #[test]

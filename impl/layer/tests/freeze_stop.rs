@@ -42,7 +42,7 @@ fn freezes_past_the_command_deadline_are_stalls_and_shorter_ones_are_none() {
     clock.wrote(false);
     freeze_self_for(Duration::from_millis(150));
     assert!(
-        clock.stalled_for_writer(),
+        clock.stalled_for_writer(clock.restarts()),
         "the writer, back, waits for the loop's decision and writes nothing"
     );
     let gap = stalled
@@ -52,10 +52,10 @@ fn freezes_past_the_command_deadline_are_stalls_and_shorter_ones_are_none() {
     resume.send(()).expect("the loop waits");
     std::thread::sleep(Duration::from_millis(50));
     clock.wrote(false);
-    assert!(!clock.stalled_for_writer(), "running again");
+    assert!(!clock.stalled_for_writer(clock.restarts()), "running again");
     freeze_self_for(Duration::from_millis(20));
     std::thread::sleep(Duration::from_millis(50));
-    assert!(!clock.stalled_for_writer());
+    assert!(!clock.stalled_for_writer(clock.restarts()));
     assert_eq!(
         stalled.try_recv().ok(),
         None,

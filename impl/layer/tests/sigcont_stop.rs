@@ -17,24 +17,24 @@ fn continued_stops_past_the_command_deadline_are_stalls_and_others_are_none() {
         assert_eq!(clock.mark(), None, "a SIGCONT to a running loop is no stop");
     }
     clock.wrote(false);
-    assert!(!clock.stalled_for_writer());
+    assert!(!clock.stalled_for_writer(clock.restarts()));
     // Stopped for 150 ms by a child, continued by it.
     assert_eq!(clock.mark(), None);
     stop_self_for(Duration::from_millis(150));
     assert!(
-        clock.stalled_for_writer(),
+        clock.stalled_for_writer(clock.restarts()),
         "the writer, back first, waits for the loop and writes nothing"
     );
     let gap = clock.mark().expect("a continued stop of 150 ms is a stall");
     assert!(gap >= Duration::from_millis(100), "{gap:?}");
     assert!(
-        clock.stalled_for_writer(),
+        clock.stalled_for_writer(clock.restarts()),
         "still, until the loop has restarted"
     );
     clock.resumed();
     assert_eq!(clock.mark(), None, "the SIGCONT was taken by the stall");
     clock.wrote(false);
-    assert!(!clock.stalled_for_writer());
+    assert!(!clock.stalled_for_writer(clock.restarts()));
     // A stop shorter than the command deadline: nobody noticed.
     stop_self_for(Duration::from_millis(20));
     assert_eq!(clock.mark(), None, "20 ms: the actuator did not notice");

@@ -12,7 +12,12 @@
 //!  "pan":500,"tilt":480,"frequency":60}
 //! {"event":"owner_changed","t_ms":1300,"from_controller_id":1,"to_controller_id":2,
 //!  "gap_ms":108,"from_writer_guid":"<32 hex>","to_writer_guid":"<32 hex>","strength":20}
+//! {"event":"expired","t_ms":1310,"writer_guid":"<32 hex>","controller_id":1,"late_ms":290,
+//!  "lifespan_ms":100}
 //! ```
+//! A command's `late_ms` is how much later it arrived than its writer's best delay of the last
+//! 2 s (`null`: unstamped); a sample later than its writer's lifespan is `expired` and never
+//! reaches the arbiter (crate's `owner_feed`: LIFESPAN on the reading side).
 //! `t_ms` is milliseconds since the servo started. A `command` line is printed per accepted
 //! command; an `owner_changed` line comes just before the first command of a new owner.
 //! `controller_id` is `null` while the writer's controller is unknown (no heartbeat heard
@@ -91,6 +96,16 @@ pub enum ServoEvent {
         pan: u16,
         tilt: u16,
         frequency: u16,
+        /// Absent in lines of earlier versions.
+        #[serde(default)]
+        late_ms: Option<i64>,
+    },
+    Expired {
+        t_ms: u64,
+        writer_guid: String,
+        controller_id: Option<ControllerId>,
+        late_ms: i64,
+        lifespan_ms: u64,
     },
     OwnerChanged {
         t_ms: u64,
@@ -101,6 +116,17 @@ pub enum ServoEvent {
         to_writer_guid: String,
         strength: Strength,
     },
+}
+
+impl ServoEvent {
+    /// Milliseconds since the servo started, when the line was printed.
+    pub fn t_ms(&self) -> u64 {
+        match self {
+            ServoEvent::Command { t_ms, .. }
+            | ServoEvent::Expired { t_ms, .. }
+            | ServoEvent::OwnerChanged { t_ms, .. } => *t_ms,
+        }
+    }
 }
 
 /// Poll timeout: bounds how late a sample, a stop request or the end of `--duration-ms` is
@@ -199,6 +225,7 @@ struct Servo {
     start: Instant,
     accepted_count: u64,
     rejected_count: u64,
+    expired_count: u64,
     last_summary_ms: u64,
     last_command: Option<ServoControl>,
 }
@@ -228,6 +255,7 @@ impl Servo {
             start: Instant::now(),
             accepted_count: 0,
             rejected_count: 0,
+            expired_count: 0,
             last_summary_ms: 0,
             last_command: None,
         })
@@ -261,7 +289,7 @@ impl Servo {
 
     /// Prints what became of one command; `Ok(false)` when stdout is gone.
     fn report(&mut self, delivery: Delivery<ServoControl>, now: u64) -> Result<bool, Error> {
-        let (command, writer, strength, decision) = match delivery {
+        let (command, writer, strength, late_ms, decision) = match delivery {
             Delivery::Refused { writer, refusal } => {
                 if self.feed.first_refusal(writer) {
                     tracing::warn!(
@@ -272,11 +300,29 @@ impl Servo {
                 self.rejected_count += 1;
                 return Ok(true);
             }
+            Delivery::Expired {
+                writer,
+                late_ms,
+                lifespan_ms,
+            } => {
+                self.expired_count += 1;
+                if !self.output.json {
+                    return Ok(true);
+                }
+                return self.output.event(&ServoEvent::Expired {
+                    t_ms: now,
+                    writer_guid: guid_hex(writer),
+                    controller_id: self.feed.controller_of(writer),
+                    late_ms,
+                    lifespan_ms,
+                });
+            }
             Delivery::Offered {
                 value,
                 writer,
                 strength,
                 strength_known,
+                late_ms,
                 decision,
             } => {
                 if !strength_known && self.unknown_warned.insert(writer) {
@@ -285,7 +331,7 @@ impl Servo {
                         "command from a writer not yet discovered: strength 0 until it is"
                     );
                 }
-                (value, writer, strength, decision)
+                (value, writer, strength, late_ms, decision)
             }
         };
         if let Some(change) = decision.owner_changed {
@@ -324,6 +370,7 @@ impl Servo {
             pan: command.pan,
             tilt: command.tilt,
             frequency: command.frequency,
+            late_ms,
         })
     }
 
@@ -348,8 +395,9 @@ impl Servo {
             None => "no command yet".to_string(),
         };
         self.output.line(&format!(
-            "servo: owner {owner}; {position}; {} commands accepted, {} ignored (weaker writers)",
-            self.accepted_count, self.rejected_count
+            "servo: owner {owner}; {position}; {} commands accepted, {} ignored (weaker writers), \
+             {} expired (older than their writer's lifespan)",
+            self.accepted_count, self.rejected_count, self.expired_count
         ))
     }
 }
@@ -402,11 +450,12 @@ mod tests {
             pan: 500,
             tilt: 400,
             frequency: 60,
+            late_ms: Some(3),
         };
         assert_eq!(
             serde_json::to_string(&command).unwrap(),
             format!(
-                r#"{{"event":"command","t_ms":12,"writer_guid":"{}","controller_id":1,"strength":30,"pan":500,"tilt":400,"frequency":60}}"#,
+                r#"{{"event":"command","t_ms":12,"writer_guid":"{}","controller_id":1,"strength":30,"pan":500,"tilt":400,"frequency":60,"late_ms":3}}"#,
                 "00".repeat(16)
             )
         );

@@ -560,6 +560,14 @@ impl Session {
 
     /// Ownership strengths of the remote EXCLUSIVE writers of any topic.
     pub fn writer_strengths(&self, topic_name: &str) -> BTreeMap<GUID, Strength> {
+        self.writer_offers(topic_name)
+            .into_iter()
+            .map(|(writer, offer)| (writer, offer.strength))
+            .collect()
+    }
+
+    /// What the remote EXCLUSIVE writers of any topic offer, by writer GUID, from discovery.
+    pub fn writer_offers(&self, topic_name: &str) -> BTreeMap<GUID, WriterOffer> {
         // RL's own topics are on the main participant; the device topics and every
         // application topic on the device participant, when there is one.
         let control = [
@@ -577,11 +585,29 @@ impl Session {
             .into_iter()
             .filter(|w| w.publication_topic_data.topic_name == topic_name)
             .filter_map(|w| {
-                qos::exclusive_strength(w.publication_topic_data.ownership)
-                    .map(|strength| (w.publication_topic_data.key, strength))
+                let offered = &w.publication_topic_data;
+                qos::exclusive_strength(offered.ownership).map(|strength| {
+                    let lifespan_ms = qos::finite_lifespan_ms(offered.lifespan);
+                    (
+                        offered.key,
+                        WriterOffer {
+                            strength,
+                            lifespan_ms,
+                        },
+                    )
+                })
             })
             .collect()
     }
+}
+
+/// What a remote EXCLUSIVE writer announced in discovery, as an actuator view needs it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct WriterOffer {
+    /// Its ownership strength.
+    pub strength: Strength,
+    /// Its LIFESPAN in milliseconds (`None`: INFINITE, samples never expire).
+    pub lifespan_ms: Option<u64>,
 }
 
 fn create_error(what: &'static str, topic: &Topic, error: rustdds::dds::CreateError) -> DdsError {

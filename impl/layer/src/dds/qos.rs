@@ -238,6 +238,17 @@ pub fn camera_writer() -> QosPolicies {
         .build()
 }
 
+/// The lifespan a remote writer announced, in whole milliseconds: `None` for none or INFINITE
+/// (the DDS default, and what ROS 2 profiles announce).
+pub fn finite_lifespan_ms(lifespan: Option<Lifespan>) -> Option<u64> {
+    let duration = lifespan?.duration;
+    if duration == rustdds::Duration::INFINITE {
+        return None;
+    }
+    // Rounded: on the wire a duration is in 2^-32 s, so 100 ms arrives as 99.999999 ms.
+    u64::try_from((duration.to_nanoseconds() + 500_000) / 1_000_000).ok()
+}
+
 /// The ownership strength a remote writer announced: `Some` for EXCLUSIVE writers.
 pub fn exclusive_strength(ownership: Option<Ownership>) -> Option<Strength> {
     match ownership {

@@ -2,12 +2,9 @@
 //! which a Secondary tells a Primary whose link is starved (its commands delayed, as behind a
 //! rate-limited link) from one that is merely silent (finding F17).
 //!
-//! A sample's delay is this controller's wall clock at its arrival minus the writer's source
-//! timestamp. Two controllers' clocks need not agree: each writer's delays are compared with
-//! the least delay seen from that writer within the last [`BASELINE_MS`], so a constant offset
-//! cancels, and a clock running fast or slow moves that baseline by its drift over the window
-//! only (a crystal 1 % off: 20 ms; a Pi's, about 100 ppm: 0.2 ms). A sample later than its
-//! writer's baseline by more than the lateness bound (half the command deadline) is late. A
+//! Each writer's delays are taken against its own best ([`crate::delay`]: two controllers'
+//! clocks need not agree). A sample later than its writer's baseline by more than the lateness
+//! bound (half the command deadline) is late. A
 //! controller's commands are late while the last sample of any of its writers heard within a
 //! command deadline was (a writer it replaced may still have samples queued), on time while
 //! none was, and unheard when no writer of its was heard for a command deadline. The core
@@ -20,10 +17,8 @@
 
 use crate::core::types::{Arrival, ControllerId};
 use crate::dds::GUID;
-use std::collections::{BTreeMap, VecDeque};
-
-/// How far back a writer's least delay is taken from.
-pub const BASELINE_MS: u64 = 2_000;
+use crate::delay::{DelayBaseline, BASELINE_MS};
+use std::collections::BTreeMap;
 
 /// How long a writer must have been heard before its samples say anything: a new writer's
 /// first sample is its own baseline, so it would always be "on time" (measured: a Tertiary
@@ -42,8 +37,8 @@ pub const ESTABLISHED_MS: u64 = 200;
 struct WriterDelays {
     /// The controller it writes for.
     controller: ControllerId,
-    /// (arrival on the loop clock, delay) of the samples of the last [`BASELINE_MS`].
-    recent: VecDeque<(u64, i64)>,
+    /// Its delays of the last [`BASELINE_MS`] (arrivals on the loop clock).
+    delays: DelayBaseline,
     /// Its last sample was late.
     late: bool,
     /// When it was first heard (the loop clock).
@@ -51,27 +46,8 @@ struct WriterDelays {
 }
 
 impl WriterDelays {
-    /// Takes in one delay; returns how much later it came than the writer's baseline.
-    fn lateness_ms(&mut self, now_ms: u64, delay_ms: i64) -> i64 {
-        while self
-            .recent
-            .front()
-            .is_some_and(|(at_ms, _)| now_ms.saturating_sub(*at_ms) > BASELINE_MS)
-        {
-            self.recent.pop_front();
-        }
-        self.recent.push_back((now_ms, delay_ms));
-        let baseline = self
-            .recent
-            .iter()
-            .map(|(_, delay)| *delay)
-            .min()
-            .unwrap_or(delay_ms);
-        delay_ms - baseline
-    }
-
     fn last_ms(&self) -> Option<u64> {
-        self.recent.back().map(|(at_ms, _)| *at_ms)
+        self.delays.last_ms()
     }
 }
 
@@ -111,12 +87,12 @@ impl ArrivalWatch {
     ) -> Option<Arrival> {
         let delays = self.writers.entry(writer).or_insert(WriterDelays {
             controller: from,
-            recent: VecDeque::new(),
+            delays: DelayBaseline::default(),
             late: false,
             first_ms: now_ms,
         });
         delays.controller = from;
-        delays.late = delays.lateness_ms(now_ms, delay_ms) > self.late_after_ms;
+        delays.late = delays.delays.lateness_ms(now_ms, delay_ms) > self.late_after_ms;
         let changed = self.report(from, now_ms);
         let another_late = self
             .reported

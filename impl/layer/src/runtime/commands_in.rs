@@ -60,7 +60,7 @@ impl Voting {
             if from == own_id {
                 continue;
             }
-            let delay_ms = (arrived - written).to_nanoseconds() / 1_000_000;
+            let delay_ms = crate::delay::delay_ms(arrived, written);
             if let Some(arrival) = self.arrival.sample(from, command.writer, delay_ms, now_ms) {
                 changed.push((from, arrival));
             }

@@ -76,27 +76,63 @@ impl HeartbeatDelays {
 }
 
 impl Voting {
-    /// Whether a heartbeat was sent before the round now running (it waited in a queue):
-    /// then it is dropped as lost, with a `heartbeat_late` event. A heartbeat without a stamp
-    /// cannot be judged and is taken.
-    pub(super) fn arrived_late(&mut self, heartbeat: &Received<Heartbeat>) -> bool {
-        let Some(sent_ms) = heartbeat.sent_ms else {
+    /// Places an admitted heartbeat in the round it was sent for; whether the core takes it:
+    /// one sent before the round now running is dropped as lost ([`Voting::arrived_late`]),
+    /// and one sent after it should have ended first ends the rounds due by then
+    /// ([`Voting::end_rounds_due_before`]).
+    pub(super) fn place_in_its_round(&mut self, heartbeat: &Received<Heartbeat>) -> bool {
+        let sent_ms = self.sent_on_round_clock_ms(heartbeat);
+        if self.arrived_late(heartbeat, sent_ms) {
             return false;
-        };
-        let from = heartbeat.value.id;
+        }
+        self.end_rounds_due_before(sent_ms);
+        true
+    }
+
+    /// When a heartbeat was sent, on this controller's round clock: now less how long it
+    /// waited beyond the fastest delivery from its sender's life (a queue on the way, or this
+    /// loop running late). `None` for a heartbeat without a stamp, which cannot be placed.
+    fn sent_on_round_clock_ms(&mut self, heartbeat: &Received<Heartbeat>) -> Option<u64> {
+        let sent_ms = heartbeat.sent_ms?;
         let waited_ms = self.delays.waited_ms(
-            from,
+            heartbeat.value.id,
             heartbeat.value.incarnation,
             sent_ms,
             sender_clock_ms(),
         );
-        let sent_on_round_clock_ms = self.clock.now_ms().saturating_sub(waited_ms);
-        if !self.core.sent_before_this_round(sent_on_round_clock_ms) {
+        Some(self.clock.now_ms().saturating_sub(waited_ms))
+    }
+
+    /// Whether a heartbeat sent at `sent_ms` ([`Voting::sent_on_round_clock_ms`]) was sent
+    /// before the round now running (it waited in a queue): then it is dropped as lost, with a
+    /// `heartbeat_late` event. A heartbeat without a stamp cannot be judged and is taken.
+    fn arrived_late(&mut self, heartbeat: &Received<Heartbeat>, sent_ms: Option<u64>) -> bool {
+        let Some(sent_ms) = sent_ms else {
+            return false;
+        };
+        if !self.core.sent_before_this_round(sent_ms) {
             return false;
         }
+        let from = heartbeat.value.id;
+        let waited_ms = self.clock.now_ms().saturating_sub(sent_ms);
         debug!("dropped a heartbeat of C{from} that waited {waited_ms} ms: sent a round before");
         self.event(Event::HeartbeatLate { from, waited_ms });
         true
+    }
+
+    /// A heartbeat sent at `sent_ms` after the round now running should have ended is the
+    /// next round's: this loop fell behind (starved, stalled), so the rounds due by then end
+    /// first, as they would have had it run on time.
+    fn end_rounds_due_before(&mut self, sent_ms: Option<u64>) {
+        let Some(sent_ms) = sent_ms else {
+            return;
+        };
+        if !self.core.sent_after_this_round(sent_ms) {
+            return;
+        }
+        while let Some(timer) = self.core.due_timer(sent_ms) {
+            self.step(crate::core::Input::Timer(timer));
+        }
     }
 }
 
