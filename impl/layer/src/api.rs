@@ -177,7 +177,12 @@ impl Redundancy {
         policy: AperiodicPolicy,
     ) -> RoleWriter<T, K> {
         let republish = Duration::from_millis(self.config.timing.command_republish_ms);
-        let republishes = matches!(policy, AperiodicPolicy::Republish).then_some(republish);
+        // Under the duplex and the pair a restart does not come back below (the duplex's
+        // Primary preempts by configuration): a doubt at half the deadline only made a starved
+        // Primary restart and retake the actuator again and again (24 owner changes in 8 s).
+        let voting = self.config.architecture == crate::config::ArchitectureName::Voting;
+        let republishes =
+            (voting && matches!(policy, AperiodicPolicy::Republish)).then_some(republish);
         RoleWriter {
             shared: Arc::clone(&self.shared),
             writer,

@@ -375,8 +375,8 @@ impl Drop for LoopClock {
 /// five missed republications, and twice the lateness bound at which a Secondary takes over
 /// from a late Primary (F17). Only the owner doubts itself, so a loaded host restarts at most
 /// the controller the actuator follows, once (docs/findings.md, the gray process faults).
-/// An application that writes at its own rate (`Periodic`) keeps the deadline: its period may
-/// be anything below it.
+/// An application that writes at its own rate (`Periodic`) keeps the deadline, and so do the
+/// duplex and the pair, whose restarted Primary takes the actuator back (`RoleWriter`).
 pub fn owner_lapse_bound(command_deadline: Duration, republish: Option<Duration>) -> Duration {
     match republish {
         Some(republish) => (command_deadline / 2)
