@@ -19,7 +19,9 @@
 //! - [`arbiter`]: exclusive ownership with DDS semantics on the reading side (RustDDS readers
 //!   do not enforce it); [`trust`]: which writers an actuator obeys (a controller's, at most
 //!   at the takeover strength); [`owner_feed`]: a topic's owner's samples through both, for an
-//!   actuator and for a standby that continues from where the owner was.
+//!   actuator and for a standby that continues from where the owner was, dropping a sample
+//!   past its writer's lifespan; [`delay`]: a writer's delay against its own best, which that
+//!   lifespan and the runtime's view of late peers are judged by.
 //! - [`vote_reader`]: output voting at the receiver, pure: every controller's answer to each
 //!   input on a voted topic, a value taken only when two fresh controllers agree, a dissenting
 //!   one alarmed; [`vote_feed`] reads a voted topic over DDS into it. [`cross_check`]: a
