@@ -7,7 +7,10 @@
 //! minority witness needs) are defined here once.
 
 use crate::fixes::{Fix, Rules, Variant};
-use crate::types::{Id, MAX_CONTROLLERS};
+use crate::types::{Id, MAX_CONTROLLERS, ROLE_COUNT};
+
+/// The peers of one controller among three voters.
+const ROLE_COUNT_PEERS: u8 = ROLE_COUNT as u8 - 1;
 use crate::Mutation;
 use serde::{Deserialize, Serialize};
 
@@ -34,6 +37,20 @@ pub struct Config {
     /// carrier up) over a run.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub max_starvations: u8,
+    /// Slowdowns of one controller's process (starved of CPU, throttled: it runs, late) over
+    /// a run. Each is one lasting episode: any of its heartbeats may be late (missed by the
+    /// round's end) in any round until it heals, and the actuator may miss its commands.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub max_slowdowns: u8,
+    /// Late heartbeats of slowed controllers over a run (a slowdown's length; the search
+    /// needs a bound, see `Config::late_heartbeats_per_slowdown`).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub max_late_heartbeats: u8,
+    /// A pause may end unnoticed: the controller runs again with its memory, no signal and
+    /// no clock telling it that it stopped ([`crate::Action::Thaw`]), within the peers'
+    /// dead-man deadline (a longer stop is noticed: docs/findings.md, F18).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub unnoticed_stalls: bool,
     /// A peer is declared lost after this many rounds without its heartbeat (deadline 2x period).
     pub dead_after_rounds: u8,
     /// The initialization window closes after this many rounds without a new peer (paper: 10 s;
@@ -82,6 +99,9 @@ impl Default for Config {
             max_pauses: 0,
             max_isolations: 0,
             max_starvations: 0,
+            max_slowdowns: 0,
+            max_late_heartbeats: 0,
+            unnoticed_stalls: false,
             dead_after_rounds: 2,
             window_rounds: 2,
             settle_within_rounds: 10,
@@ -130,6 +150,34 @@ impl Config {
             max_lost_heartbeats: base.dead_after_rounds,
             max_starvations: 1,
             ..base
+        }
+    }
+
+    /// The gray process faults (F18): three controllers, no crash, no lost heartbeat, and one
+    /// slowed process, a lasting episode (the scope of `check --gray`).
+    pub fn gray() -> Config {
+        let base = Config::default();
+        Config {
+            late_joiners: 0,
+            max_crashes: 0,
+            max_restarts: 0,
+            max_lost_heartbeats: 0,
+            max_slowdowns: 1,
+            max_late_heartbeats: base.late_heartbeats_per_slowdown(),
+            ..base
+        }
+    }
+
+    /// A stall that may end unnoticed (F18): three controllers, no crash, no lost heartbeat,
+    /// one pause (`check --late-joiners 0 --crashes 0 --restarts 0 --lost-heartbeats 0
+    /// --pauses 1 --unnoticed-stalls`).
+    pub fn unnoticed_stall() -> Config {
+        Config {
+            max_slowdowns: 0,
+            max_late_heartbeats: 0,
+            max_pauses: 1,
+            unnoticed_stalls: true,
+            ..Config::gray()
         }
     }
 
@@ -237,6 +285,14 @@ impl Config {
         }
     }
 
+    /// The late heartbeats of `Config::gray`'s slowdown: enough for both peers to declare
+    /// the slowed controller lost, or for one to lose it, hear it again and lose it once
+    /// more. A longer episode repeats the same rules with later epochs (numbers the search
+    /// cannot fold): `check --gray --late-heartbeats 6` holds too (docs/findings.md, F18).
+    pub fn late_heartbeats_per_slowdown(&self) -> u8 {
+        2 * ROLE_COUNT_PEERS * self.dead_after_rounds
+    }
+
     /// Lost heartbeats on one link before its receiver can mark a live sender FAILED: the
     /// dead-man deadline, then a dissent that outlasts the minority grace.
     pub fn losses_to_fail_minority(&self) -> u8 {
@@ -288,6 +344,15 @@ impl Config {
         if self.max_starvations > 0 {
             flags.push_str(&format!(" --starvations {}", self.max_starvations));
         }
+        if self.max_slowdowns > 0 {
+            flags.push_str(&format!(
+                " --slowdowns {} --late-heartbeats {}",
+                self.max_slowdowns, self.max_late_heartbeats
+            ));
+        }
+        if self.unnoticed_stalls {
+            flags.push_str(" --unnoticed-stalls");
+        }
         for fix in &self.reverted {
             flags.push_str(&format!(" --revert {}", fix.label().to_lowercase()));
         }
@@ -312,6 +377,15 @@ impl Config {
         );
         if self.max_starvations > 0 {
             line.push_str(&format!(", starvations {}", self.max_starvations));
+        }
+        if self.max_slowdowns > 0 {
+            line.push_str(&format!(
+                ", slowdowns {} (late heartbeats {})",
+                self.max_slowdowns, self.max_late_heartbeats
+            ));
+        }
+        if self.unnoticed_stalls {
+            line.push_str(", unnoticed stalls");
         }
         if !self.reverted.is_empty() {
             let labels: Vec<String> = self.reverted.iter().map(|fix| fix.label()).collect();

@@ -2,8 +2,8 @@
 //! the deliberately broken rules of the mutation tests.
 //!
 //! Every rule fix of docs/findings.md is one [`Fix`] and one boolean of [`Rules`], numbered as
-//! there (F1..F8, F10..F17). The default variant carries every fix, `--variant v1` leaves out the
-//! ones of protocol v2 (F11..F17), `--variant paper` reverts them
+//! there (F1..F8, F10..F18). The default variant carries every fix, `--variant v1` leaves out the
+//! ones of protocol v2 (F11..F18), `--variant paper` reverts them
 //! all, and `--revert fN` reverts exactly one, so each finding's counterexample can be shown to
 //! come back without its fix (model/tests/findings.rs). F9 states what loss can and cannot be
 //! protected against; it is not a rule, so it has no switch.
@@ -19,7 +19,8 @@ pub enum Variant {
     /// Protocol v1: fixes F1..F10 without those of protocol v2 (F11 epochs, F12 self-fencing,
     /// F13 ordered raises, F14 joiners adopt agreed results, F15 a Primary no side can outrank
     /// keeps its strength, F16 an unplugged controller starts again, F17 a Secondary takes over
-    /// from a starved Primary); the checker shows failback after
+    /// from a starved Primary, F18 a Primary whose own commands lapsed starts again); the
+    /// checker shows failback after
     /// a pause and a tie blip.
     V1,
     /// The paper's rules read literally: every fix reverted; the checker finds
@@ -134,10 +135,18 @@ pub enum Fix {
     #[serde(rename = "f17")]
     #[value(name = "f17")]
     StarvedTakeover,
+    /// F18: a Primary whose own commands lapsed past the actuator's deadline while its process
+    /// ran (slowed: starved of CPU, throttled) or after a stall it did not notice (no signal,
+    /// no clock it trusts) writes nothing more in that life and starts again as a new
+    /// incarnation (self-doubt before accusation); reverted, it goes on, and each command it
+    /// gets out after a lapse takes the actuator back from the Secondary.
+    #[serde(rename = "f18")]
+    #[value(name = "f18")]
+    SelfDoubt,
 }
 
 impl Fix {
-    pub const ALL: [Fix; 16] = [
+    pub const ALL: [Fix; 17] = [
         Fix::LateJoinByHeartbeat,
         Fix::KeepStandbyOrder,
         Fix::IncarnationAware,
@@ -154,6 +163,7 @@ impl Fix {
         Fix::HoldUnoutranked,
         Fix::UnpluggedRestart,
         Fix::StarvedTakeover,
+        Fix::SelfDoubt,
     ];
 
     /// The finding's number in docs/findings.md.
@@ -175,6 +185,7 @@ impl Fix {
             Fix::HoldUnoutranked => 15,
             Fix::UnpluggedRestart => 16,
             Fix::StarvedTakeover => 17,
+            Fix::SelfDoubt => 18,
         }
     }
 
@@ -239,6 +250,8 @@ pub struct Rules {
     pub f16_unplugged_restart: bool,
     /// F17: a Secondary takes over from a Primary whose commands arrive late.
     pub f17_starved_takeover: bool,
+    /// F18: a Primary whose own commands lapsed starts again as a new incarnation.
+    pub f18_self_doubt: bool,
 }
 
 impl Rules {
@@ -263,6 +276,7 @@ impl Rules {
             f15_hold_unoutranked: v2,
             f16_unplugged_restart: v2,
             f17_starved_takeover: v2,
+            f18_self_doubt: v2,
         }
     }
 
@@ -285,6 +299,7 @@ impl Rules {
             Fix::HoldUnoutranked => &mut self.f15_hold_unoutranked,
             Fix::UnpluggedRestart => &mut self.f16_unplugged_restart,
             Fix::StarvedTakeover => &mut self.f17_starved_takeover,
+            Fix::SelfDoubt => &mut self.f18_self_doubt,
         }
     }
 

@@ -6,16 +6,21 @@ use model::architectures::{ArchitectureArgs, ArchitectureConfig, ArchitectureCon
 use model::config::ConfigError;
 use model::explore::{ExploreError, Front};
 use model::outputs::check::OutputReport;
-use model::outputs::OutputMutation;
-use model::outputs::{self, CrossCheck, OutputConfig, OutputConfigError, OutputModel};
+
+use model::outputs::{self, OutputConfigError, OutputModel};
 use model::properties::{catalogue, PropertyInfo};
 use model::traces::TraceFileError;
-use model::{search, simulate, traces, Config, Fix, Mutation, RlModel, Variant};
+use model::{search, simulate, traces, Config, RlModel};
 use stateright::{Checker, Expectation, HasDiscoveries, Model};
 use std::collections::BTreeSet;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
+
+mod cli {
+    pub mod scope;
+}
+use cli::scope::{OutputScope, Scope};
 
 /// Why a command could not run (exit code 2); each names the bad argument or file.
 #[derive(Debug, thiserror::Error)]
@@ -107,134 +112,6 @@ enum Command {
         #[arg(long, default_value_t = 40)]
         steps: usize,
     },
-}
-
-/// The configuration to check (defaults: docs/model.md).
-#[derive(Args, Clone)]
-struct Scope {
-    /// Controllers that start the system together (the first k of them, for every k).
-    #[arg(long, default_value_t = 3)]
-    controllers: u8,
-    /// Further controllers that only join a running system.
-    #[arg(long, default_value_t = 1)]
-    late_joiners: u8,
-    /// Crashes in total over a run.
-    #[arg(long, default_value_t = 1)]
-    crashes: u8,
-    /// Restarts in total over a run.
-    #[arg(long, default_value_t = 1)]
-    restarts: u8,
-    /// Heartbeats that may be lost in total over a run (0 = reliable heartbeats).
-    #[arg(long, default_value_t = 1)]
-    lost_heartbeats: u8,
-    /// Pauses (SIGSTOP, a stall: the process resumes with its memory) over a run.
-    #[arg(long, default_value_t = 0)]
-    pauses: u8,
-    /// Cuts of one controller from its peers (the actuator still hears it) over a run.
-    #[arg(long, default_value_t = 0)]
-    cuts: u8,
-    /// Starved links of one controller (a rate limit: late, partly dropped datagrams) over a
-    /// run (F17).
-    #[arg(long, default_value_t = 0)]
-    starvations: u8,
-    /// The scope of a controller that comes back: 3 controllers, one pause and one cut, no
-    /// crash or lost heartbeat (overrides the fault flags).
-    #[arg(long, conflicts_with = "full")]
-    returns: bool,
-    /// Which rules: the corrected default, or the paper's text read literally (every fix of
-    /// docs/findings.md reverted).
-    #[arg(long, value_enum, default_value_t = Variant::Default)]
-    variant: Variant,
-    /// Take one fix of docs/findings.md out of the default rules (repeatable): its finding's
-    /// counterexample comes back.
-    #[arg(long, value_enum)]
-    revert: Vec<Fix>,
-    /// The larger configuration: 4 controllers started together, 2 crashes, 2 restarts.
-    #[arg(long)]
-    full: bool,
-    /// A deliberately broken rule, to see the checker catch it.
-    #[arg(long, value_enum, hide = true)]
-    mutation: Option<Mutation>,
-}
-
-impl Scope {
-    fn config(&self) -> Result<Config, ConfigError> {
-        let base = if self.full {
-            Config::full()
-        } else if self.returns {
-            Config::returns()
-        } else {
-            Config {
-                founders: self.controllers,
-                late_joiners: self.late_joiners,
-                max_crashes: self.crashes,
-                max_restarts: self.restarts,
-                max_pauses: self.pauses,
-                max_isolations: self.cuts,
-                max_starvations: self.starvations,
-                max_lost_heartbeats: self.lost_heartbeats,
-                ..Config::default()
-            }
-        };
-        let config = Config {
-            variant: self.variant,
-            reverted: {
-                let mut fixes = self.revert.clone();
-                fixes.sort();
-                fixes.dedup();
-                fixes
-            },
-            mutation: self.mutation,
-            ..base
-        };
-        config.validate()?;
-        Ok(config)
-    }
-}
-
-/// The output-voting model (docs/protocol.md, "Output voting"), with `--outputs`.
-#[derive(Args, Clone)]
-struct OutputScope {
-    /// Check or explore the output-voting model instead of the role model: controllers whose
-    /// commands go wrong while their heartbeats stay correct, a voting receiver, an
-    /// exclusive-ownership receiver and the controllers' cross-check.
-    #[arg(long, conflicts_with_all = [
-        "controllers", "late_joiners", "crashes", "restarts", "lost_heartbeats", "pauses",
-        "cuts", "starvations", "returns", "variant", "revert", "full", "mutation",
-    ])]
-    outputs: bool,
-    /// Output model: faults that may begin over a run, 0 to 2 (2: finding O1, two wrong
-    /// controllers that agree).
-    #[arg(long, requires = "outputs", default_value_t = 1)]
-    wrong: u8,
-    /// Output model: two wrong controllers never send the same wrong value (the fail-safe
-    /// hold).
-    #[arg(long, requires = "outputs")]
-    disagreeing: bool,
-    /// Output model: how a controller counts the inputs at which it was the odd one out
-    /// (consecutive: finding O2).
-    #[arg(long, requires = "outputs", value_enum, default_value_t = CrossCheck::Cumulative)]
-    cross_check: CrossCheck,
-    /// Output model: N, the odd-one-out inputs after which a controller leaves (K = N).
-    #[arg(long, requires = "outputs", default_value_t = 2)]
-    odd_limit: u8,
-    /// Output model: a deliberately broken rule, to see the checker catch it.
-    #[arg(long, requires = "outputs", value_enum, hide = true)]
-    output_mutation: Option<OutputMutation>,
-}
-
-impl OutputScope {
-    fn config(&self) -> Result<OutputConfig, OutputConfigError> {
-        let config = OutputConfig {
-            max_wrong: self.wrong,
-            wrong_values_differ: self.disagreeing,
-            cross_check: self.cross_check,
-            odd_limit: self.odd_limit,
-            mutation: self.output_mutation,
-        };
-        config.validate()?;
-        Ok(config)
-    }
 }
 
 #[derive(Args)]

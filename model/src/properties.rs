@@ -44,6 +44,9 @@ impl PropertyInfo {
         let faults = match self.name {
             "Primary crash promotes the Secondary" => config.max_crashes >= 1,
             "a Secondary takes over from a starved Primary" => config.max_starvations >= 1,
+            "a Primary whose commands lapsed starts again" => {
+                config.max_slowdowns >= 1 || (config.unnoticed_stalls && config.max_pauses >= 1)
+            }
             "restarted controller takes the lowest role" => {
                 config.max_crashes >= 1 && config.max_restarts >= 1
             }
@@ -114,6 +117,9 @@ pub fn catalogue() -> Vec<PropertyInfo> {
         p("actuator follows the settled Primary", Always,
           "once settled, the actuator's owner is the agreed Primary",
           actuator_follows_primary),
+        p("a sick controller is not made Primary again", Always,
+          "a slowed controller that lost the Primary role does not hold it again while it is slowed (it came back below: the dwell is the episode)",
+          sick_not_repromoted),
         p("settles after faults stop", Always,
           "bounded response: after settle_within_rounds fault-free rounds every live controller has settled",
           settles_after_faults),
@@ -162,6 +168,9 @@ pub fn catalogue() -> Vec<PropertyInfo> {
         p("a Secondary takes over from a starved Primary", Sometimes,
           "the actuator follows a Secondary commanding at the takeover strength above a Primary whose commands arrive late (F17)",
           starved_primary_taken_over),
+        p("a Primary whose commands lapsed starts again", Sometimes,
+          "a slowed Primary, or one back from a stall it did not notice, doubted itself and the system settled with it below (F18)",
+          doubted_primary_below),
     ]
 }
 
@@ -309,8 +318,13 @@ fn settled_roles_prefix(_: &RlModel, s: &State) -> bool {
 
 fn failed_only_after_loss(_: &RlModel, s: &State) -> bool {
     s.history.losses > 0
+        || s.history.late_heartbeats > 0
         || s.up()
             .all(|c| c.phase != Phase::Failed && c.peers.iter().all(|p| !p.failed))
+}
+
+fn sick_not_repromoted(_: &RlModel, s: &State) -> bool {
+    !s.history.sick_repromoted
 }
 
 fn restart_enters_below(_: &RlModel, s: &State) -> bool {
@@ -438,5 +452,14 @@ fn starved_primary_taken_over(_: &RlModel, s: &State) -> bool {
     s.history.took_over
         && s.actuator_owner().is_some_and(|owner| {
             s.controller(owner).visible_strength() == Some(crate::types::TAKEOVER_STRENGTH)
+        })
+}
+
+fn doubted_primary_below(_: &RlModel, s: &State) -> bool {
+    s.history.doubted
+        && settled(s).is_some_and(|agreed| {
+            s.up().any(|c| {
+                c.incarnation > 0 && agreed.role_of(c.id).is_some_and(|r| r != Role::Primary)
+            })
         })
 }

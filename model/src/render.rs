@@ -123,7 +123,11 @@ pub fn network_line(s: &State) -> String {
             .collect();
         let _ = write!(line, " cut off {} |", cut.join(" "));
     }
-    for (mask, label) in [(s.starved, "starved"), (s.lagging, "deadline missed")] {
+    for (mask, label) in [
+        (s.starved, "starved"),
+        (s.slowed, "slowed"),
+        (s.lagging, "deadline missed"),
+    ] {
         if mask != 0 {
             let ids: Vec<String> = (1..=n)
                 .filter(|id| mask & (1 << (id - 1)) != 0)
@@ -141,6 +145,9 @@ pub fn network_line(s: &State) -> String {
     );
     if h.starvations > 0 {
         let _ = write!(line, ", starved links {}", h.starvations);
+    }
+    if h.slowdowns > 0 {
+        let _ = write!(line, ", slowed processes {}", h.slowdowns);
     }
     line
 }
@@ -300,6 +307,9 @@ fn short(action: &Action) -> String {
         Action::Isolate { .. } => "cut off".into(),
         Action::Unplug { .. } => "cable pulled".into(),
         Action::Starve { .. } => "starved".into(),
+        Action::Slow { .. } => "slowed".into(),
+        Action::LateHeartbeat { .. } => "hb late".into(),
+        Action::Thaw { .. } => "runs again".into(),
         Action::Lag { .. } => "deadline missed".into(),
         Action::CatchUp { .. } => "late sample".into(),
         Action::Heal { .. } => "reconnected".into(),

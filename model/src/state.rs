@@ -44,8 +44,20 @@ pub enum Action {
     /// and then receive a late one ([`Action::Lag`], [`Action::CatchUp`]); its peers see its
     /// commands arrive late while the others' arrive on time (F17).
     Starve { controller: Id },
-    /// The actuator misses a starved controller's command deadline: its writer counts as
-    /// silent until a late sample arrives.
+    /// A controller's process is slowed (starved of CPU, throttled): it runs, but late. Its
+    /// links are fine; its heartbeats may miss the round's end in any round and the actuator
+    /// may miss its commands' deadline ([`Action::Lag`]) until it heals. Its samples are
+    /// stamped when written, so its peers do not see them arrive late (no F17 takeover).
+    Slow { controller: Id },
+    /// A slowed controller's heartbeat of this round misses every peer's round end: one
+    /// multicast sample, sent late (a gap that one peer's round sees and another's does not
+    /// is a lost heartbeat, budgeted apart).
+    LateHeartbeat { from: Id },
+    /// A paused controller runs again without noticing it stopped (no signal, no clock jump
+    /// it trusts), within its peers' dead-man deadline: it goes on with its memory (F18).
+    Thaw { controller: Id },
+    /// The actuator misses a starved or slowed controller's command deadline: its writer
+    /// counts as silent until a late sample arrives.
     Lag { controller: Id },
     /// A late sample of a starved controller reaches the actuator: its writer counts again.
     CatchUp { controller: Id },
@@ -74,6 +86,9 @@ pub enum ActionKind {
     Isolate,
     Unplug,
     Starve,
+    Slow,
+    LateHeartbeat,
+    Thaw,
     Lag,
     CatchUp,
     Heal,
@@ -82,7 +97,7 @@ pub enum ActionKind {
 }
 
 impl ActionKind {
-    pub const ALL: [ActionKind; 17] = [
+    pub const ALL: [ActionKind; 20] = [
         ActionKind::LoseHeartbeat,
         ActionKind::Tick,
         ActionKind::ExpireWindow,
@@ -95,6 +110,9 @@ impl ActionKind {
         ActionKind::Isolate,
         ActionKind::Unplug,
         ActionKind::Starve,
+        ActionKind::Slow,
+        ActionKind::LateHeartbeat,
+        ActionKind::Thaw,
         ActionKind::Lag,
         ActionKind::CatchUp,
         ActionKind::Heal,
@@ -116,6 +134,9 @@ impl ActionKind {
             ActionKind::Isolate => "isolate",
             ActionKind::Unplug => "unplug",
             ActionKind::Starve => "starve",
+            ActionKind::Slow => "slow",
+            ActionKind::LateHeartbeat => "late_heartbeat",
+            ActionKind::Thaw => "thaw",
             ActionKind::Lag => "lag",
             ActionKind::CatchUp => "catch_up",
             ActionKind::Heal => "heal",
@@ -140,6 +161,9 @@ impl Action {
             Action::Isolate { .. } => ActionKind::Isolate,
             Action::Unplug { .. } => ActionKind::Unplug,
             Action::Starve { .. } => ActionKind::Starve,
+            Action::Slow { .. } => ActionKind::Slow,
+            Action::LateHeartbeat { .. } => ActionKind::LateHeartbeat,
+            Action::Thaw { .. } => ActionKind::Thaw,
             Action::Lag { .. } => ActionKind::Lag,
             Action::CatchUp { .. } => ActionKind::CatchUp,
             Action::Heal { .. } => ActionKind::Heal,
@@ -152,7 +176,7 @@ impl Action {
     /// `None` for the tick, which acts on every controller.
     pub fn actor(&self) -> Option<Id> {
         match *self {
-            Action::LoseHeartbeat { from, .. } => Some(from),
+            Action::LoseHeartbeat { from, .. } | Action::LateHeartbeat { from } => Some(from),
             Action::Tick => None,
             Action::ExpireWindow { controller }
             | Action::Crash { controller }
@@ -163,6 +187,8 @@ impl Action {
             | Action::Isolate { controller }
             | Action::Unplug { controller }
             | Action::Starve { controller }
+            | Action::Slow { controller }
+            | Action::Thaw { controller }
             | Action::Lag { controller }
             | Action::CatchUp { controller }
             | Action::Heal { controller }
@@ -177,6 +203,9 @@ impl fmt::Display for Action {
         match *self {
             Action::LoseHeartbeat { from, to } => {
                 write!(f, "heartbeat C{from} -> C{to} lost")
+            }
+            Action::LateHeartbeat { from } => {
+                write!(f, "C{from}'s heartbeat late for every peer's round end")
             }
             Action::Tick => write!(f, "round ends (heartbeats delivered, dead-man check)"),
             Action::ExpireWindow { controller } => {
@@ -202,6 +231,13 @@ impl fmt::Display for Action {
                 f,
                 "C{controller}'s links starved (its datagrams delayed, some dropped)"
             ),
+            Action::Slow { controller } => write!(
+                f,
+                "C{controller}'s process slowed (starved of CPU: it runs, late)"
+            ),
+            Action::Thaw { controller } => {
+                write!(f, "C{controller} runs again without noticing it stopped")
+            }
             Action::Lag { controller } => {
                 write!(f, "actuator misses C{controller}'s command deadline")
             }
@@ -456,6 +492,20 @@ pub struct History {
     pub took_over: bool,
     /// A link was starved and the system has not settled since with every link working.
     pub starvation_open: bool,
+    /// Slowed processes (`Action::Slow`).
+    pub slowdowns: u8,
+    /// A process was slowed and the system has not settled since with none slowed.
+    pub slowdown_open: bool,
+    /// Rounds in which a slowed controller's heartbeat missed its peers' round end (not
+    /// `losses`: they are the slowdown's episode, see `Config::late_heartbeats_per_slowdown`).
+    pub late_heartbeats: u8,
+    /// Bit `id - 1` for each controller that lost the Primary role to a gray fault (a slowed
+    /// process, a stall) and is still slowed or paused: it must not be made Primary again.
+    pub sick_lost_primary: u8,
+    /// A controller of `sick_lost_primary` held the Primary role again.
+    pub sick_repromoted: bool,
+    /// A witness: a Primary doubted itself (F18) and started again.
+    pub doubted: bool,
     /// Fault episodes begun: crashes, pauses, cuts and link failures (a link failure is one
     /// episode however many heartbeats it loses, see `links_down`). Each may move the
     /// actuator once.
@@ -503,8 +553,11 @@ pub struct State {
     /// Bit `id - 1`: the controller's links are starved (`Action::Starve`).
     #[serde(default, skip_serializing_if = "no_bits")]
     pub starved: u8,
-    /// Bit `id - 1`: of the starved controllers, those whose command deadline the actuator
-    /// has missed (`Action::Lag`): their writers count as silent.
+    /// Bit `id - 1`: the controller's process is slowed (`Action::Slow`).
+    #[serde(default, skip_serializing_if = "no_bits")]
+    pub slowed: u8,
+    /// Bit `id - 1`: of the starved or slowed controllers, those whose command deadline the
+    /// actuator has missed (`Action::Lag`): their writers count as silent.
     #[serde(default, skip_serializing_if = "no_bits")]
     pub lagging: u8,
     /// The controller whose commands the actuator follows (the last one, while none is

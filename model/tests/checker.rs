@@ -108,6 +108,32 @@ fn mutation_admit_fourth_is_caught() {
 }
 
 #[test]
+fn a_slowed_controller_and_an_unnoticed_stall_hold_with_every_witness_in_scope() {
+    assert_eq!(failures(Config::gray()), Vec::<&str>::new());
+    assert_eq!(failures(Config::unnoticed_stall()), Vec::<&str>::new());
+}
+
+#[test]
+fn mutation_failback_makes_a_sick_controller_primary_again() {
+    // The restarted life of a slowed Primary that doubted itself is ranked by id and takes the
+    // Primary back while still slowed. Every restart of that life can do it again, so the
+    // search never ends; the counterexample is in its first states.
+    let config = Config {
+        mutation: Some(Mutation::Failback),
+        ..Config::gray()
+    };
+    let explored = search::explore(&RlModel::new(config), 300_000, |_, _| {});
+    assert!(explored
+        .discovery("a sick controller is not made Primary again")
+        .is_some());
+    let healthy = search::explore(&RlModel::new(Config::gray()), 5_000_000, |_, _| {});
+    assert!(!healthy.truncated);
+    assert!(healthy
+        .discovery("a sick controller is not made Primary again")
+        .is_none());
+}
+
+#[test]
 fn mutation_ignore_minority_vote_is_caught() {
     let failed = mutated(Mutation::IgnoreMinorityVote, Config::link_failure());
     assert!(failed.contains(&"minority voter FAILED"), "{failed:?}");

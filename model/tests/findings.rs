@@ -80,7 +80,7 @@ fn the_paper_variant_reverts_every_fix_and_each_fix_has_its_own_switch() {
     let numbers: Vec<u8> = Fix::ALL.iter().map(|fix| fix.number()).collect();
     assert_eq!(
         numbers,
-        [1, 2, 3, 4, 5, 6, 7, 8, 10, 11, 12, 13, 14, 15, 16, 17]
+        [1, 2, 3, 4, 5, 6, 7, 8, 10, 11, 12, 13, 14, 15, 16, 17, 18]
     );
 }
 
@@ -299,6 +299,45 @@ fn f17_a_starved_primary_takes_the_actuator_back_with_each_late_sample() {
         .is_some());
     let found = counterexamples(&reverting(&starved, &[Fix::StarvedTakeover]));
     assert_actuator_taken_back(&found, 10);
+}
+
+#[test]
+fn f18_a_slowed_primary_takes_the_actuator_back_with_each_command_it_gets_out() {
+    // The gray scope (one slowed process, its heartbeats late for up to 8 rounds): the
+    // actuator misses the slowed Primary's deadline and follows the Secondary. Without F18 the
+    // Primary goes on, and the next command it gets out takes the actuator back (one fault,
+    // two owner changes); with it the Primary's writer has doubted itself and it starts again.
+    let gray = Config::gray();
+    assert_eq!(counterexamples(&gray), none());
+    let explored = search::explore(&RlModel::new(gray.clone()), 5_000_000, |_, _| {});
+    assert!(explored
+        .discovery("a Primary whose commands lapsed starts again")
+        .is_some());
+    let found = counterexamples(&reverting(&gray, &[Fix::SelfDoubt]));
+    assert_actuator_taken_back(&found, 10);
+}
+
+#[test]
+fn f18_a_primary_back_from_a_stall_it_did_not_notice_takes_the_actuator_back() {
+    // One pause that may end unnoticed (no signal, within the peers' dead-man deadline): a
+    // Primary that goes on after it without F18 takes the actuator back from the Secondary
+    // it went to. F12 does not help: the controller never learns that it stopped.
+    let stall = Config::unnoticed_stall();
+    assert_eq!(counterexamples(&stall), none());
+    let found = counterexamples(&reverting(&stall, &[Fix::SelfDoubt]));
+    assert_eq!(
+        found.keys().copied().collect::<Vec<_>>(),
+        [
+            "one owner change per fault",
+            "owner changes only to the next Primary"
+        ],
+        "{found:?}"
+    );
+    assert_eq!(
+        found.get("one owner change per fault"),
+        Some(&9),
+        "{found:?}"
+    );
 }
 
 #[test]

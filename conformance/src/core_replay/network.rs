@@ -327,6 +327,13 @@ impl<'a> CoreNetwork<'a> {
             Action::LoseHeartbeat { from, to } => {
                 self.lost.insert((from, to));
             }
+            // The gray process faults are judged on processes (the fault lab); the trace set
+            // has none of them.
+            Action::Slow { .. } | Action::LateHeartbeat { .. } | Action::Thaw { .. } => {
+                return Err(Problem::Unsupported(format!(
+                    "{action}: a gray process fault, judged by the fault lab, not replayed on cores"
+                )));
+            }
             Action::ExpireWindow { controller } => {
                 let boundary = self.boundary_ms();
                 let core = self.live_core(controller)?;

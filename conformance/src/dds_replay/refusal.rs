@@ -42,6 +42,10 @@ pub enum PlanError {
     /// `DeliverVotes` belongs to the paper variant.
     #[error("durable-vote delivery exists only in the paper variant")]
     PaperVariantAction,
+    /// A slowed process or a stall that ends unnoticed (F18): the lab runs them on processes
+    /// (`lab run starve-primary`, `freeze-primary`), the trace set has none.
+    #[error("a gray process fault (\"{action}\"): the fault lab's, not the trace replay's")]
+    GrayFault { action: Action },
     /// A cut needs each controller in a network namespace of its own, and the virtual LAN
     /// has three.
     #[error("a cut among {controllers} controllers (the virtual LAN has three)")]
@@ -94,6 +98,7 @@ impl PlanError {
             }
             PlanError::WindowLeftOpen { .. } => "a window due at a boundary left open",
             PlanError::PaperVariantAction => "durable-vote delivery (the paper variant)",
+            PlanError::GrayFault { .. } => "a gray process fault (the fault lab's)",
             PlanError::CutBeyondTheLan { .. } => "a cut among more than three controllers",
             PlanError::NoSettle { .. } => "no settled end",
             PlanError::NoRoundEnds => "no round ends",

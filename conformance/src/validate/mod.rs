@@ -101,6 +101,11 @@ impl Timing {
             // A starved link shows as lost heartbeats, and as a takeover (F17) where a
             // Secondary reports the takeover strength: the search then starves the Primary.
             max_starvations: 1,
+            // A slowed process and an unnoticed stall show as lost heartbeats and a new life
+            // (F18's restart), which the budgets above explain.
+            max_slowdowns: 0,
+            max_late_heartbeats: 0,
+            unnoticed_stalls: false,
             dead_after_rounds: self.dead_after_rounds,
             window_rounds: self.window_rounds,
             settle_within_rounds: model::Config::default().settle_within_rounds,

@@ -482,6 +482,7 @@ pub(super) fn representatives(branch: &Branch) -> State {
         isolated: 0,
         unplugged: 0,
         starved: 0,
+        slowed: 0,
         lagging: 0,
         owner: None,
         tie_order: 0,

@@ -133,8 +133,11 @@ pub(super) fn settle_bookkeeping(next: &mut State) {
     }
     let backed = next.up().all(|c| !c.provisional);
     let starved = next.starved != 0;
+    let slowed_mask = next.slowed;
+    let slowed = slowed_mask != 0;
     let history = &mut next.history;
     history.starvation_open &= starved;
+    history.slowdown_open &= slowed;
     history.formed |= backed;
     if history.change_targets & !allowed != 0 {
         history.stray_owner = true;
@@ -150,7 +153,9 @@ pub(super) fn settle_bookkeeping(next: &mut State) {
                 && c.role.is_some_and(|role| role != Role::Primary)
         });
         history.returned_below |= back_below;
-        history.away = 0;
+        // A slowed controller stays away until it heals: its episode goes on through the
+        // settled states it allows.
+        history.away &= slowed_mask;
     }
 }
 

@@ -11,10 +11,12 @@
 //!   and delivered;
 //! - `agreement`: who counts (the electorate), when a result is agreed, and adopting it;
 //! - `minority`: marking minority voters FAILED and failing oneself;
+//! - `gray`: a slowed process and a stall that ends unnoticed, and F18's self-doubt;
 //! - [`actuator`]: which controller's commands the actuator follows, at DDS-writer granularity.
 
 pub mod actuator;
 mod agreement;
+mod gray;
 mod minority;
 mod round;
 mod vote;
@@ -56,6 +58,7 @@ pub fn init_states(config: &Config) -> Vec<State> {
             isolated: 0,
             unplugged: 0,
             starved: 0,
+            slowed: 0,
             lagging: 0,
             owner: None,
             tie_order: 0,
@@ -144,7 +147,7 @@ fn lifecycle_actions(config: &Config, state: &State, id: Id, out: &mut Vec<Actio
             // a second one the Secondary may have no controller on time to compare the
             // Primary with, or the taker may die before the deposed Primary heard it
             // (docs/findings.md, F17).
-            let starvation_open = state.history.starvation_open;
+            let starvation_open = state.history.starvation_open || state.history.slowdown_open;
             if state.history.crashes < config.max_crashes && !starvation_open {
                 out.push(Action::Crash { controller: id });
             }
@@ -169,6 +172,7 @@ fn lifecycle_actions(config: &Config, state: &State, id: Id, out: &mut Vec<Actio
             if running && state.history.starvations < config.max_starvations {
                 out.push(Action::Starve { controller: id });
             }
+            gray::actions(config, state, id, running, out);
             if c.phase == Phase::Failed && state.history.restarts < config.max_restarts {
                 out.push(Action::Restart { controller: id });
             }
@@ -178,18 +182,21 @@ fn lifecycle_actions(config: &Config, state: &State, id: Id, out: &mut Vec<Actio
                 out.push(Action::Restart { controller: id });
             }
         }
-        Life::Paused => out.push(Action::Resume { controller: id }),
+        Life::Paused => {
+            out.push(Action::Resume { controller: id });
+            gray::actions(config, state, id, false, out);
+        }
         Life::NotStarted => out.push(Action::Join { controller: id }),
     }
     let bit = 1 << (id - 1);
-    if state.starved & bit != 0 && c.is_up() {
+    if (state.starved | state.slowed) & bit != 0 && c.is_up() {
         out.push(if state.lagging & bit == 0 {
             Action::Lag { controller: id }
         } else {
             Action::CatchUp { controller: id }
         });
     }
-    if (state.isolated | state.starved) & bit != 0 {
+    if (state.isolated | state.starved | state.slowed) & bit != 0 {
         out.push(Action::Heal { controller: id });
     }
     if c.is_up() && c.undiscovered {
@@ -201,6 +208,7 @@ fn lifecycle_actions(config: &Config, state: &State, id: Id, out: &mut Vec<Actio
 pub fn next_state(config: &Config, state: &State, action: Action) -> Option<State> {
     let mut next = state.clone();
     match action {
+        Action::LateHeartbeat { from } => gray::late_heartbeat(config, &mut next, from),
         Action::LoseHeartbeat { from, to } => {
             let link = link_bit(from, to) | link_bit(to, from);
             if (state.lost_links | state.history.links_down) & link == 0 {
@@ -257,12 +265,15 @@ pub fn next_state(config: &Config, state: &State, action: Action) -> Option<Stat
         | Action::Isolate { .. }
         | Action::Unplug { .. }
         | Action::Starve { .. }
+        | Action::Slow { .. }
+        | Action::Thaw { .. }
         | Action::Lag { .. }
         | Action::CatchUp { .. }
         | Action::Heal { .. }
         | Action::DiscoverWriter { .. }
         | Action::TieBreak { .. } => interrupt(config, state, &mut next, action),
     }
+    gray::note_sick(state, &mut next);
     actuator::arbitrate(&mut next);
     actuator::note_primary_taken_back(state, &mut next);
     if next.isolated == 0 && next.controllers.iter().all(|c| c.life != Life::Paused) {
@@ -356,13 +367,16 @@ fn interrupt(config: &Config, state: &State, next: &mut State, action: Action) {
                 take_over_from_starved(next, controller);
             }
         }
-        Action::Lag { controller } => next.lagging |= 1 << (controller - 1),
+        Action::Slow { controller } => gray::slow(next, controller),
+        Action::Thaw { controller } => gray::thaw(config, state, next, controller),
+        Action::Lag { controller } => gray::lag(config, state, next, controller),
         Action::CatchUp { controller } => next.lagging &= !(1 << (controller - 1)),
         Action::Heal { controller } => {
             let bit = 1 << (controller - 1);
             next.isolated &= !bit;
             next.unplugged &= !bit;
             next.starved &= !bit;
+            next.slowed &= !bit;
             next.lagging &= !bit;
             next.history.quiet_rounds = 0;
         }

@@ -37,6 +37,8 @@ pub fn model_hash() -> String {
         include_str!("../protocol/vote.rs"),
         include_str!("../protocol/agreement.rs"),
         include_str!("../protocol/minority.rs"),
+        include_str!("../protocol/gray.rs"),
+        include_str!("../protocol/actuator.rs"),
         include_str!("../state.rs"),
         include_str!("../types.rs"),
         include_str!("../fixes.rs"),

@@ -86,6 +86,9 @@ pub(super) fn rebuild(
                 }
             }
             Action::DeliverVotes { .. } => return Err(PlanError::PaperVariantAction),
+            Action::Slow { .. } | Action::LateHeartbeat { .. } | Action::Thaw { .. } => {
+                return Err(PlanError::GrayFault { action });
+            }
             // The actuator's own events: DDS does them; the model keeps its owner.
             Action::DiscoverWriter { .. } | Action::TieBreak { .. } => {
                 state = step(config, &state, action)?;
