@@ -86,6 +86,8 @@ fn sample_run(picture: &Path) -> (Outcome, Observations, Vec<Life>) {
             label: "kill -9 C1, restart".into(),
             applied_ms: 3000.0,
             healed_ms: Some(6000.0),
+            target: Some(1),
+            alarm_within_ms: None,
         }],
         metrics: Metrics {
             judged_from_ms: 1000.0,

@@ -172,6 +172,22 @@ pub fn for_fault(fault: &Fault) -> FaultExpected {
     }
 }
 
+/// How soon an alarm must name the controller of a gray process fault (a freeze without a
+/// signal, a starved CPU), under voting: while it stays stopped its peers declare it lost
+/// after the peer deadline, at their next round's end (`lost`); once it runs again it finds
+/// its stall, or its writer its own lapse as the owner, within a command deadline and starts
+/// again, its new life raising `stalled` about itself (F12, F18; rl-core's
+/// `STALL_ALARM_ROUNDS`). Whichever comes first, it is within the peer deadline, a round and
+/// a command deadline of the fault, and the slack of a shared machine. The duplex and the
+/// pair have no bound argued yet (`None`: not judged).
+pub fn alarm_within_ms(fault: &Fault, architecture: Architecture) -> Option<f64> {
+    let gray = matches!(fault, Fault::Freeze(_) | Fault::Starve(..));
+    let t = timing();
+    (gray && architecture == Architecture::Voting).then(|| {
+        (t.peer_deadline_ms + t.heartbeat_period_ms + t.command_deadline_ms) as f64 + GAP_SLACK_MS
+    })
+}
+
 /// A partition that leaves the actuator alone with one controller, `alone` (the minority
 /// side). While it holds the actuator hears only that controller; at the heal the other
 /// side's Primary (30) and Secondary (20) both outrank it (a provisional Primary at 15, F9)

@@ -22,6 +22,48 @@ pub struct FaultRecord {
     pub label: String,
     pub applied_ms: f64,
     pub healed_ms: Option<f64>,
+    /// The controller it was applied to (`None`: a fault of a net, or of every controller).
+    pub target: Option<u8>,
+    /// Within this long of its application an alarm must name `target`
+    /// ([`super::expect::alarm_within_ms`]; `None`: not judged).
+    pub alarm_within_ms: Option<f64>,
+}
+
+/// When an alarm first named a fault's controller, against the fault's bound.
+#[derive(Clone, Debug, Serialize)]
+pub struct FaultNamed {
+    pub fault: String,
+    pub about: u8,
+    pub within_ms: f64,
+    /// The first raised alarm about `about` at or after the fault, ms after it (`None`: none).
+    pub named_after_ms: Option<f64>,
+    /// Who raised it, and why (`C1#1 stalled`).
+    pub by: Option<String>,
+}
+
+/// Each judged fault's first alarm naming its controller: raised by any life (its peers'
+/// `lost` or `failed`, its own new life's `stalled`) at or after the fault's application.
+pub fn alarms_naming(faults: &[FaultRecord], observed: &Observations) -> Vec<FaultNamed> {
+    faults
+        .iter()
+        .filter_map(|fault| {
+            let (about, within_ms) = (fault.target?, fault.alarm_within_ms?);
+            let first = observed.controller.iter().find(|e| {
+                e.at_ms >= fault.applied_ms
+                    && matches!(e.line.event, Event::Alarm { about: a, raised: true, .. } if a == about)
+            });
+            Some(FaultNamed {
+                fault: fault.label.clone(),
+                about,
+                within_ms,
+                named_after_ms: first.map(|e| e.at_ms - fault.applied_ms),
+                by: first.map(|e| match &e.line.event {
+                    Event::Alarm { reason, .. } => format!("{} {reason:?}", e.life),
+                    _ => e.life.clone(),
+                }),
+            })
+        })
+        .collect()
 }
 
 /// The owner changes a fault caused (see [`changes_per_fault`]), with when each happened.
@@ -59,6 +101,8 @@ pub struct Metrics {
     pub final_roles: Vec<String>,
     pub dead: Vec<String>,
     pub panics: Vec<String>,
+    /// The faults whose controller an alarm must name, and when one did.
+    pub named: Vec<FaultNamed>,
 }
 
 /// Owner changes per fault: each change counts for the fault whose application or heal came
@@ -339,6 +383,7 @@ pub fn measure(
         connext_owners,
         dead: Vec::new(),
         panics: panics(observed),
+        named: alarms_naming(faults, observed),
     }
 }
 
@@ -374,6 +419,19 @@ pub fn failures(
             .map(|d| format!("not running at the end: {d}")),
     );
     failed.extend(metrics.panics.iter().map(|p| format!("panic: {p}")));
+    for named in &metrics.named {
+        match named.named_after_ms {
+            Some(after) if after <= named.within_ms => {}
+            Some(after) => failed.push(format!(
+                "{}: the first alarm naming C{} came {after:.0} ms after it (expected within {:.0} ms)",
+                named.fault, named.about, named.within_ms
+            )),
+            None => failed.push(format!(
+                "{}: no alarm named C{} (expected within {:.0} ms)",
+                named.fault, named.about, named.within_ms
+            )),
+        }
+    }
     failed
 }
 

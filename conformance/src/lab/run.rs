@@ -437,6 +437,16 @@ pub fn summary(outcome: &Outcome) -> String {
         m.final_roles.join(" "),
         outcome.picture.display(),
     );
+    for named in &m.named {
+        let when = match (named.named_after_ms, &named.by) {
+            (Some(after), Some(by)) => format!("by {by}, {after:.0} ms after it"),
+            _ => "never".to_string(),
+        };
+        text.push_str(&format!(
+            "  alarm naming C{} ({}): {when} (bound {:.0} ms)\n",
+            named.about, named.fault, named.within_ms
+        ));
+    }
     if let Some(report) = &outcome.output {
         text.push_str(&wrong_output::summary(report));
     }

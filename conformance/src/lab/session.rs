@@ -473,6 +473,8 @@ impl Session {
             label: applied.fault.to_string(),
             applied_ms,
             healed_ms: None,
+            target: id,
+            alarm_within_ms: super::expect::alarm_within_ms(&step.fault, self.architecture),
         });
         self.applied[index] = Some(applied);
         Ok(())

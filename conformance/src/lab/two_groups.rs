@@ -291,6 +291,8 @@ impl TwoGroups {
                 label: Fault::Kill(Target::Id(KILLED)).to_string(),
                 applied_ms,
                 healed_ms: None,
+                target: Some(KILLED),
+                alarm_within_ms: None,
             });
         }
         Ok(applied_ms)

@@ -94,14 +94,15 @@ pub enum Command {
         /// The ownership strength to command with.
         strength: Option<Strength>,
     },
-    /// Raise a controller alarm about a peer.
+    /// Raise a controller alarm about a peer (or about itself: `Stalled`, as a life begun
+    /// after a stall).
     RaiseAlarm {
         /// The peer the alarm is about.
         about: ControllerId,
         /// Why.
         reason: AlarmReason,
     },
-    /// Clear the alarm about a peer (it came back, or was retired).
+    /// Clear the alarm about a peer (it came back, or was retired), or its own `Stalled` one.
     ClearAlarm {
         /// The peer the alarm is about.
         about: ControllerId,

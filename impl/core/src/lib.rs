@@ -105,7 +105,16 @@ pub struct Core {
     exit: Option<failure::PendingExit>,
     /// A new life follows no round phase before this instant (crate::Core::follows_phase_at).
     phase_held_until_ms: Option<u64>,
+    /// A life begun after a stall holds its `Stalled` alarm about itself until this instant
+    /// ([`STALL_ALARM_ROUNDS`] rounds on).
+    stall_alarm_until_ms: Option<u64>,
 }
+
+/// Rounds a life begun after a stall keeps its `Stalled` alarm about itself: the model's
+/// settle bound ("settles after faults stop"), after which a life that did not stall again
+/// has settled below the others. An operator sees the alarm for at least that long, and
+/// again with every further stall.
+pub const STALL_ALARM_ROUNDS: u64 = 10;
 
 impl Core {
     /// A controller starting at `now_ms`. Its first heartbeat is due at once.
@@ -123,6 +132,7 @@ impl Core {
             phase: phase::PhaseFollower::new(period_ms, config.heartbeat_offset_ms()),
             exit: None,
             phase_held_until_ms: None,
+            stall_alarm_until_ms: None,
         }
     }
 
@@ -324,6 +334,16 @@ impl Core {
             Architecture::Voting => {}
             other => architectures::debug_check(&other, &self.state),
         }
+        if self
+            .stall_alarm_until_ms
+            .is_some_and(|until| now_ms >= until)
+        {
+            self.stall_alarm_until_ms = None;
+            commands.push(Command::ClearAlarm {
+                about: self.state.id,
+                reason: AlarmReason::Stalled,
+            });
+        }
         commands
     }
 
@@ -373,8 +393,19 @@ impl Core {
             Restart::Deposed => Core::start_again(config, now_ms),
             Restart::Stalled { .. } | Restart::Detached => Core::new(config, now_ms),
         };
-        self.phase_held_until_ms = Some(next_boundary(now_ms, config.heartbeat_period_ms.max(1)));
-        vec![Command::NewLife { cause }]
+        let period_ms = config.heartbeat_period_ms.max(1);
+        self.phase_held_until_ms = Some(next_boundary(now_ms, period_ms));
+        let mut commands = vec![Command::NewLife { cause }];
+        if matches!(cause, Restart::Stalled { .. }) {
+            // Named by itself: its peers may never have lost it (a stop shorter than their
+            // dead-man deadline), yet the actuator left it (F12, F18).
+            self.stall_alarm_until_ms = Some(now_ms + STALL_ALARM_ROUNDS * period_ms);
+            commands.push(Command::RaiseAlarm {
+                about: self.state.id,
+                reason: AlarmReason::Stalled,
+            });
+        }
+        commands
     }
 
     /// A heartbeat is kept for the round's end; one with this controller's own id and another

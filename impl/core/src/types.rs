@@ -286,4 +286,9 @@ pub enum AlarmReason {
     /// received. The controller raises it about itself before it leaves (the application's
     /// cross-check; the core never sees inputs).
     InputDisagrees,
+    /// It stood still, or was starved, past a command deadline (a stop, a frozen machine, a
+    /// starved CPU, its own commands lapsed as the actuator's owner) and started again as a
+    /// new incarnation. The new life raises it about itself and clears it once it has run for
+    /// the settle bound without another stall (the adapter's stall detection; F12, F18).
+    Stalled,
 }

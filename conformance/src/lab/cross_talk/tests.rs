@@ -43,6 +43,8 @@ fn kill() -> FaultRecord {
         label: "kill -9 C1, restart".into(),
         applied_ms: KILL_MS,
         healed_ms: Some(RESTART_MS),
+        target: None,
+        alarm_within_ms: None,
     }
 }
 

@@ -23,11 +23,15 @@ fn each_owner_change_counts_for_the_latest_fault() {
             label: "cut".into(),
             applied_ms: 1000.0,
             healed_ms: Some(4000.0),
+            target: None,
+            alarm_within_ms: None,
         },
         FaultRecord {
             label: "kill".into(),
             applied_ms: 8000.0,
             healed_ms: Some(9500.0),
+            target: None,
+            alarm_within_ms: None,
         },
     ];
     let counted = changes_per_fault(&faults, &spans, None);
@@ -42,11 +46,15 @@ fn a_change_after_a_heal_counts_for_the_healed_fault() {
             label: "clock".into(),
             applied_ms: 1000.0,
             healed_ms: Some(10000.0),
+            target: None,
+            alarm_within_ms: None,
         },
         FaultRecord {
             label: "kill".into(),
             applied_ms: 3000.0,
             healed_ms: Some(5000.0),
+            target: None,
+            alarm_within_ms: None,
         },
     ];
     let counted = changes_per_fault(&faults, &spans, Some(&spans));
@@ -342,6 +350,8 @@ fn all_faults_hold_from_the_last_application_to_the_first_heal() {
         label: "net down".into(),
         applied_ms,
         healed_ms,
+        target: None,
+        alarm_within_ms: None,
     };
     let both = [
         fault(2_000.0, Some(10_000.0)),
@@ -376,6 +386,8 @@ fn the_settle_rounds_begin_at_the_last_heal_or_a_later_restart() {
         label: "one-way loss: its peers' packets to C1".into(),
         applied_ms: 2_910.0,
         healed_ms: Some(5_910.0),
+        target: None,
+        alarm_within_ms: None,
     }];
     let first_lives = [life(1, 1, 17.0), life(2, 1, 0.0), life(3, 1, 20.0)];
     assert_eq!(quiet_from_ms(&faults, &first_lives, 910.0), 5_910.0);
@@ -384,4 +396,59 @@ fn the_settle_rounds_begin_at_the_last_heal_or_a_later_restart() {
     assert_eq!(from, 8_081.0);
     assert_eq!(rounds_between(from, 8_954.0, 250.0), 4);
     assert_eq!(rounds_between(5_910.0, 8_954.0, 250.0), 13);
+}
+
+/// A gray process fault is judged on the first alarm naming its controller: any reporter, any
+/// reason, at or after the fault, within its bound; a later one, one about another controller
+/// or a clear does not do.
+#[test]
+fn a_gray_fault_needs_an_alarm_naming_its_controller_within_its_bound() {
+    use super::super::observe::ControllerEvent;
+    use rl_layer::core::AlarmReason;
+    let alarm = |life: &str, at_ms: f64, about: u8, raised: bool| ControllerEvent {
+        life: life.into(),
+        at_ms,
+        line: rl_layer::event::EventLine {
+            t_ms: at_ms as u64,
+            id: 1,
+            incarnation: 2,
+            event: Event::Alarm {
+                about,
+                reason: AlarmReason::Stalled,
+                raised,
+            },
+        },
+    };
+    let frozen = [FaultRecord {
+        label: "C1 frozen (freezer cgroup, no signal)".into(),
+        applied_ms: 2_000.0,
+        healed_ms: Some(2_300.0),
+        target: Some(1),
+        alarm_within_ms: Some(870.0),
+    }];
+    let judge = |events: Vec<ControllerEvent>| {
+        let mut observed = Observations::default();
+        observed.controller = events;
+        let metrics = Metrics {
+            named: alarms_naming(&frozen, &observed),
+            ..kill_run()
+        };
+        failures(&metrics, &kill(), Ok(()))
+    };
+    assert!(judge(vec![
+        alarm("C1#1", 1_000.0, 1, true),
+        alarm("C1#2", 2_320.0, 1, true)
+    ])
+    .is_empty());
+    assert_eq!(
+        judge(vec![
+            alarm("C2", 2_400.0, 3, true),
+            alarm("C1#2", 2_400.0, 1, false)
+        ]),
+        ["C1 frozen (freezer cgroup, no signal): no alarm named C1 (expected within 870 ms)"]
+    );
+    assert_eq!(
+        judge(vec![alarm("C2", 3_100.0, 1, true)]),
+        ["C1 frozen (freezer cgroup, no signal): the first alarm naming C1 came 1100 ms after it (expected within 870 ms)"]
+    );
 }

@@ -33,6 +33,8 @@ fn faults() -> Vec<FaultRecord> {
         label: "net B down".into(),
         applied_ms: FAULT_MS,
         healed_ms: Some(HEAL_MS),
+        target: None,
+        alarm_within_ms: None,
     }]
 }
 

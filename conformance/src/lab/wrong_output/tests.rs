@@ -535,6 +535,8 @@ fn tracking_is_measured_per_phase() {
         label: "C1's commands wrong (pan +300)".into(),
         applied_ms: 3000.0,
         healed_ms: Some(6000.0),
+        target: None,
+        alarm_within_ms: None,
     };
     let tracking = tracking::measure(&frames, &[fault], 1000.0, 10_000.0, Camera::Vote);
     let phases: Vec<(&str, usize, usize, Option<f64>)> = tracking

@@ -78,11 +78,18 @@ fn a_new_life_after_a_stall_is_a_new_incarnation_that_hears_the_round_it_resumes
         },
         5_100,
     );
+    // It names itself: its peers may never have lost it.
     assert_eq!(
         commands,
-        vec![Command::NewLife {
-            cause: Restart::Stalled { stalled_ms: 4_000 }
-        }]
+        vec![
+            Command::NewLife {
+                cause: Restart::Stalled { stalled_ms: 4_000 }
+            },
+            Command::RaiseAlarm {
+                about: 2,
+                reason: AlarmReason::Stalled
+            }
+        ]
     );
     assert_eq!(c.report().incarnation, 9);
     assert_eq!(c.report().phase, Phase::Initializing);
@@ -146,4 +153,45 @@ fn a_newcomer_is_told_to_move_its_clock_onto_the_primarys_phase() {
     // A higher id sets no phase.
     let from_c4 = heartbeat(4, Phase::Initializing);
     assert_eq!(c.step(Input::HeartbeatArrival(from_c4), 2_763), vec![]);
+}
+
+#[test]
+fn a_life_begun_after_a_stall_clears_its_stalled_alarm_after_the_settle_bound() {
+    let mut c = formed_c(2);
+    let period_ms = c.config().heartbeat_period_ms;
+    let stalled = |c: &mut Core, at_ms| {
+        c.step(
+            Input::StartAgain {
+                cause: Restart::Stalled { stalled_ms: 300 },
+                incarnation: at_ms,
+            },
+            at_ms,
+        )
+    };
+    let cleared = Command::ClearAlarm {
+        about: 2,
+        reason: AlarmReason::Stalled,
+    };
+    assert!(stalled(&mut c, 5_000).contains(&Command::RaiseAlarm {
+        about: 2,
+        reason: AlarmReason::Stalled
+    }));
+    let until_ms = 5_000 + STALL_ALARM_ROUNDS * period_ms;
+    assert!(!advance(&mut c, until_ms - 1).contains(&cleared));
+    assert!(advance(&mut c, until_ms + period_ms).contains(&cleared));
+    assert!(
+        !advance(&mut c, until_ms + 10 * period_ms).contains(&cleared),
+        "once"
+    );
+    // Another cause of a new life is named by others (a cable, a takeover), not by itself.
+    let detached = c.step(
+        Input::StartAgain {
+            cause: Restart::Detached,
+            incarnation: 99,
+        },
+        until_ms + 11 * period_ms,
+    );
+    assert!(!detached
+        .iter()
+        .any(|command| matches!(command, Command::RaiseAlarm { .. })));
 }

@@ -33,6 +33,9 @@ pub const REASON_IMPOSTOR: u8 = 3;
 /// Alarm reason code: the controller's input disagreed with two agreeing peers' (raised by
 /// the controller about itself as it leaves).
 pub const REASON_INPUT_DISAGREES: u8 = 4;
+/// Alarm reason code: the controller stood still or was starved and started again (raised by
+/// its new life about itself).
+pub const REASON_STALLED: u8 = 5;
 
 /// Strength 0 on the wire: the controller does not command.
 pub const STRENGTH_NONE: u8 = 0;
@@ -84,6 +87,7 @@ pub fn reason_code(reason: AlarmReason) -> u8 {
         AlarmReason::Failed => REASON_FAILED,
         AlarmReason::Impostor => REASON_IMPOSTOR,
         AlarmReason::InputDisagrees => REASON_INPUT_DISAGREES,
+        AlarmReason::Stalled => REASON_STALLED,
     }
 }
 
@@ -93,6 +97,7 @@ pub(super) fn reason_from_code(field: &'static str, code: u8) -> Result<AlarmRea
         REASON_FAILED => Ok(AlarmReason::Failed),
         REASON_IMPOSTOR => Ok(AlarmReason::Impostor),
         REASON_INPUT_DISAGREES => Ok(AlarmReason::InputDisagrees),
+        REASON_STALLED => Ok(AlarmReason::Stalled),
         other => Err(WireError::new(
             field,
             format!("unknown alarm reason code {other}"),

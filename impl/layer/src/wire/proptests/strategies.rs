@@ -186,6 +186,7 @@ pub fn controller_alarm() -> impl Strategy<Value = ControllerAlarm> {
             AlarmReason::Failed,
             AlarmReason::Impostor,
             AlarmReason::InputDisagrees,
+            AlarmReason::Stalled,
         ]),
         any::<bool>(),
     )
