@@ -336,6 +336,12 @@ fn alarm_round_trips_and_rejects_bad_fields() {
         ..alarm
     };
     assert_eq!(AlarmSample::encode(&input).reason, 4);
+    let stalled = ControllerAlarm {
+        reason: AlarmReason::Stalled,
+        ..input
+    };
+    assert_eq!(AlarmSample::encode(&stalled).reason, 5);
+    assert_eq!(AlarmSample::encode(&stalled).decode(), Ok(stalled));
     assert_eq!(round_trip::<AlarmSample>(&input).unwrap(), input);
 
     let good = AlarmSample::encode(&alarm);
@@ -355,7 +361,7 @@ fn alarm_round_trips_and_rejects_bad_fields() {
             "alarm.about_id",
         ),
         (AlarmSample { reason: 0, ..good }, "alarm.reason"),
-        (AlarmSample { reason: 5, ..good }, "alarm.reason"),
+        (AlarmSample { reason: 6, ..good }, "alarm.reason"),
         (
             AlarmSample {
                 about_incarnation_valid: false,
