@@ -805,6 +805,20 @@ impl Writer {
 
   pub fn process_pending(&mut self) {
     self.expire_lifespan();
+    // A writer stopped after a send gap (`DataWriter::set_max_send_gap`) sends
+    // nothing: its samples are gone.
+    if self
+      .send_buffer
+      .stops_before_sending(std::time::Instant::now())
+    {
+      let last_available = self.send_buffer.last_change_sequence_number();
+      if self.last_sent < last_available {
+        self.last_sent = last_available;
+        self.sample_cursor = SampleCursor::Fresh;
+        self.send_buffer.set_sent_frontier(last_available);
+      }
+      return;
+    }
     // The doorbell enqueues this writer's id and then wakes. A sample admitted
     // while we are here pushes another id, so the next wake runs us again. The
     // shared buffer's `last_seq` is the source of truth.
@@ -835,6 +849,7 @@ impl Writer {
             self.last_sent = last_seq;
             self.sample_cursor = SampleCursor::Fresh;
             self.send_buffer.set_sent_frontier(last_seq);
+            self.send_buffer.note_sent(std::time::Instant::now());
             continue;
           }
           Some(BatchOutcome::Blocked { blocked }) => {
@@ -920,6 +935,7 @@ impl Writer {
             self.sample_cursor = SampleCursor::Fresh;
             self.send_buffer.set_sent_frontier(sequence_number);
             self.mark_change_sent_to_all_readers(sequence_number);
+            self.send_buffer.note_sent(std::time::Instant::now());
           }
           SendProgress::Blocked { cursor, blocked } => {
             // Reliable writers always back-pressure. Best-effort writers only if
@@ -1444,6 +1460,10 @@ impl Writer {
     // Note: The reader_proxy is now removed from readers map
     let reader_guid = reader_proxy.remote_reader_guid;
     self.expire_lifespan();
+    // A writer stopped after a send gap repairs nothing (its samples are gone).
+    self
+      .send_buffer
+      .stops_before_sending(std::time::Instant::now());
 
     debug!(
       "Repair data send to {reader_guid:?}. ReaderProxy Unsent changes: {:?}",

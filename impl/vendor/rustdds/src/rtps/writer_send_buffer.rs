@@ -80,6 +80,19 @@ struct Inner {
   // the upstream behaviour: the buffer does not know each sample's instance.
   replaces_unacknowledged: bool,
 
+  // The longest this writer may go between two sends of a new sample before
+  // it stops for good (`set_max_send_gap`; `None`, the default: no bound). An
+  // exclusive-ownership reader moves to a weaker writer when a writer's
+  // samples lapse for its deadline, and a sample sent after that takes it back:
+  // a writer whose process was starved or stopped (its application thread and
+  // its event loop both held back) must never send again after such a gap,
+  // and only the event loop, at the moment it would send, can tell.
+  max_send_gap: Option<StdDuration>,
+  // When the writer last sent a new sample (`None`: never).
+  last_sent_at: Option<Instant>,
+  // The writer found a gap past `max_send_gap`: it sends nothing more.
+  stopped_after_gap: bool,
+
   // Wakers of async producers / ack-waiters parked because the window was full
   // or acknowledgements were still pending. Drained (woken) on any advance.
   wakers: Vec<Waker>,
@@ -141,6 +154,9 @@ impl WriterSendBuffer {
           sent_frontier: SequenceNumber::new(0),
           max_retain: max_retain.max(1),
           replaces_unacknowledged: false,
+          max_send_gap: None,
+          last_sent_at: None,
+          stopped_after_gap: false,
           wakers: Vec::new(),
         }),
         progress: Condvar::new(),
@@ -158,6 +174,43 @@ impl WriterSendBuffer {
   /// without key (see `Inner::replaces_unacknowledged`).
   pub fn replace_unacknowledged_beyond_depth(&self) {
     self.shared.inner.lock().unwrap().replaces_unacknowledged = true;
+  }
+
+  /// Stop for good at the first gap longer than `gap` between two sends of a
+  /// new sample (`None`: never, the default). See `Inner::max_send_gap`.
+  pub fn set_max_send_gap(&self, gap: Option<StdDuration>) {
+    self.shared.inner.lock().unwrap().max_send_gap = gap;
+  }
+
+  /// Whether the writer stopped after a gap past its maximum send gap.
+  pub fn stopped_after_gap(&self) -> bool {
+    self.shared.inner.lock().unwrap().stopped_after_gap
+  }
+
+  /// The writer is about to send at `now`: returns whether it must not,
+  /// because it has stopped, or stops now (a sample waits and the last send
+  /// was longer ago than the maximum send gap). A stopped writer's samples are
+  /// all evicted, sent or not, so none is sent nor repaired.
+  pub fn stops_before_sending(&self, now: Instant) -> bool {
+    let mut inner = self.shared.inner.lock().unwrap();
+    let waiting = inner.last_seq > inner.sent_frontier;
+    let gap_past_bound = match (inner.max_send_gap, inner.last_sent_at) {
+      (Some(max_send_gap), Some(sent)) => now.saturating_duration_since(sent) > max_send_gap,
+      _ => false,
+    };
+    if waiting && gap_past_bound {
+      inner.stopped_after_gap = true;
+    }
+    if inner.stopped_after_gap {
+      inner.changes.clear();
+      inner.first_seq = inner.last_seq.plus_1();
+    }
+    inner.stopped_after_gap
+  }
+
+  /// The writer sent a new sample at `now`.
+  pub fn note_sent(&self, now: Instant) {
+    self.shared.inner.lock().unwrap().last_sent_at = Some(now);
   }
 
   // --- predicates (must be called while holding the lock) ---
@@ -543,6 +596,52 @@ mod tests {
     assert_eq!(i64::from(buf.first_change_sequence_number()), 3);
     assert_eq!(buf.remove_written_before(now + Duration::from_millis(100)), 2);
     assert_eq!(i64::from(buf.first_change_sequence_number()), 5);
+  }
+
+  // A maximum send gap stops the writer at the first send after a longer
+  // gap, for good, and evicts its samples; shorter gaps, an idle writer with
+  // nothing to send, and a writer without the bound never stop.
+  #[test]
+  fn a_send_after_a_gap_past_the_maximum_stops_the_writer_for_good() {
+    let buf = WriterSendBuffer::new(
+      GUID::GUID_UNKNOWN,
+      "t".to_string(),
+      /* reliable_writer */ true,
+      /* is_builtin */ false,
+      /* volatile */ true,
+      /* window_limit */ 10,
+      /* backlog_limit */ 1000,
+      /* max_retain */ 10,
+    );
+    let start = Instant::now();
+    let after = |ms| start + StdDuration::from_millis(ms);
+    assert!(admit_now(&buf, WriteOptions::default()));
+    assert!(!buf.stops_before_sending(after(0)), "never sent yet");
+    buf.note_sent(after(0));
+    buf.set_sent_frontier(SequenceNumber::new(1));
+    assert!(
+      !buf.stops_before_sending(after(1000)),
+      "no bound: any gap"
+    );
+    buf.set_max_send_gap(Some(StdDuration::from_millis(80)));
+    assert!(
+      !buf.stops_before_sending(after(1000)),
+      "nothing waits: an idle writer does not stop"
+    );
+    assert!(admit_now(&buf, WriteOptions::default()));
+    buf.note_sent(after(1000));
+    buf.set_sent_frontier(SequenceNumber::new(2));
+    assert!(admit_now(&buf, WriteOptions::default()));
+    assert!(!buf.stops_before_sending(after(1080)), "80 ms is within the bound");
+    buf.note_sent(after(1080));
+    buf.set_sent_frontier(SequenceNumber::new(3));
+    assert!(admit_now(&buf, WriteOptions::default()));
+    assert!(buf.stops_before_sending(after(1161)), "81 ms is past it");
+    assert!(buf.stopped_after_gap());
+    assert_eq!(buf.retained_len(), 0, "nothing left to send or repair");
+    assert!(admit_now(&buf, WriteOptions::default()));
+    assert!(buf.stops_before_sending(after(1162)), "stopped for good");
+    assert_eq!(buf.retained_len(), 0);
   }
 
   // A matched reliable reader that has not sent an ACKNACK yet reports

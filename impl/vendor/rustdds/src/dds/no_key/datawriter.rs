@@ -305,6 +305,17 @@ where
     self.keyed_datawriter.publisher()
   }
 
+  /// Stops this writer for good at the first gap longer than `gap` between
+  /// two of its sends: see `with_key::DataWriter::set_max_send_gap`.
+  pub fn set_max_send_gap(&self, gap: Option<std::time::Duration>) {
+    self.keyed_datawriter.set_max_send_gap(gap);
+  }
+
+  /// Whether this writer stopped after a gap past its maximum send gap.
+  pub fn stopped_after_gap(&self) -> bool {
+    self.keyed_datawriter.stopped_after_gap()
+  }
+
   /// Manually asserts liveliness if QoS agrees
   ///
   /// # Examples

@@ -273,6 +273,25 @@ where
     self.doorbell.ring();
   }
 
+  /// Stops this writer for good at the first gap longer than `gap` between
+  /// two of its sends of a new sample (`None`: never, the default). An
+  /// EXCLUSIVE-ownership reader moves to a weaker writer when this one's
+  /// samples lapse for the reader's deadline, and takes the actuator back at
+  /// the next one: a writer whose process was starved or stopped must not send
+  /// after such a gap, and only the participant's event loop, which sends, can
+  /// tell at the moment it would. A stopped writer sends and repairs nothing
+  /// ([`DataWriter::stopped_after_gap`]); the application drops it and, if it
+  /// should write again, creates another.
+  pub fn set_max_send_gap(&self, gap: Option<std::time::Duration>) {
+    self.send_buffer.set_max_send_gap(gap);
+  }
+
+  /// Whether this writer stopped after a gap past its maximum send gap
+  /// ([`DataWriter::set_max_send_gap`]).
+  pub fn stopped_after_gap(&self) -> bool {
+    self.send_buffer.stopped_after_gap()
+  }
+
   /// Manually refreshes liveliness
   ///
   /// Corresponds to DDS Spec 1.4 Section 2.2.2.4.2.22 assert_liveliness.
