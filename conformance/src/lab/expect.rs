@@ -178,8 +178,10 @@ pub fn for_fault(fault: &Fault) -> FaultExpected {
 /// its stall, or its writer its own lapse as the owner, within a command deadline and starts
 /// again, its new life raising `stalled` about itself (F12, F18; rl-core's
 /// `STALL_ALARM_ROUNDS`). Whichever comes first, it is within the peer deadline, a round and
-/// a command deadline of the fault, and the slack of a shared machine. The duplex and the
-/// pair have no bound argued yet (`None`: not judged).
+/// a command deadline of the fault, and the slack of a shared machine. A fault no reader saw
+/// (no owner change: a starvation the controller absorbs, 10 % of a core) left nothing to name
+/// and is not judged on it (judge::failures). The duplex and the pair have no bound argued yet
+/// (`None`: not judged).
 pub fn alarm_within_ms(fault: &Fault, architecture: Architecture) -> Option<f64> {
     let gray = matches!(fault, Fault::Freeze(_) | Fault::Starve(..));
     let t = timing();

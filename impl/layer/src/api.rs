@@ -171,7 +171,7 @@ impl Redundancy {
         Ok(self.role_writer_over(writer, policy))
     }
 
-    fn role_writer_over<T, K: Keying<T>>(
+    fn role_writer_over<T: Clone, K: Keying<T>>(
         &self,
         writer: StrengthWriter<T, K>,
         policy: AperiodicPolicy,
@@ -183,6 +183,11 @@ impl Redundancy {
         let voting = self.config.architecture == crate::config::ArchitectureName::Voting;
         let republishes =
             (voting && matches!(policy, AperiodicPolicy::Republish)).then_some(republish);
+        let mut writer = writer;
+        if republishes.is_some() {
+            let gap = crate::dds::qos::command_max_send_gap_ms(&self.config.timing);
+            writer.set_max_send_gap(Some(Duration::from_millis(gap)));
+        }
         RoleWriter {
             shared: Arc::clone(&self.shared),
             writer,
@@ -457,10 +462,16 @@ impl<T: Clone, K: Keying<T>> RoleWriter<T, K> {
         if !owner_beside_others {
             self.shared.loop_clock.not_the_owner();
         }
+        // Its DDS writer stopped after a gap in its sends: the actuator may have moved to the
+        // next writer, and the owner's next command would take it back, so it doubts itself
+        // as after a lapse (crate::dds::StrengthWriter::set_max_send_gap).
         let silent = || {
             self.shared.loop_clock.stalled_for_writer(restarts_seen)
                 || self.shared.silenced.load(Ordering::SeqCst)
-                || (owner_beside_others && self.shared.loop_clock.owner_lapsed(self.owner_lapse))
+                || (owner_beside_others
+                    && (self.shared.loop_clock.owner_lapsed(self.owner_lapse)
+                        || (self.writer.stopped_after_gap()
+                            && self.shared.loop_clock.owner_stopped(self.owner_lapse))))
         };
         let allowed = allowed.filter(|_| !silent());
         self.writer.set_strength(allowed)?;

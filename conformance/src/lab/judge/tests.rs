@@ -451,4 +451,25 @@ fn a_gray_fault_needs_an_alarm_naming_its_controller_within_its_bound() {
         judge(vec![alarm("C2", 3_100.0, 1, true)]),
         ["C1 frozen (freezer cgroup, no signal): the first alarm naming C1 came 1100 ms after it (expected within 870 ms)"]
     );
+    // One no reader saw (no owner change at either) needs none; a late one still fails.
+    let unseen = |events: Vec<ControllerEvent>| {
+        let mut observed = Observations::default();
+        observed.controller = events;
+        let metrics = Metrics {
+            named: alarms_naming(&frozen, &observed),
+            changes_per_fault: vec![FaultChanges {
+                fault: frozen[0].label.clone(),
+                connext: Some(0),
+                connext_at_ms: Some(vec![]),
+                ..FaultChanges::default()
+            }],
+            ..kill_run()
+        };
+        failures(&metrics, &kill(), Ok(()))
+    };
+    assert!(unseen(vec![]).is_empty());
+    assert_eq!(
+        unseen(vec![alarm("C2", 3_100.0, 1, true)]),
+        ["C1 frozen (freezer cgroup, no signal): the first alarm naming C1 came 1100 ms after it (expected within 870 ms)"]
+    );
 }

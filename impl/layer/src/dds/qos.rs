@@ -118,6 +118,20 @@ pub fn command_writer(timing: &Timing, strength: Strength) -> QosPolicies {
         .build()
 }
 
+/// The longest a voting controller's command writer may go between two sends before it stops
+/// for good (RustDDS fix 20, crate::dds::StrengthWriter::set_max_send_gap), ms: the command
+/// deadline less one republish period (90 ms by default), or halfway between the period and the
+/// deadline where the period is over a third of the deadline. Under the deadline, so the stop
+/// comes before any reader could have moved to the next writer: a send after the gap would take
+/// the actuator back. Over the period by as much as the deadline's margin, so a healthy
+/// writer never meets it; and over a starved link's injected lateness (70 ms, the F17 traces)
+/// plus a period, so a late but steady writer keeps its commands.
+pub fn command_max_send_gap_ms(timing: &Timing) -> u64 {
+    let deadline = timing.command_deadline_ms;
+    let period = timing.command_republish_ms.min(deadline);
+    deadline.saturating_sub(period).max((deadline + period) / 2)
+}
+
 /// Command reader: EXCLUSIVE (matches only exclusive writers), reliable, the same deadline,
 /// and a deeper history so every writer's sample reaches the arbiter.
 pub fn command_reader(timing: &Timing) -> QosPolicies {

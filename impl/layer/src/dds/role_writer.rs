@@ -37,6 +37,10 @@ pub trait Keying<T>: private::Sealed + Send + 'static {
     ) -> Result<Self::Raw, CreateError>;
     #[doc(hidden)]
     fn write(raw: &Self::Raw, sample: T, at: Timestamp) -> Result<(), WriteError<T>>;
+    #[doc(hidden)]
+    fn set_max_send_gap(raw: &Self::Raw, gap: Option<Duration>);
+    #[doc(hidden)]
+    fn stopped_after_gap(raw: &Self::Raw) -> bool;
 }
 
 /// An unkeyed topic: every controller's writer writes the one instance.
@@ -72,6 +76,14 @@ where
     fn write(raw: &Self::Raw, sample: T, at: Timestamp) -> Result<(), WriteError<T>> {
         raw.write(sample, Some(at))
     }
+
+    fn set_max_send_gap(raw: &Self::Raw, gap: Option<Duration>) {
+        raw.set_max_send_gap(gap);
+    }
+
+    fn stopped_after_gap(raw: &Self::Raw) -> bool {
+        raw.stopped_after_gap()
+    }
 }
 
 impl<T> Keying<T> for WithKey
@@ -92,6 +104,14 @@ where
 
     fn write(raw: &Self::Raw, sample: T, at: Timestamp) -> Result<(), WriteError<T>> {
         raw.write(sample, Some(at))
+    }
+
+    fn set_max_send_gap(raw: &Self::Raw, gap: Option<Duration>) {
+        raw.set_max_send_gap(gap);
+    }
+
+    fn stopped_after_gap(raw: &Self::Raw) -> bool {
+        raw.stopped_after_gap()
     }
 }
 
@@ -128,6 +148,9 @@ pub struct StrengthWriter<T, K: Keying<T> = NoKey> {
     waiting_raise: Option<(Strength, Instant)>,
     /// The takeover writer kept ready while it commands at the Secondary's strength.
     ready: Option<K::Raw>,
+    /// The longest its DDS writers may go between two sends before they stop for good
+    /// (`None`: no bound): see [`StrengthWriter::set_max_send_gap`].
+    max_send_gap: Option<Duration>,
     /// Commands held back by the fault-injection control (a starved link's delay), with
     /// their stamps, oldest first.
     #[cfg(feature = "fault-injection")]
@@ -155,6 +178,7 @@ where
             retiring: None,
             waiting_raise: None,
             ready: None,
+            max_send_gap: None,
             #[cfg(feature = "fault-injection")]
             delayed: std::collections::VecDeque::new(),
             samples: PhantomData,
@@ -168,6 +192,20 @@ where
     /// Changes the strength: a no-op when unchanged, else a new writer (or none for `None`).
     /// On error there is no writer and the strength reads `None`.
     pub fn set_strength(&mut self, strength: Option<Strength>) -> Result<(), DdsError> {
+        if self.stopped_after_gap() {
+            // It sends nothing more: a new writer at the strength asked for (a standby's,
+            // which no actuator follows; the owner doubts itself first, crate::api).
+            let then = match strength {
+                Some(strength) => format!("a new one at {} replaces it", strength.value()),
+                None => "it goes".to_string(),
+            };
+            warn!(
+                "{}: the command writer at {} stopped after a gap in its sends; {then}",
+                self.topic.name(),
+                self.strength.map_or(0, Strength::value),
+            );
+            return self.apply_strength(strength);
+        }
         if strength == self.strength && strength.is_some() == self.writer.is_some() {
             self.waiting_raise = None;
             return Ok(());
@@ -217,7 +255,7 @@ where
     }
 
     fn create(&self, strength: Strength) -> Result<K::Raw, DdsError> {
-        K::create(
+        let writer = K::create(
             &self.publisher,
             &self.topic,
             qos::command_writer(&self.timing, strength),
@@ -226,7 +264,31 @@ where
             what: "role writer",
             topic: self.topic.name(),
             reason: e.to_string(),
-        })
+        })?;
+        K::set_max_send_gap(&writer, self.max_send_gap);
+        Ok(writer)
+    }
+
+    /// Bounds the gap between two sends of its DDS writers (`None`: no bound): a writer
+    /// whose participant finds, at the moment it would send, that its last send was longer
+    /// ago stops for good, sending and repairing nothing more (RustDDS fix 20). A reader
+    /// that moved to a weaker writer after such a gap would take the actuator back at the
+    /// next sample; a starved process runs late in every thread, so only the sending one can
+    /// tell in time (crate::stall). Applies to the writers it has and creates.
+    pub fn set_max_send_gap(&mut self, gap: Option<Duration>) {
+        self.max_send_gap = gap;
+        for writer in [&self.writer, &self.ready].into_iter().flatten() {
+            K::set_max_send_gap(writer, gap);
+        }
+        if let Some((retiring, _)) = &self.retiring {
+            K::set_max_send_gap(retiring, gap);
+        }
+    }
+
+    /// Whether its current DDS writer stopped after a gap in its sends
+    /// ([`StrengthWriter::set_max_send_gap`]).
+    pub fn stopped_after_gap(&self) -> bool {
+        self.writer.as_ref().is_some_and(K::stopped_after_gap)
     }
 
     /// The strength of the DDS writer now (`None`: no writer).
