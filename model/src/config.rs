@@ -341,22 +341,41 @@ impl Config {
                 crate::Variant::Paper => "paper",
             }
         );
-        if self.max_starvations > 0 {
-            flags.push_str(&format!(" --starvations {}", self.max_starvations));
-        }
-        if self.max_slowdowns > 0 {
-            flags.push_str(&format!(
-                " --slowdowns {} --late-heartbeats {}",
-                self.max_slowdowns, self.max_late_heartbeats
-            ));
-        }
-        if self.unnoticed_stalls {
-            flags.push_str(" --unnoticed-stalls");
+        for (flag, _) in self.optional_faults() {
+            flags.push_str(&format!(" {flag}"));
         }
         for fix in &self.reverted {
             flags.push_str(&format!(" --revert {}", fix.label().to_lowercase()));
         }
         flags
+    }
+
+    /// The faults that only some scopes enable, as the check's flags and as the summary
+    /// names them: absent when off, so the configurations before them read as they did.
+    fn optional_faults(&self) -> Vec<(String, String)> {
+        let mut faults = Vec::new();
+        if self.max_starvations > 0 {
+            faults.push((
+                format!("--starvations {}", self.max_starvations),
+                format!("starvations {}", self.max_starvations),
+            ));
+        }
+        if self.max_slowdowns > 0 {
+            faults.push((
+                format!(
+                    "--slowdowns {} --late-heartbeats {}",
+                    self.max_slowdowns, self.max_late_heartbeats
+                ),
+                format!(
+                    "slowdowns {} (late heartbeats {})",
+                    self.max_slowdowns, self.max_late_heartbeats
+                ),
+            ));
+        }
+        if self.unnoticed_stalls {
+            faults.push(("--unnoticed-stalls".into(), "unnoticed stalls".into()));
+        }
+        faults
     }
 
     /// One line naming the configuration, for reports and trace headers.
@@ -375,17 +394,8 @@ impl Config {
             self.window_rounds,
             self.variant
         );
-        if self.max_starvations > 0 {
-            line.push_str(&format!(", starvations {}", self.max_starvations));
-        }
-        if self.max_slowdowns > 0 {
-            line.push_str(&format!(
-                ", slowdowns {} (late heartbeats {})",
-                self.max_slowdowns, self.max_late_heartbeats
-            ));
-        }
-        if self.unnoticed_stalls {
-            line.push_str(", unnoticed stalls");
+        for (_, label) in self.optional_faults() {
+            line.push_str(&format!(", {label}"));
         }
         if !self.reverted.is_empty() {
             let labels: Vec<String> = self.reverted.iter().map(|fix| fix.label()).collect();

@@ -23,6 +23,7 @@
 //!
 //! Time is counted in rounds of one heartbeat period (docs/model.md explains why).
 
+pub mod action;
 pub mod architectures;
 pub mod config;
 pub mod explore;

@@ -40,6 +40,7 @@ pub fn model_hash() -> String {
         include_str!("../protocol/gray.rs"),
         include_str!("../protocol/actuator.rs"),
         include_str!("../state.rs"),
+        include_str!("../action.rs"),
         include_str!("../types.rs"),
         include_str!("../fixes.rs"),
         include_str!("../config.rs"),
