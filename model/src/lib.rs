@@ -6,6 +6,7 @@
 //! - [`types`]: the vocabulary shared with the implementation (roles, phases, assignments);
 //! - [`config`]: how big a check is (controllers, fault budgets, timer lengths in rounds);
 //! - [`fixes`]: the findings' fixes as switches (docs/findings.md), variants and mutations;
+//! - [`action`]: the environment and timer events, which are also the trace vocabulary;
 //! - [`state`]: what each controller knows, the network, and the ghost history;
 //! - [`protocol`]: the rules, action by action;
 //! - [`properties`]: what must always hold and what must sometimes happen;
