@@ -313,6 +313,7 @@ pub fn describe_event(event: &EventLine, number: Option<u8>) -> String {
         Event::HeartbeatLate { from, waited_ms } => {
             format!("from C{from}, waited {waited_ms} ms")
         }
+        Event::RoundEndsMissed { rounds } => format!("one round end for {rounds} more missed"),
         Event::Resumed { stalled_ms } => format!("after a {stalled_ms} ms stall"),
         Event::Held {
             heartbeat_writers,

@@ -50,6 +50,15 @@ pub enum Action {
     /// multicast sample, sent late (a gap that one peer's round sees and another's does not
     /// is a lost heartbeat, budgeted apart).
     LateHeartbeat { from: Id },
+    /// A slowed controller's loop takes this round's heartbeats in after its round's end:
+    /// every peer's heartbeat of the round is lost to it (a slowed receiver; budgeted with
+    /// the late heartbeats).
+    HearLate { to: Id },
+    /// The round ends while a slowed controller's loop sleeps through it: it ends no round
+    /// at this tick (its dead-man counts no miss) and sends no heartbeat in it; its next
+    /// round end is one round end for all it missed, as the implementation's loop that fell
+    /// behind runs (budgeted with the late heartbeats).
+    Oversleep { controller: Id },
     /// A paused controller runs again without noticing it stopped (no signal, no clock jump
     /// it trusts), within its peers' dead-man deadline: it goes on with its memory (F18).
     Thaw { controller: Id },
@@ -85,6 +94,8 @@ pub enum ActionKind {
     Starve,
     Slow,
     LateHeartbeat,
+    HearLate,
+    Oversleep,
     Thaw,
     Lag,
     CatchUp,
@@ -94,7 +105,7 @@ pub enum ActionKind {
 }
 
 impl ActionKind {
-    pub const ALL: [ActionKind; 20] = [
+    pub const ALL: [ActionKind; 22] = [
         ActionKind::LoseHeartbeat,
         ActionKind::Tick,
         ActionKind::ExpireWindow,
@@ -109,6 +120,8 @@ impl ActionKind {
         ActionKind::Starve,
         ActionKind::Slow,
         ActionKind::LateHeartbeat,
+        ActionKind::HearLate,
+        ActionKind::Oversleep,
         ActionKind::Thaw,
         ActionKind::Lag,
         ActionKind::CatchUp,
@@ -133,6 +146,8 @@ impl ActionKind {
             ActionKind::Starve => "starve",
             ActionKind::Slow => "slow",
             ActionKind::LateHeartbeat => "late_heartbeat",
+            ActionKind::HearLate => "hear_late",
+            ActionKind::Oversleep => "oversleep",
             ActionKind::Thaw => "thaw",
             ActionKind::Lag => "lag",
             ActionKind::CatchUp => "catch_up",
@@ -160,6 +175,8 @@ impl Action {
             Action::Starve { .. } => ActionKind::Starve,
             Action::Slow { .. } => ActionKind::Slow,
             Action::LateHeartbeat { .. } => ActionKind::LateHeartbeat,
+            Action::HearLate { .. } => ActionKind::HearLate,
+            Action::Oversleep { .. } => ActionKind::Oversleep,
             Action::Thaw { .. } => ActionKind::Thaw,
             Action::Lag { .. } => ActionKind::Lag,
             Action::CatchUp { .. } => ActionKind::CatchUp,
@@ -185,12 +202,15 @@ impl Action {
             | Action::Unplug { controller }
             | Action::Starve { controller }
             | Action::Slow { controller }
+            | Action::Oversleep { controller }
             | Action::Thaw { controller }
             | Action::Lag { controller }
             | Action::CatchUp { controller }
             | Action::Heal { controller }
             | Action::DiscoverWriter { controller } => Some(controller),
-            Action::DeliverVotes { to } | Action::TieBreak { to } => Some(to),
+            Action::DeliverVotes { to } | Action::TieBreak { to } | Action::HearLate { to } => {
+                Some(to)
+            }
         }
     }
 }
@@ -204,6 +224,13 @@ impl fmt::Display for Action {
             Action::LateHeartbeat { from } => {
                 write!(f, "C{from}'s heartbeat late for every peer's round end")
             }
+            Action::HearLate { to } => {
+                write!(f, "every heartbeat to C{to} late for its round's end")
+            }
+            Action::Oversleep { controller } => write!(
+                f,
+                "round ends while C{controller}'s loop sleeps through it (no round end, no heartbeat)"
+            ),
             Action::Tick => write!(f, "round ends (heartbeats delivered, dead-man check)"),
             Action::ExpireWindow { controller } => {
                 write!(f, "C{controller}: initialization window expires")

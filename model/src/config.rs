@@ -51,6 +51,11 @@ pub struct Config {
     /// dead-man deadline (a longer stop is noticed: docs/findings.md, F18).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub unnoticed_stalls: bool,
+    /// A slowed controller's loop may also take its peers' heartbeats in after its round's
+    /// end ([`crate::Action::HearLate`]) or sleep through a round's end
+    /// ([`crate::Action::Oversleep`]): a slowed receiver (F18, docs/findings.md).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub slowed_receivers: bool,
     /// A peer is declared lost after this many rounds without its heartbeat (deadline 2x period).
     pub dead_after_rounds: u8,
     /// The initialization window closes after this many rounds without a new peer (paper: 10 s;
@@ -102,6 +107,7 @@ impl Default for Config {
             max_slowdowns: 0,
             max_late_heartbeats: 0,
             unnoticed_stalls: false,
+            slowed_receivers: false,
             dead_after_rounds: 2,
             window_rounds: 2,
             settle_within_rounds: 10,
@@ -165,6 +171,15 @@ impl Config {
             max_slowdowns: 1,
             max_late_heartbeats: base.late_heartbeats_per_slowdown(),
             ..base
+        }
+    }
+
+    /// The gray scope with slowed receivers (F18): the slowed controller's loop may also
+    /// hear its peers late or sleep through a round's end (`check --gray --slowed-receivers`).
+    pub fn slowed_receiver() -> Config {
+        Config {
+            slowed_receivers: true,
+            ..Config::gray()
         }
     }
 
@@ -374,6 +389,9 @@ impl Config {
         }
         if self.unnoticed_stalls {
             faults.push(("--unnoticed-stalls".into(), "unnoticed stalls".into()));
+        }
+        if self.slowed_receivers {
+            faults.push(("--slowed-receivers".into(), "slowed receivers".into()));
         }
         faults
     }

@@ -309,6 +309,8 @@ fn short(action: &Action) -> String {
         Action::Starve { .. } => "starved".into(),
         Action::Slow { .. } => "slowed".into(),
         Action::LateHeartbeat { .. } => "hb late".into(),
+        Action::HearLate { .. } => "hears late".into(),
+        Action::Oversleep { .. } => "tick, asleep".into(),
         Action::Thaw { .. } => "runs again".into(),
         Action::Lag { .. } => "deadline missed".into(),
         Action::CatchUp { .. } => "late sample".into(),

@@ -157,3 +157,46 @@ fn lost_heartbeat_is_one_way() {
     assert_eq!(state.controller(2).peer(1).silent_rounds, 1);
     assert_eq!(state.controller(1).peer(2).silent_rounds, 0);
 }
+
+#[test]
+fn a_slowed_tertiary_that_sleeps_through_two_round_ends_and_hears_late_stands_alone_at_its_strength(
+) {
+    // The fault lab's starved controller (starve-primary, docs/faults.md): its loop slept
+    // through two round ends and took its peers' heartbeats in after the third. It lost both
+    // and, alone, is the provisional Primary of its own result, holding the strength it had
+    // (F11: a newly provisional Primary keeps its strength for a round), below the Primary.
+    let m = RlModel::new(Config::slowed_receiver());
+    let step = |state: &model::State, action: Action| {
+        m.next_state(state, action)
+            .unwrap_or_else(|| panic!("{action} not enabled"))
+    };
+    let mut state = settle(start(3), 8);
+    assert_eq!(state.controller(3).output, Some(10));
+    for action in [
+        Action::Slow { controller: 3 },
+        Action::HearLate { to: 3 },
+        Action::Tick,
+        Action::Oversleep { controller: 3 },
+    ] {
+        state = step(&state, action);
+    }
+    let before_sleep = state.controller(3).clone();
+    state = step(&state, Action::Oversleep { controller: 3 });
+    assert_eq!(
+        state.controller(3),
+        &before_sleep,
+        "no round end of its own"
+    );
+    assert!(
+        state.controller(1).peer(3).alive.is_none(),
+        "its peers lost it"
+    );
+    state = step(&state, Action::HearLate { to: 3 });
+    state = step(&state, Action::Tick);
+    let c3 = state.controller(3);
+    assert_eq!(c3.role, Some(Role::Primary));
+    assert!(c3.provisional);
+    assert_eq!(c3.output, Some(10));
+    assert_eq!(state.controller(1).role, Some(Role::Primary));
+    assert_eq!(state.controller(1).output, Some(30));
+}

@@ -329,7 +329,11 @@ impl<'a> CoreNetwork<'a> {
             }
             // The gray process faults are judged on processes (the fault lab); the trace set
             // has none of them.
-            Action::Slow { .. } | Action::LateHeartbeat { .. } | Action::Thaw { .. } => {
+            Action::Slow { .. }
+            | Action::LateHeartbeat { .. }
+            | Action::HearLate { .. }
+            | Action::Oversleep { .. }
+            | Action::Thaw { .. } => {
                 return Err(Problem::Unsupported(format!(
                     "{action}: a gray process fault, judged by the fault lab, not replayed on cores"
                 )));

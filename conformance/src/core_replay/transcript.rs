@@ -135,6 +135,7 @@ fn command_text(id: ControllerId, command: &Command, numbers: &IncarnationNumber
         ),
         Command::RaiseAlarm { about, reason } => format!("raise alarm C{about} {reason:?}"),
         Command::ClearAlarm { about, reason } => format!("clear alarm C{about} {reason:?}"),
+        Command::RoundEndsMissed { rounds } => format!("{rounds} round ends missed"),
         Command::StartAgain => "start again as a new incarnation".to_string(),
         Command::NewLife { cause } => format!("new life ({cause:?})"),
         Command::MoveClock { by_ms, following } => {

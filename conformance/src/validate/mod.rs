@@ -106,6 +106,10 @@ impl Timing {
             max_slowdowns: 0,
             max_late_heartbeats: 0,
             unnoticed_stalls: false,
+            // A round end a slowed loop slept through is the record's `round_ends_missed`
+            // (the model's `Oversleep`), read by the search itself; its late hearing shows as
+            // lost heartbeats.
+            slowed_receivers: false,
             dead_after_rounds: self.dead_after_rounds,
             window_rounds: self.window_rounds,
             settle_within_rounds: model::Config::default().settle_within_rounds,

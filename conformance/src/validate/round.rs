@@ -45,7 +45,13 @@ impl Search<'_> {
             let senders: Vec<ControllerId> = up.iter().copied().filter(|s| *s != id).collect();
             let mut outcomes: Vec<(Controller, u16)> = Vec::new();
             let mut seen: HashSet<Controller> = HashSet::new();
-            for candidate in slot {
+            let number = slot[0].incarnation;
+            let slept = self.slept_through(id, number, boundary);
+            if slept {
+                // The model's `Oversleep`: its loop ran no round end of its own here.
+                outcomes.extend(slot.iter().map(|candidate| (candidate.clone(), 0)));
+            }
+            for candidate in slot.iter().filter(|_| !slept) {
                 let mut ends = round_end_of(&self.config, &reps, id, candidate, &senders);
                 ends.extend(stale_deposed_ends(
                     &self.config,
@@ -62,7 +68,6 @@ impl Search<'_> {
                     }
                 }
             }
-            let number = slot[0].incarnation;
             let now = self.observation(id, number, boundary)?;
             let later = self.observation(id, number, boundary + 1)?;
             let views: Vec<AbstractController> = outcomes
@@ -103,6 +108,14 @@ impl Search<'_> {
             slots.push(group_by_heartbeat(kept));
         }
         Ok(RoundEnd::Survivors(combine(slots, &reps.controllers)))
+    }
+}
+
+impl Search<'_> {
+    /// Whether life `number` of `id` slept through the round end of `boundary`.
+    fn slept_through(&self, id: ControllerId, number: u8, boundary: u64) -> bool {
+        self.life(id, number)
+            .is_some_and(|life| life.missed_boundaries.contains(&boundary))
     }
 }
 

@@ -20,6 +20,25 @@ pub(super) struct LifeRounds {
     /// The last round in which it printed anything: it was alive until then.
     pub(super) last_round: u64,
     pub(super) stopped_round: Option<u64>,
+    /// Boundaries its loop slept through (its `round_ends_missed` lines: the model's
+    /// `Oversleep`): no round end of its own there.
+    pub(super) missed_boundaries: HashSet<u64>,
+}
+
+/// The boundaries a life's loop slept through: a `round_ends_missed` line of `n` printed in
+/// round `r` (its late round end, boundary `r`) stands for boundaries `r - n` to `r - 1`.
+fn missed_boundaries(log: &LifeLog, period_ms: u64) -> HashSet<u64> {
+    log.events
+        .iter()
+        .filter_map(|e| match e.event {
+            rl_layer::event::Event::RoundEndsMissed { rounds } => Some((e.t_ms, rounds)),
+            _ => None,
+        })
+        .flat_map(|(t_ms, rounds)| {
+            let late = round_of(t_ms, period_ms);
+            late.saturating_sub(rounds)..late
+        })
+        .collect()
 }
 
 /// The search's view of one candidate history: per controller id (index id - 1) the model
@@ -116,6 +135,7 @@ impl<'a> Search<'a> {
                     start_round: round_of(start, period),
                     last_round: round_of(log.last_event_ms().unwrap_or(start), period),
                     stopped_round: log.stopped_ms().map(|t| round_of(t, period)),
+                    missed_boundaries: missed_boundaries(log, period),
                 });
             }
         }

@@ -118,3 +118,44 @@ fn a_lost_failed_peer_may_be_missing_from_sees_and_failed() {
     };
     assert_eq!(differences(&lost_unfailed, &observed), vec!["sees"]);
 }
+
+/// The search reads a `round_ends_missed` line as the model's `Oversleep`: the sleeper's
+/// state stays as it was, and every other controller ends the round as at a tick with the
+/// sleeper's heartbeat lost.
+#[test]
+fn an_overslept_round_end_leaves_the_sleeper_as_it_was() {
+    let config = model::Config::slowed_receiver();
+    let rl_model = RlModel::new(config.clone());
+    let mut checked = 0;
+    for seed in 0..200 {
+        let path = model::simulate::walk(&rl_model, seed, 40);
+        for state in path.steps.iter().map(|(_, s)| s) {
+            let mut enabled = Vec::new();
+            protocol::actions(&config, state, &mut enabled);
+            for action in enabled {
+                let Action::Oversleep { controller } = action else {
+                    continue;
+                };
+                let index = usize::from(controller) - 1;
+                let slept = protocol::next_state(&config, state, action).expect("enabled");
+                assert_eq!(
+                    slept.controllers[index], state.controllers[index],
+                    "C{controller} slept through the round in {state:?}"
+                );
+                let late = protocol::next_state(
+                    &config,
+                    state,
+                    Action::LateHeartbeat { from: controller },
+                )
+                .expect("an oversleep's heartbeat is late");
+                let ticked = protocol::next_state(&config, &late, Action::Tick).expect("tick");
+                for c in state.controllers.iter().filter(|c| c.id != controller) {
+                    let i = usize::from(c.id) - 1;
+                    assert_eq!(slept.controllers[i], ticked.controllers[i], "C{}", c.id);
+                }
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked > 50, "only {checked} oversleeps checked");
+}

@@ -109,6 +109,12 @@ pub enum Command {
         /// The reason it was raised with.
         reason: AlarmReason,
     },
+    /// The caller fell behind (a starved or stalled loop): the round end just run is the
+    /// one for `rounds` more round boundaries that passed unrun. A record; nothing to do.
+    RoundEndsMissed {
+        /// Round boundaries passed without a round end of their own.
+        rounds: u64,
+    },
     /// Start again as a new incarnation, silent until it has heard a round (as after a
     /// stall): a peer took over from this controller, whose commands arrive late (F17). The
     /// caller answers with [`Input::StartAgain`] and a new incarnation.

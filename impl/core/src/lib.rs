@@ -438,6 +438,10 @@ impl Core {
                 }
                 // A caller that fell behind (a stopped process) runs one round end, not every
                 // missed one: it cannot know what it did not hear.
+                let missed = now_ms.saturating_sub(self.round_end_ms) / period_ms;
+                if missed > 0 {
+                    commands.push(Command::RoundEndsMissed { rounds: missed });
+                }
                 self.round_end_ms = next_boundary(now_ms, period_ms);
                 self.heartbeat_due_ms =
                     (self.round_end_ms - period_ms + self.config.heartbeat_offset_ms()).max(now_ms);

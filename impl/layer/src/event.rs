@@ -127,6 +127,13 @@ pub enum Event {
         /// How long (ms) it came after the fastest delivery from that peer.
         waited_ms: u64,
     },
+    /// The voting loop fell behind (starved, stalled): the round end of this line stands for
+    /// `rounds` more round boundaries that passed without one (`rl_core::Command::RoundEndsMissed`).
+    /// The model's `Oversleep`: what it did not hear in them is lost to it.
+    RoundEndsMissed {
+        /// Round boundaries passed without a round end of their own.
+        rounds: u64,
+    },
     /// The voting loop did not run for `stalled_ms` (at least a peer deadline: a SIGSTOP, a
     /// frozen machine): the controller starts again as the incarnation of this line, silent
     /// until it has heard a round and joined below the controllers that kept running.
@@ -195,6 +202,7 @@ impl Event {
             Event::NetworkConclusion { .. } => "network_conclusion",
             Event::HeartbeatDropped { .. } => "heartbeat_dropped",
             Event::HeartbeatLate { .. } => "heartbeat_late",
+            Event::RoundEndsMissed { .. } => "round_ends_missed",
             Event::Resumed { .. } => "resumed",
             Event::Detached => "detached",
             Event::Deposed => "deposed",
@@ -285,6 +293,10 @@ mod tests {
         assert_eq!(
             line(Event::HeartbeatDropped { from: 1 }).to_json(),
             r#"{"t_ms":1000,"id":2,"incarnation":77,"event":"heartbeat_dropped","from":1}"#
+        );
+        assert_eq!(
+            line(Event::RoundEndsMissed { rounds: 2 }).to_json(),
+            r#"{"t_ms":1000,"id":2,"incarnation":77,"event":"round_ends_missed","rounds":2}"#
         );
         assert_eq!(
             line(Event::Resumed { stalled_ms: 3000 }).to_json(),

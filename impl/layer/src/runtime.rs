@@ -516,6 +516,10 @@ impl Voting {
             }
             Command::RaiseAlarm { about, reason } => self.alarm(about, reason, true),
             Command::ClearAlarm { about, reason } => self.alarm(about, reason, false),
+            Command::RoundEndsMissed { rounds } => {
+                warn!("the voting loop fell behind: one round end for {rounds} more missed");
+                self.event(Event::RoundEndsMissed { rounds });
+            }
             // After the step's other commands: the new life replaces the core.
             Command::StartAgain => self.deposed = true,
             Command::NewLife { cause } => self.new_life(cause),

@@ -47,6 +47,10 @@ pub struct Scope {
     /// dead-man deadline (F18).
     #[arg(long)]
     unnoticed_stalls: bool,
+    /// A slowed controller may also hear its peers late or sleep through a round's end (a
+    /// slowed receiver; with `--gray` or `--slowdowns`, F18).
+    #[arg(long)]
+    slowed_receivers: bool,
     /// The scope of a controller that comes back: 3 controllers, one pause and one cut, no
     /// crash or lost heartbeat (overrides the fault flags).
     #[arg(long, conflicts_with_all = ["full", "gray"])]
@@ -81,6 +85,7 @@ impl Scope {
             let gray = Config::gray();
             Config {
                 max_late_heartbeats: self.late_heartbeats.unwrap_or(gray.max_late_heartbeats),
+                slowed_receivers: self.slowed_receivers,
                 ..gray
             }
         } else {
@@ -95,6 +100,7 @@ impl Scope {
                 max_slowdowns: self.slowdowns,
                 max_late_heartbeats: self.late_heartbeats.unwrap_or(0),
                 unnoticed_stalls: self.unnoticed_stalls,
+                slowed_receivers: self.slowed_receivers,
                 max_lost_heartbeats: self.lost_heartbeats,
                 ..Config::default()
             }
@@ -123,7 +129,7 @@ pub struct OutputScope {
     /// exclusive-ownership receiver and the controllers' cross-check.
     #[arg(long, conflicts_with_all = [
         "controllers", "late_joiners", "crashes", "restarts", "lost_heartbeats", "pauses",
-        "cuts", "starvations", "slowdowns", "late_heartbeats", "unnoticed_stalls", "returns", "gray", "variant",
+        "cuts", "starvations", "slowdowns", "late_heartbeats", "unnoticed_stalls", "slowed_receivers", "returns", "gray", "variant",
         "revert", "full", "mutation",
     ])]
     pub outputs: bool,

@@ -35,8 +35,26 @@ pub(super) fn actions(
         out.push(Action::Slow { controller: id });
     }
     let late_open = state.history.late_heartbeats < config.max_late_heartbeats;
-    if state.slowed & bit != 0 && c.is_up() && late_open && !late_this_round(config, state, id) {
-        out.push(Action::LateHeartbeat { from: id });
+    if state.slowed & bit != 0 && c.is_up() && late_open {
+        if !late_this_round(config, state, id) {
+            out.push(Action::LateHeartbeat { from: id });
+        }
+        // A slowed receiver is one the actuator does not follow: a loop a heartbeat's lead on
+        // the round's end late (or a round late) has held its process's command sends longer
+        // than their gap bound too, so a commanding Primary's writer lapses first (`Lag`, F18).
+        let commanding_primary = c.role == Some(Role::Primary) && c.output.is_some();
+        let receiver = config.slowed_receivers && !commanding_primary;
+        if receiver && !heard_late_this_round(config, state, id) {
+            out.push(Action::HearLate { to: id });
+        }
+        // Pushed before the controllers' own actions: a round may end now.
+        // An oversleep is a round late both ways, and a round's lateness either way is
+        // already in it.
+        let room = state.history.late_heartbeats + 1 < config.max_late_heartbeats;
+        if receiver && room && !late_in_this_round(config, state, id) && out.contains(&Action::Tick)
+        {
+            out.push(Action::Oversleep { controller: id });
+        }
     }
     if c.life == Life::Paused && config.unnoticed_stalls && within_peer_deadline(state, id) {
         out.push(Action::Thaw { controller: id });
@@ -62,12 +80,54 @@ fn late_this_round(config: &Config, state: &State, from: Id) -> bool {
         .all(|to| state.lost_links & link_bit(from, to) != 0)
 }
 
+/// A slowdown heals at a round's start: a round with a heartbeat late to or from the slowed
+/// controller is still its episode's.
+pub(super) fn late_in_this_round(config: &Config, state: &State, id: Id) -> bool {
+    config
+        .ids()
+        .filter(|peer| *peer != id)
+        .any(|peer| state.lost_links & (link_bit(id, peer) | link_bit(peer, id)) != 0)
+}
+
+/// Every peer's heartbeat of this round is already late for the slowed controller.
+fn heard_late_this_round(config: &Config, state: &State, to: Id) -> bool {
+    config
+        .ids()
+        .filter(|from| *from != to)
+        .all(|from| state.lost_links & link_bit(from, to) != 0)
+}
+
 /// A slowed controller's heartbeat of this round misses every peer's round end: part of its
 /// slowdown's episode, not a new fault.
 pub(super) fn late_heartbeat(config: &Config, next: &mut State, from: Id) {
     for to in config.ids().filter(|to| *to != from) {
         next.lost_links |= link_bit(from, to);
     }
+    count_late(next);
+}
+
+/// A slowed controller takes this round's heartbeats in after its round's end: a slowed
+/// receiver, part of its slowdown's episode.
+pub(super) fn hear_late(config: &Config, next: &mut State, to: Id) {
+    for from in config.ids().filter(|from| *from != to) {
+        next.lost_links |= link_bit(from, to);
+    }
+    count_late(next);
+}
+
+/// The round ends while the slowed controller's loop sleeps: its heartbeat of the round was
+/// never sent, and it ends no round of its own (the implementation's loop, once it runs,
+/// ends one round for all it missed: `rl_core::Core`'s round end).
+pub(super) fn oversleep(config: &Config, next: &mut State, controller: Id) {
+    late_heartbeat(config, next, controller);
+    // What it would have heard is late too: two of the slowdown's late heartbeats.
+    count_late(next);
+    let before = next.clone();
+    super::round::tick(config, &before, next, Some(controller));
+}
+
+/// One more late heartbeat of the slowdown's budget.
+fn count_late(next: &mut State) {
     let history = &mut next.history;
     history.late_heartbeats += 1;
     history.quiet_rounds = 0;
@@ -126,7 +186,9 @@ fn start_again(config: &Config, state: &State, next: &mut State, controller: Id)
 }
 
 /// Ghost bookkeeping after a step: a slowed controller that lost the Primary role must not
-/// hold it again while it is slowed ("a sick controller is not made Primary again").
+/// hold it again while it is slowed ("a sick controller is not made Primary again"). A
+/// provisional Primary is not made Primary by anyone: it is a slowed receiver that heard
+/// nobody, alone, below the live Primary's strength (F11).
 pub(super) fn note_sick(before: &State, next: &mut State) {
     for b in &before.controllers {
         let bit = 1 << (b.id - 1);
@@ -144,6 +206,7 @@ pub(super) fn note_sick(before: &State, next: &mut State) {
         next.history.sick_lost_primary & (1 << (c.id - 1)) != 0
             && c.is_up()
             && c.role == Some(Role::Primary)
+            && !c.provisional
     });
     next.history.sick_repromoted |= repromoted;
 }

@@ -196,7 +196,8 @@ fn lifecycle_actions(config: &Config, state: &State, id: Id, out: &mut Vec<Actio
             Action::CatchUp { controller: id }
         });
     }
-    if (state.isolated | state.starved | state.slowed) & bit != 0 {
+    let still_late = state.slowed & bit != 0 && gray::late_in_this_round(config, state, id);
+    if (state.isolated | state.starved | state.slowed) & bit != 0 && !still_late {
         out.push(Action::Heal { controller: id });
     }
     if c.is_up() && c.undiscovered {
@@ -209,6 +210,8 @@ pub fn next_state(config: &Config, state: &State, action: Action) -> Option<Stat
     let mut next = state.clone();
     match action {
         Action::LateHeartbeat { from } => gray::late_heartbeat(config, &mut next, from),
+        Action::HearLate { to } => gray::hear_late(config, &mut next, to),
+        Action::Oversleep { controller } => gray::oversleep(config, &mut next, controller),
         Action::LoseHeartbeat { from, to } => {
             let link = link_bit(from, to) | link_bit(to, from);
             if (state.lost_links | state.history.links_down) & link == 0 {
@@ -225,7 +228,7 @@ pub fn next_state(config: &Config, state: &State, action: Action) -> Option<Stat
                 next.history.partition_open = true;
             }
         }
-        Action::Tick => tick(config, state, &mut next),
+        Action::Tick => tick(config, state, &mut next, None),
         Action::ExpireWindow { controller } => {
             if !window_can_expire(config, state.controller(controller)) {
                 return None;

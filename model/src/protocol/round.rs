@@ -15,8 +15,9 @@ use crate::fixes::Mutation;
 use crate::state::{link_bit, Controller, Peer, State};
 use crate::types::{Id, Phase, Role, ROLE_COUNT};
 
-/// The end of a round: every controller's [`round_step`], then the round's bookkeeping.
-pub(super) fn tick(config: &Config, before: &State, next: &mut State) {
+/// The end of a round: every controller's [`round_step`] but the one `asleep` through it
+/// (`Action::Oversleep`), then the round's bookkeeping.
+pub(super) fn tick(config: &Config, before: &State, next: &mut State, asleep: Option<Id>) {
     let ids: Vec<Id> = config.ids().collect();
     // Votes still undelivered now become overdue: they must arrive within the next round.
     for &from in &ids {
@@ -26,10 +27,10 @@ pub(super) fn tick(config: &Config, before: &State, next: &mut State) {
             }
         }
     }
-    for c in next.controllers.iter_mut() {
+    for c in next.controllers.iter_mut().filter(|c| Some(c.id) != asleep) {
         c.establish_writers();
     }
-    for &id in &ids {
+    for &id in ids.iter().filter(|id| Some(**id) != asleep) {
         round_step(config, before, next, id);
     }
     // F17: a Primary that heard a peer take over from it starts again as a new incarnation,

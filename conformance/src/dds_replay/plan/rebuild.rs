@@ -86,7 +86,11 @@ pub(super) fn rebuild(
                 }
             }
             Action::DeliverVotes { .. } => return Err(PlanError::PaperVariantAction),
-            Action::Slow { .. } | Action::LateHeartbeat { .. } | Action::Thaw { .. } => {
+            Action::Slow { .. }
+            | Action::LateHeartbeat { .. }
+            | Action::HearLate { .. }
+            | Action::Oversleep { .. }
+            | Action::Thaw { .. } => {
                 return Err(PlanError::GrayFault { action });
             }
             // The actuator's own events: DDS does them; the model keeps its owner.
