@@ -516,16 +516,12 @@ impl Voting {
             }
             Command::RaiseAlarm { about, reason } => self.alarm(about, reason, true),
             Command::ClearAlarm { about, reason } => self.alarm(about, reason, false),
-            Command::RoundEndsMissed { rounds } => {
-                warn!("the voting loop fell behind: one round end for {rounds} more missed");
-                self.event(Event::RoundEndsMissed { rounds });
-            }
+            Command::RoundEndsMissed { rounds } => self.fell_behind(rounds),
             // After the step's other commands: the new life replaces the core.
             Command::StartAgain => self.deposed = true,
             Command::NewLife { cause } => self.new_life(cause),
             Command::MoveClock { by_ms, following } => self.move_clock(by_ms, following),
-            // A warning: the terminal (stderr) shows it under the FAILED console line, and
-            // `journalctl -p warning` finds it.
+            // A warning: stderr shows it under the FAILED line; `journalctl -p warning` too.
             Command::Failed {
                 failure,
                 exit_in_ms,

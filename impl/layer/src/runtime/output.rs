@@ -76,6 +76,12 @@ impl Voting {
         *self.shared.status() = status;
     }
 
+    /// The voting loop fell behind (starved, stalled): its round end stood for `rounds` more.
+    pub(super) fn fell_behind(&self, rounds: u64) {
+        warn!("the voting loop fell behind: one round end for {rounds} more missed");
+        self.event(Event::RoundEndsMissed { rounds });
+    }
+
     /// One JSON event line on stdout (with `--json-events`): the record of what it did.
     /// The same line goes to the application's subscriptions (crate::api::Redundancy::events).
     pub(super) fn event(&self, event: Event) {
