@@ -92,8 +92,14 @@ fn pinned_state_counts_and_our_search_agrees_with_stateright() {
 fn the_duplex_without_preemption_holds_and_its_witnesses_are_reached() {
     let explored = duplex(DuplexConfig::default());
     assert_eq!(explored.failed(), Vec::<&str>::new());
-    assert_eq!(explored.verdicts().len(), 14);
-    assert_witnesses(&explored, &["a returning Primary takes the actuator back"]);
+    assert_eq!(explored.verdicts().len(), 16);
+    assert_witnesses(
+        &explored,
+        &[
+            "a returning Primary takes the actuator back",
+            "a lapsed Primary takes the actuator back once healthy",
+        ],
+    );
     // The returned Primary yields at 10 beside the commanding Standby at 20.
     let yielded = counterexample(
         &explored,
@@ -130,6 +136,7 @@ fn a_preempting_primary_moves_the_actuator_at_every_bounce() {
             "a returned Primary stays standby while the Standby commands",
             "a yielded Primary takes the actuator when the Standby fails",
             "lost heartbeats hand the actuator to a yielded Primary",
+            "a lapsed Primary takes the actuator back once healthy",
         ],
     );
     // C1 crashes (to C2), C2's deadline passes (alarm), C1 restarts at 30 (back to C1).
@@ -307,7 +314,7 @@ fn the_command_line_checks_and_prints_the_findings() {
     let (code, out) = run_check(&["--architecture", "duplex"]);
     assert_eq!(code, Some(0), "{out}");
     assert!(
-        out.contains("result: all 14 properties as expected"),
+        out.contains("result: all 16 properties as expected"),
         "{out}"
     );
     let (code, out) = run_check(&["--architecture", "duplex", "--preempt", "true"]);
@@ -441,4 +448,62 @@ fn the_explorer_walks_the_duplex_bounce() {
     let state = restart["state"].as_str().unwrap_or_default();
     assert!(state.contains("owner changes 2"), "{state}");
     assert!(state.contains("faults 1"), "{state}");
+}
+
+const ONE_BOUNCE: &str = "one bounce per fault";
+
+#[test]
+fn a_sick_preempting_primary_bounces_the_actuator_once_per_episode_with_its_dwell() {
+    // A4: the paper's preemption with a dwell after a lapse. Only A1's property fails (a
+    // crash or an episode still costs two changes), and never more than two per fault.
+    let explored = duplex(DuplexConfig::sick_primary());
+    assert_eq!(explored.failed(), [ONE_CHANGE]);
+    assert_witnesses(
+        &explored,
+        &[
+            "lost heartbeats hand the actuator to a yielded Primary",
+            "both down: the actuator has no writer",
+        ],
+    );
+    // The dwelling Primary is a yielded one: it stays below the commanding Standby, and takes
+    // the actuator at once when the Standby fails.
+    // The episode with every lapse the budget holds, then the dwell: two changes in all.
+    let back = counterexample(
+        &explored,
+        "a lapsed Primary takes the actuator back once healthy",
+    );
+    assert!(back.last().lapses >= 1);
+    assert!(back.last().owner_changes <= 2 * back.last().faults);
+    assert!(explored.states().iter().any(|state| state.lapses == 3
+        && state.crashes == 0
+        && state.lost_heartbeats == 0
+        && state.owner_changes == 2
+        && state.owner == Some(1)));
+}
+
+#[test]
+fn a_preempting_primary_without_the_dwell_bounces_at_every_lapse() {
+    let explored = duplex(DuplexConfig {
+        mutation: Some(ArchitectureMutation::NoDwell),
+        ..DuplexConfig::sick_primary()
+    });
+    assert!(
+        explored.failed().contains(&ONE_BOUNCE),
+        "{:?}",
+        explored.failed()
+    );
+    // Starved, lapsing, back at 30 at the next round end, lapsing again: four changes for
+    // one episode.
+    let bounces = counterexample(&explored, ONE_BOUNCE);
+    assert_eq!(
+        bounces.actions(),
+        [
+            DuplexAction::Sicken { controller: 1 },
+            DuplexAction::Lapse { controller: 1 },
+            DuplexAction::Tick,
+            DuplexAction::Lapse { controller: 1 },
+        ],
+        "{}",
+        bounces.render()
+    );
 }

@@ -20,6 +20,17 @@ use crate::{CoreConfig, Heartbeat};
 /// whether its partner commands (the model's `Writing::Yielded`): below both configured ones.
 pub const YIELDED_STRENGTH: Strength = Strength(10);
 
+/// Round ends a preempting duplex Primary that started again after a stall runs on time
+/// before it takes its strength back (the model's `DWELL_ROUNDS`, A4):
+/// 1.5 s, longer than the on-time stretches of a starved loop (docs/findings.md, A4).
+pub const DUPLEX_DWELL_ROUNDS: u8 = 6;
+
+/// A round end this much after its boundary is late: it does not count towards a dwell.
+/// A fifth of the command deadline's 100 ms: a starved loop (a CPU quota lets it run once per
+/// 100 ms scheduling period) misses it at about four round ends in five, a healthy one hardly
+/// ever.
+pub const DWELL_LATE_MS: u64 = 20;
+
 /// The strength both controllers of a lockstep pair command at, the Primary's: equal, so DDS
 /// exclusive ownership keeps one of them and moves to the other at the command deadline.
 pub const PAIR_STRENGTH: Strength = Strength(30);
@@ -123,12 +134,13 @@ struct PartnerRound {
 }
 
 /// The round ends for a duplex controller: watch the partner, then decide the strength (the
-/// model's `hear` and `miss`).
+/// model's `hear` and `miss`). `late_ms`: how long after its boundary this round end runs.
 pub(crate) fn duplex_round_end(
     config: &CoreConfig,
     duplex: &Duplex,
     c: &mut ControllerState,
     heard: &[Heartbeat],
+    late_ms: u64,
 ) {
     if c.phase == Phase::Failed {
         return;
@@ -140,6 +152,22 @@ pub(crate) fn duplex_round_end(
     let own = duplex.role_of(c.id).strength();
     if c.output == Some(own) {
         return;
+    }
+    // The dwell (A4): a round end on time counts down, a late one starts it over, and the
+    // last one takes the strength back. A lost partner does not end it: at 10 this controller
+    // is the actuator's writer at once if the partner is gone, and a starved loop hears its
+    // partner late (measured: a dwelling Primary that took 30 on a lost Standby, 2 rounds
+    // into its new life, in the middle of its starvation).
+    if c.dwell_rounds_left > 0 {
+        c.dwell_rounds_left = if late_ms > DWELL_LATE_MS {
+            DUPLEX_DWELL_ROUNDS
+        } else {
+            c.dwell_rounds_left - 1
+        };
+        if c.dwell_rounds_left > 0 {
+            c.set_output(Some(YIELDED_STRENGTH));
+            return;
+        }
     }
     let strength = match &partner.heard {
         Some(heartbeat) => {

@@ -396,6 +396,13 @@ impl Core {
         let period_ms = config.heartbeat_period_ms.max(1);
         self.phase_held_until_ms = Some(next_boundary(now_ms, period_ms));
         let mut commands = vec![Command::NewLife { cause }];
+        if let (Restart::Stalled { .. }, Architecture::Duplex(duplex)) =
+            (cause, &self.config.architecture)
+        {
+            if duplex.preempt {
+                self.state.dwell_rounds_left = architectures::DUPLEX_DWELL_ROUNDS;
+            }
+        }
         if matches!(cause, Restart::Stalled { .. }) {
             // Named by itself: its peers may never have lost it (a stop shorter than their
             // dead-man deadline), yet the actuator left it (F12, F18).
@@ -431,6 +438,7 @@ impl Core {
                         duplex,
                         &mut self.state,
                         &heard,
+                        now_ms.saturating_sub(self.round_end_ms),
                     ),
                     Architecture::Pair(pair) => {
                         architectures::pair_round_end(&self.config, pair, &mut self.state, &heard)

@@ -88,6 +88,10 @@ pub struct ControllerState {
     pub took_over_from: Option<Holder>,
     /// F17: it heard a peer that took over from it; it starts again as a new incarnation.
     pub deposed: bool,
+    /// Duplex with preemption (A4): round ends it must still run on time, hearing its
+    /// partner, before it takes its configured strength back; set when it started again
+    /// after a stall, 0 otherwise.
+    pub dwell_rounds_left: u8,
 }
 
 /// The command writers of one controller, as the DDS adapter keeps them. A raise creates a
@@ -124,6 +128,7 @@ impl ControllerState {
             writer: Writer::default(),
             took_over_from: None,
             deposed: false,
+            dwell_rounds_left: 0,
         }
     }
 

@@ -177,12 +177,12 @@ impl Redundancy {
         policy: AperiodicPolicy,
     ) -> RoleWriter<T, K> {
         let republish = Duration::from_millis(self.config.timing.command_republish_ms);
-        // Under the duplex and the pair a restart does not come back below (the duplex's
-        // Primary preempts by configuration): a doubt at half the deadline only made a starved
-        // Primary restart and retake the actuator again and again (24 owner changes in 8 s).
-        let voting = self.config.architecture == crate::config::ArchitectureName::Voting;
+        // Voting and the duplex bring a doubting owner back below the others (a new life that
+        // joins below; the duplex's dwell, A4), so its writer may doubt itself at half the
+        // deadline. The pair's owner keeps the deadline (not measured with the earlier bound).
+        let doubts_early = self.config.architecture != crate::config::ArchitectureName::Pair;
         let republishes =
-            (voting && matches!(policy, AperiodicPolicy::Republish)).then_some(republish);
+            (doubts_early && matches!(policy, AperiodicPolicy::Republish)).then_some(republish);
         let mut writer = writer;
         if republishes.is_some() {
             let gap = crate::dds::qos::command_max_send_gap_ms(&self.config.timing);

@@ -398,8 +398,11 @@ impl Drop for LoopClock {
 /// five missed republications, and twice the lateness bound at which a Secondary takes over
 /// from a late Primary (F17). Only the owner doubts itself, so a loaded host restarts at most
 /// the controller the actuator follows, once (docs/findings.md, the gray process faults).
-/// An application that writes at its own rate (`Periodic`) keeps the deadline, and so do the
-/// duplex and the pair, whose restarted Primary takes the actuator back (`RoleWriter`).
+/// An application that writes at its own rate (`Periodic`) keeps the deadline, and so does the
+/// pair (`RoleWriter`). The duplex doubts at half too: its restarted Primary dwells below the
+/// Standby before it takes the actuator back (docs/findings.md, A4); without the dwell the
+/// half-deadline doubt made a starved Primary restart and retake the actuator again and again
+/// (24 owner changes in 8 s).
 pub fn owner_lapse_bound(command_deadline: Duration, republish: Option<Duration>) -> Duration {
     match republish {
         Some(republish) => (command_deadline / 2)

@@ -68,6 +68,9 @@ pub enum ArchitectureMutation {
     /// bounce faster than the heartbeat deadline: the restart rule's timing assumption
     /// dropped).
     QuickRestart,
+    /// Duplex: a preempting Primary that started again after a lapse takes its strength back
+    /// at its first round end (no dwell).
+    NoDwell,
     /// Pair: a controller writes its first implementation's output, then compares it with
     /// the second's.
     WriteBeforeCompare,
@@ -79,7 +82,8 @@ impl ArchitectureMutation {
         match self {
             ArchitectureMutation::OwnerByLowestId
             | ArchitectureMutation::SilentStandby
-            | ArchitectureMutation::QuickRestart => Architecture::Duplex,
+            | ArchitectureMutation::QuickRestart
+            | ArchitectureMutation::NoDwell => Architecture::Duplex,
             ArchitectureMutation::WriteBeforeCompare => Architecture::Pair,
         }
     }
@@ -90,6 +94,7 @@ impl ArchitectureMutation {
             ArchitectureMutation::OwnerByLowestId => "owner-by-lowest-id",
             ArchitectureMutation::SilentStandby => "silent-standby",
             ArchitectureMutation::QuickRestart => "quick-restart",
+            ArchitectureMutation::NoDwell => "no-dwell",
             ArchitectureMutation::WriteBeforeCompare => "write-before-compare",
         }
     }
@@ -144,6 +149,14 @@ pub struct ArchitectureArgs {
     /// more than the heartbeat deadline (2 rounds), so a loss can raise a false alarm.
     #[arg(long, requires = "architecture", value_name = "N")]
     pub heartbeat_losses: Option<u8>,
+    /// Duplex: gray-fault episodes of the Primary over a run (default 0): its loop starved or
+    /// stalling, lapsing while the episode lasts; with preemption a Primary that started again
+    /// after a lapse dwells before it takes the actuator back (finding A4).
+    #[arg(long, requires = "architecture", value_name = "N")]
+    pub sick_episodes: Option<u8>,
+    /// Duplex: lapses of a sick Primary's loop over a run (default 3).
+    #[arg(long, requires = "architecture", value_name = "N")]
+    pub lapses: Option<u8>,
     /// Pair: bugs that may appear over a run (default 2).
     #[arg(long, requires = "architecture", value_name = "N")]
     pub bugs: Option<u8>,
@@ -165,6 +178,8 @@ impl ArchitectureArgs {
         let duplex_flags = [
             ("preempt", self.preempt.is_some()),
             ("heartbeat-losses", self.heartbeat_losses.is_some()),
+            ("sick-episodes", self.sick_episodes.is_some()),
+            ("lapses", self.lapses.is_some()),
         ];
         let pair_flags = [
             ("bugs", self.bugs.is_some()),
@@ -202,6 +217,8 @@ impl ArchitectureArgs {
                     max_lost_heartbeats: self
                         .heartbeat_losses
                         .unwrap_or(defaults.max_lost_heartbeats),
+                    max_sick_episodes: self.sick_episodes.unwrap_or(defaults.max_sick_episodes),
+                    max_lapses: self.lapses.unwrap_or(defaults.max_lapses),
                     mutation: self.architecture_mutation,
                 };
                 config.validate()?;
@@ -232,11 +249,13 @@ pub enum ArchitectureConfig {
 
 /// The ids of the flags the duplex and the pair take (the rest belong to the role and
 /// output models).
-const OWN_FLAGS: [&str; 9] = [
+const OWN_FLAGS: [&str; 11] = [
     "architecture",
     "preempt",
     "bounces",
     "heartbeat_losses",
+    "sick_episodes",
+    "lapses",
     "bugs",
     "bug_in",
     "architecture_mutation",

@@ -75,7 +75,9 @@ fn duplex(fault: &Fault) -> FaultExpected {
     let bounce_if_primary = if primary { BOUNCE } else { UNFELT };
     match fault {
         // The Primary stops and comes back (a restarted, resumed or replugged process):
-        // preempting, it takes the actuator back at once.
+        // preempting, it takes the actuator back at once, or, back from a stall of its own
+        // loop (a freeze, a starved CPU), after its dwell, however often the episode stalls
+        // it (finding A4): one bounce.
         Fault::Kill(_)
         | Fault::Pause(_)
         | Fault::Freeze(_)

@@ -261,3 +261,96 @@ fn a_partner_silent_since_the_start_is_lost_only_when_the_window_closes() {
     let lost = outputs(&round(&mut c1, &[], 3 * PERIOD_MS));
     assert_eq!(lost, vec![Some(PAIR_STRENGTH)]);
 }
+
+/// A round whose end runs `late_ms` after its boundary at `end_ms`.
+fn late_round(core: &mut Core, heard: &[Heartbeat], end_ms: u64, late_ms: u64) -> Vec<Command> {
+    // The stall alarm may clear on any step: what the delivery says is kept.
+    let mut out = Vec::new();
+    for h in heard {
+        out.extend(core.step(Input::Heartbeat(*h), end_ms - 1));
+    }
+    let now_ms = end_ms + late_ms;
+    while let Some(timer) = core.due_timer(now_ms) {
+        out.extend(core.step(Input::Timer(timer), now_ms));
+    }
+    out
+}
+
+#[test]
+fn a_preempting_primary_back_from_a_stall_dwells_below_the_standby_until_it_runs_on_time() {
+    use crate::architectures::{DUPLEX_DWELL_ROUNDS, DWELL_LATE_MS};
+    let mut c1 = duplex_core(1, true);
+    assert_eq!(
+        outputs(&round(&mut c1, &[partner(2, Some(20))], 250)),
+        vec![Some(Strength(30))]
+    );
+    // Its loop stalled: a new life, which dwells at 10 beside the commanding Standby.
+    let cause = Restart::Stalled { stalled_ms: 300 };
+    let started = c1.step(
+        Input::StartAgain {
+            cause,
+            incarnation: 9,
+        },
+        600,
+    );
+    assert!(started.contains(&Command::NewLife { cause }));
+    let standby = [partner(2, Some(20))];
+    let mut end_ms = 750;
+    assert_eq!(
+        outputs(&round(&mut c1, &standby, end_ms)),
+        vec![Some(YIELDED_STRENGTH)]
+    );
+    // Late round ends (a starved loop) start the dwell over, however many come.
+    for _ in 0..10 {
+        end_ms += PERIOD_MS;
+        late_round(&mut c1, &standby, end_ms, DWELL_LATE_MS + 5);
+        assert_eq!(c1.state().output, Some(YIELDED_STRENGTH));
+        assert_eq!(c1.state().dwell_rounds_left, DUPLEX_DWELL_ROUNDS);
+    }
+    // On time again: the dwell's rounds less the one that yielded, then 30 at the last.
+    for _ in 1..DUPLEX_DWELL_ROUNDS {
+        end_ms += PERIOD_MS;
+        assert_eq!(outputs(&round(&mut c1, &standby, end_ms)), vec![]);
+        assert_eq!(c1.state().output, Some(YIELDED_STRENGTH));
+    }
+    end_ms += PERIOD_MS;
+    assert_eq!(
+        outputs(&round(&mut c1, &standby, end_ms)),
+        vec![Some(Strength(30))]
+    );
+}
+
+#[test]
+fn a_dwelling_primary_that_loses_the_standby_keeps_10_until_its_dwell_ends() {
+    use crate::architectures::DUPLEX_DWELL_ROUNDS;
+    let mut c1 = duplex_core(1, true);
+    round(&mut c1, &[partner(2, Some(20))], 250);
+    c1.step(
+        Input::StartAgain {
+            cause: Restart::Stalled { stalled_ms: 300 },
+            incarnation: 9,
+        },
+        600,
+    );
+    let mut end_ms = 750;
+    round(&mut c1, &[partner(2, Some(20))], end_ms);
+    assert_eq!(c1.state().output, Some(YIELDED_STRENGTH));
+    // The Standby falls silent and is lost at the deadline (alarmed), and the Primary stays
+    // at 10, the actuator's only writer, until its dwell's on-time rounds have run.
+    let mut raised = false;
+    for _ in 2..DUPLEX_DWELL_ROUNDS {
+        end_ms += PERIOD_MS;
+        let commands = advance(&mut c1, end_ms);
+        raised |= commands.contains(&Command::RaiseAlarm {
+            about: 2,
+            reason: AlarmReason::Lost,
+        });
+        assert_eq!(c1.state().output, Some(YIELDED_STRENGTH));
+    }
+    assert!(
+        raised,
+        "the lost Standby is alarmed while the Primary dwells"
+    );
+    end_ms += PERIOD_MS;
+    assert_eq!(outputs(&advance(&mut c1, end_ms)), vec![Some(Strength(30))]);
+}

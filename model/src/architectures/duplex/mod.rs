@@ -36,6 +36,11 @@ pub struct DuplexConfig {
     pub max_crashes: u8,
     /// Heartbeats lost over a run, one round of one direction each.
     pub max_lost_heartbeats: u8,
+    /// Gray-fault episodes of the Primary over a run (`--sick-episodes`): its loop starved
+    /// or stalling, lapsing again and again while the episode lasts (finding A4).
+    pub max_sick_episodes: u8,
+    /// Lapses of a sick Primary's loop over a run.
+    pub max_lapses: u8,
     /// A deliberately broken rule (mutation tests only).
     pub mutation: Option<ArchitectureMutation>,
 }
@@ -49,6 +54,8 @@ impl Default for DuplexConfig {
             preempt: false,
             max_crashes: 3,
             max_lost_heartbeats: 3,
+            max_sick_episodes: 0,
+            max_lapses: 3,
             mutation: None,
         }
     }
@@ -66,10 +73,25 @@ impl DuplexConfig {
         }
     }
 
+    /// The scope of finding A4: the preempting duplex whose Primary is starved once, lapsing
+    /// up to three times in the episode, beside one crash and the deadline's lost heartbeats.
+    pub fn sick_primary() -> DuplexConfig {
+        DuplexConfig {
+            preempt: true,
+            max_crashes: 1,
+            max_lost_heartbeats: 2,
+            max_sick_episodes: 1,
+            max_lapses: 3,
+            mutation: None,
+        }
+    }
+
     pub fn validate(&self) -> Result<(), ArchitectureConfigError> {
         for (flag, value) in [
             ("bounces", self.max_crashes),
             ("heartbeat-losses", self.max_lost_heartbeats),
+            ("sick-episodes", self.max_sick_episodes),
+            ("lapses", self.max_lapses),
         ] {
             if value > MAX_BUDGET {
                 return Err(ArchitectureConfigError::TooLarge {
@@ -92,6 +114,14 @@ impl DuplexConfig {
             self.max_lost_heartbeats,
             state::DEADLINE_ROUNDS
         );
+        if self.max_sick_episodes > 0 {
+            line.push_str(&format!(
+                ", {} sick episodes of the Primary ({} lapses, dwell {} rounds)",
+                self.max_sick_episodes,
+                self.max_lapses,
+                state::DWELL_ROUNDS
+            ));
+        }
         if let Some(mutation) = self.mutation {
             line.push_str(&format!(", MUTATION {mutation:?}"));
         }
@@ -104,6 +134,12 @@ impl DuplexConfig {
             "--architecture duplex --preempt {} --bounces {} --heartbeat-losses {}",
             self.preempt, self.max_crashes, self.max_lost_heartbeats
         );
+        if self.max_sick_episodes > 0 {
+            flags.push_str(&format!(
+                " --sick-episodes {} --lapses {}",
+                self.max_sick_episodes, self.max_lapses
+            ));
+        }
         if let Some(mutation) = self.mutation {
             flags.push_str(&format!(" --architecture-mutation {}", mutation.flag()));
         }

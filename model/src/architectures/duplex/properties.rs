@@ -2,7 +2,9 @@
 //! docs/protocol.md, "Other architectures: the spec".
 //!
 //! "One owner change per fault" is the property the paper's caveat is about: with preemption
-//! a Primary that bounces moves the actuator twice per crash (finding A1).
+//! a Primary that bounces moves the actuator twice per crash (finding A1). "One bounce per
+//! fault" is what preemption can keep: twice per fault, however long a gray fault's episode
+//! lasts (finding A4, the dwell).
 
 use super::state::{DuplexState, PartnerView, Writing, DEADLINE_ROUNDS};
 use super::DuplexModel;
@@ -36,6 +38,9 @@ pub fn catalogue() -> Vec<PropertyInfo<DuplexModel>> {
         p("one owner change per fault", Always,
           "the actuator moves from one controller to the other at most once per fault (a crash, an episode of lost heartbeats)",
           one_change_per_fault, always_applies),
+        p("one bounce per fault", Always,
+          "the actuator moves at most twice per fault (away and back: a crash, an episode of lost heartbeats, a gray fault's episode however many lapses it holds)",
+          one_bounce_per_fault, always_applies),
         p("a failed partner is alarmed within the deadline", Always,
           "a controller up for the heartbeat deadline whose partner has been down for the deadline has its alarm up",
           failed_partner_alarmed, always_applies),
@@ -60,6 +65,9 @@ pub fn catalogue() -> Vec<PropertyInfo<DuplexModel>> {
         p("lost heartbeats hand the actuator to a yielded Primary", Sometimes,
           "a restarted Primary that lost the Standby's heartbeats for the deadline takes its strength back while the Standby lives",
           loss_moves_actuator, needs_no_preemption_and_losses),
+        p("a lapsed Primary takes the actuator back once healthy", Sometimes,
+          "the Primary that started again after lapses of its sick loop owns the actuator again, its episode over, beside the commanding Standby",
+          lapsed_primary_takes_back, needs_preemption_and_sickness),
         p("a false alarm from lost heartbeats", Sometimes,
           "a controller alarms about a partner that has been up all along",
           false_alarm, needs_losses),
@@ -86,6 +94,20 @@ fn no_tie(_: &DuplexModel, state: &DuplexState) -> bool {
 
 fn one_change_per_fault(_: &DuplexModel, state: &DuplexState) -> bool {
     state.owner_changes <= state.faults
+}
+
+fn one_bounce_per_fault(_: &DuplexModel, state: &DuplexState) -> bool {
+    state.owner_changes <= 2 * state.faults
+}
+
+fn lapsed_primary_takes_back(_: &DuplexModel, state: &DuplexState) -> bool {
+    let primary = state.controller(PRIMARY);
+    let standby = state.controller(STANDBY);
+    primary.lapsed
+        && !primary.sick
+        && state.owner == Some(PRIMARY)
+        && standby.is_up()
+        && standby.writing == Writing::Configured
 }
 
 fn failed_partner_alarmed(_: &DuplexModel, state: &DuplexState) -> bool {
@@ -177,6 +199,13 @@ fn needs_preemption(model: &DuplexModel) -> Option<&'static str> {
         return Some("needs preemption (--preempt true)");
     }
     needs_crash(model)
+}
+
+fn needs_preemption_and_sickness(model: &DuplexModel) -> Option<&'static str> {
+    if !model.config.preempt {
+        return Some("needs preemption (--preempt true)");
+    }
+    (model.config.max_sick_episodes == 0).then_some("needs a sick Primary (--sick-episodes 1)")
 }
 
 fn needs_no_preemption(model: &DuplexModel) -> Option<&'static str> {

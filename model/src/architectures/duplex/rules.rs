@@ -7,6 +7,7 @@
 
 use super::state::{
     partner_of, DuplexAction, DuplexController, DuplexState, PartnerView, Writing, DEADLINE_ROUNDS,
+    DWELL_ROUNDS, SICK_GAP_ROUNDS,
 };
 use super::DuplexConfig;
 use crate::architectures::ArchitectureMutation;
@@ -25,6 +26,8 @@ pub fn init_states(_config: &DuplexConfig) -> Vec<DuplexState> {
         owner: Some(1),
         crashes: 0,
         lost_heartbeats: 0,
+        sick_episodes: 0,
+        lapses: 0,
         faults: 0,
         owner_changes: 0,
     }]
@@ -42,8 +45,46 @@ pub fn actions(config: &DuplexConfig, state: &DuplexState, actions: &mut Vec<Dup
         if may_lose_heartbeat(config, state, c.id) {
             actions.push(DuplexAction::LoseHeartbeat { from: c.id });
         }
+        if may_sicken(config, state, c.id) {
+            actions.push(DuplexAction::Sicken { controller: c.id });
+        }
+        if may_lapse(config, state, c.id) {
+            actions.push(DuplexAction::Lapse { controller: c.id });
+        }
+        if c.sick {
+            actions.push(DuplexAction::Recover { controller: c.id });
+        }
     }
-    actions.push(DuplexAction::Tick);
+    if may_end_round(config, state) {
+        actions.push(DuplexAction::Tick);
+    }
+}
+
+/// The gray faults strike the configured Primary (C1), up and healthy, within budget. A sick
+/// Standby is outside the scope (docs/findings.md, A4).
+fn may_sicken(config: &DuplexConfig, state: &DuplexState, id: Id) -> bool {
+    let c = state.controller(id);
+    c.role == Role::Primary
+        && c.is_up()
+        && !c.sick
+        && state.sick_episodes < config.max_sick_episodes
+}
+
+/// A sick controller's loop may lapse while the lapse budget lasts.
+fn may_lapse(config: &DuplexConfig, state: &DuplexState, id: Id) -> bool {
+    let c = state.controller(id);
+    c.is_up() && c.sick && state.lapses < config.max_lapses
+}
+
+/// The timing assumption on a sick controller: while its episode lasts and lapses remain, it
+/// lapses before more than [`SICK_GAP_ROUNDS`] round ends have run on time.
+fn may_end_round(config: &DuplexConfig, state: &DuplexState) -> bool {
+    state.controllers.iter().all(|c| {
+        !(c.is_up()
+            && c.sick
+            && c.on_time_rounds >= SICK_GAP_ROUNDS
+            && may_lapse(config, state, c.id))
+    })
 }
 
 /// The timing assumption on restarts: a crashed controller starts again only once its
@@ -91,7 +132,34 @@ pub fn next_state(
             }
             lose_heartbeat(&mut next, from);
         }
-        DuplexAction::Tick => next = round_end(config, state),
+        DuplexAction::Tick => {
+            if !may_end_round(config, state) {
+                return None;
+            }
+            next = round_end(config, state);
+        }
+        DuplexAction::Sicken { controller } => {
+            if !may_sicken(config, state, controller) {
+                return None;
+            }
+            let c = next.controller_mut(controller);
+            c.sick = true;
+            c.on_time_rounds = 0;
+            next.sick_episodes += 1;
+            next.faults += 1;
+        }
+        DuplexAction::Lapse { controller } => {
+            if !may_lapse(config, state, controller) {
+                return None;
+            }
+            lapse(config, &mut next, controller);
+        }
+        DuplexAction::Recover { controller } => {
+            if !state.controller(controller).sick {
+                return None;
+            }
+            next.controller_mut(controller).sick = false;
+        }
     }
     follow_strongest_writer(config, &mut next);
     Some(next)
@@ -109,6 +177,9 @@ fn crash(state: &mut DuplexState, id: Id) {
         up_rounds: 0,
         down_rounds: 0,
         partner_missed: false,
+        dwell: 0,
+        sick: false,
+        on_time_rounds: 0,
         ..*c
     };
     state.controller_mut(partner_of(id)).partner_missed = true;
@@ -143,6 +214,40 @@ fn restart(config: &DuplexConfig, state: &mut DuplexState, id: Id) {
     };
 }
 
+/// A sick controller's loop lapses. Commanding at its configured strength, its writer stops
+/// for good (the actuator moves to the partner at the command deadline) and it starts again in
+/// place, knowing nothing of its partner, writing below both configured strengths (`rl`'s new
+/// life writes nothing before its first round end, which decides at once), and with
+/// preemption it dwells: [`DWELL_ROUNDS`]
+/// round ends on time before it takes its strength back, whether it hears its partner or not. Yielded or silent, the lapse is a
+/// late round end or a stall of its new life: the dwell starts over.
+fn lapse(config: &DuplexConfig, state: &mut DuplexState, id: Id) {
+    state.lapses += 1;
+    let dwell = if config.preempt && config.mutation != Some(ArchitectureMutation::NoDwell) {
+        DWELL_ROUNDS
+    } else {
+        0
+    };
+    let c = state.controller_mut(id);
+    c.on_time_rounds = 0;
+    if c.writing == Writing::Configured {
+        *c = DuplexController {
+            writing: Writing::Yielded,
+            view: PartnerView::Unknown,
+            missed: 0,
+            alarm: false,
+            up_rounds: 0,
+            lapsed: true,
+            dwell,
+            ..*c
+        };
+    } else {
+        if c.dwell > 0 {
+            c.dwell = dwell;
+        }
+    }
+}
+
 /// A lost heartbeat; the first of an episode on its link (not lost the round before) is a
 /// fault.
 fn lose_heartbeat(state: &mut DuplexState, from: Id) {
@@ -166,6 +271,9 @@ fn round_end(config: &DuplexConfig, before: &DuplexState) -> DuplexState {
             continue;
         }
         c.up_rounds = (c.up_rounds + 1).min(DEADLINE_ROUNDS);
+        if c.sick {
+            c.on_time_rounds = (c.on_time_rounds + 1).min(SICK_GAP_ROUNDS);
+        }
         let partner = before.partner(c.id);
         if partner.is_up() && !before.lost[usize::from(partner.id) - 1] {
             hear(config, c, partner);
@@ -190,6 +298,15 @@ fn hear(config: &DuplexConfig, c: &mut DuplexController, partner: &DuplexControl
     if c.writing == Writing::Configured {
         return;
     }
+    // The dwell: a round end on time, hearing the partner, counts down; the last one takes
+    // the configured strength back (with no dwell left, preemption takes it at once).
+    if c.dwell > 0 {
+        c.dwell -= 1;
+        if c.dwell > 0 {
+            c.writing = Writing::Yielded;
+            return;
+        }
+    }
     let yields = !config.preempt
         && partner.writing == Writing::Configured
         && c.role.strength() > partner.role.strength();
@@ -200,14 +317,28 @@ fn hear(config: &DuplexConfig, c: &mut DuplexController, partner: &DuplexControl
 
 /// A round without the partner's heartbeat; at the deadline the partner is taken for failed:
 /// the alarm is raised, and a controller that did not command takes its configured strength.
+///
+/// A dwelling controller counts the round down all the same (its loop ran on time; a lapse is
+/// its own action) and keeps 10 until the dwell ends, lost partner or not: at 10 it is the
+/// actuator's writer at once if the partner is gone, and a starved loop that hears its
+/// partner late must not take the actuator back for it (`rl` measured just that).
 fn miss(c: &mut DuplexController) {
     c.missed = (c.missed + 1).min(DEADLINE_ROUNDS);
+    let dwelling = c.dwell > 0;
+    if dwelling {
+        c.dwell -= 1;
+        if c.dwell == 0 {
+            c.writing = Writing::Configured;
+        }
+    }
     if c.missed < DEADLINE_ROUNDS || c.view == PartnerView::Lost {
         return;
     }
     c.view = PartnerView::Lost;
     c.alarm = true;
-    c.writing = Writing::Configured;
+    if !dwelling {
+        c.writing = Writing::Configured;
+    }
 }
 
 /// The actuator after any event: DDS exclusive ownership gives it to the strongest live

@@ -22,6 +22,16 @@ pub const DEADLINE_ROUNDS: u8 = 2;
 /// still the actuator's writer at once if that partner dies.
 pub const YIELDED_STRENGTH: u8 = 10;
 
+/// Round ends a preempting Primary that started again in place after a lapse of its own loop
+/// must run on time, hearing its partner, before it takes its configured strength back (the
+/// dwell against oscillation, finding A4): more than [`SICK_GAP_ROUNDS`].
+pub const DWELL_ROUNDS: u8 = 2;
+
+/// The scope's timing assumption on a sick controller: while its episode lasts it lapses again
+/// before more than this many round ends have run on time (a starved or stalling loop is
+/// late at nearly every round end; docs/findings.md, A4, argues the figures of `rl`).
+pub const SICK_GAP_ROUNDS: u8 = 1;
+
 /// What a controller writes to the actuator.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -69,6 +79,15 @@ pub struct DuplexController {
     /// Ghost: since it last heard its partner, the partner crashed or one of its heartbeats
     /// to this controller was lost.
     pub partner_missed: bool,
+    /// Round ends on time it must still run before it takes its configured strength back
+    /// (0: no dwell): set when it starts again in place after a lapse, with preemption.
+    pub dwell: u8,
+    /// Ghost: a gray fault's episode holds (its loop starved or stalling).
+    pub sick: bool,
+    /// Ghost: round ends run on time since its last lapse in this episode (saturating).
+    pub on_time_rounds: u8,
+    /// Ghost: it has started again in place after a lapse at least once.
+    pub lapsed: bool,
 }
 
 impl DuplexController {
@@ -86,6 +105,10 @@ impl DuplexController {
             up_rounds: DEADLINE_ROUNDS,
             down_rounds: 0,
             partner_missed: false,
+            dwell: 0,
+            sick: false,
+            on_time_rounds: 0,
+            lapsed: false,
         }
     }
 
@@ -124,7 +147,12 @@ pub struct DuplexState {
     pub owner: Option<Id>,
     pub crashes: u8,
     pub lost_heartbeats: u8,
-    /// Ghost: faults so far, each crash and each episode of lost heartbeats on one link.
+    /// Gray-fault episodes begun and lapses so far (budgets `max_sick_episodes`,
+    /// `max_lapses`).
+    pub sick_episodes: u8,
+    pub lapses: u8,
+    /// Ghost: faults so far, each crash, each episode of lost heartbeats on one link and each
+    /// gray-fault episode.
     pub faults: u8,
     /// Ghost: times the actuator moved from one controller to the other.
     pub owner_changes: u8,
@@ -175,6 +203,21 @@ pub enum DuplexAction {
     },
     /// The round ends: heartbeats not lost are delivered, deadlines are checked.
     Tick,
+    /// A gray fault's episode begins at the Primary: its loop is starved or stalls, for as
+    /// long as the episode lasts.
+    Sicken {
+        controller: Id,
+    },
+    /// The sick controller's loop lapses: commanding, its writer stops (the actuator moves
+    /// at the command deadline) and it starts again in place; otherwise its round end ran
+    /// late, which its dwell counts as not healthy.
+    Lapse {
+        controller: Id,
+    },
+    /// The episode ends: its loop runs on time again.
+    Recover {
+        controller: Id,
+    },
 }
 
 impl fmt::Display for DuplexAction {
@@ -186,6 +229,11 @@ impl fmt::Display for DuplexAction {
                 write!(f, "C{from}'s heartbeat to C{} is lost", partner_of(from))
             }
             DuplexAction::Tick => write!(f, "round ends (heartbeats delivered, deadlines checked)"),
+            DuplexAction::Sicken { controller } => write!(f, "C{controller}'s loop is starved"),
+            DuplexAction::Lapse { controller } => write!(f, "C{controller}'s loop lapses"),
+            DuplexAction::Recover { controller } => {
+                write!(f, "C{controller}'s loop runs on time again")
+            }
         }
     }
 }
@@ -221,6 +269,12 @@ pub fn controller_line(c: &DuplexController) -> String {
     if c.alarm {
         line.push_str(&format!(", alarm: C{partner} failed"));
     }
+    if c.dwell > 0 {
+        line.push_str(&format!(", dwells {} more round(s)", c.dwell));
+    }
+    if c.sick {
+        line.push_str(", SICK");
+    }
     line
 }
 
@@ -244,6 +298,12 @@ pub fn state_lines(state: &DuplexState) -> Vec<String> {
         "faults {} (crashes {}, lost heartbeats {}), owner changes {}",
         state.faults, state.crashes, state.lost_heartbeats, state.owner_changes
     );
+    if state.sick_episodes > 0 {
+        faults.push_str(&format!(
+            "; sick episodes {}, lapses {}",
+            state.sick_episodes, state.lapses
+        ));
+    }
     if !lost.is_empty() {
         faults.push_str(&format!("; lost this round: {}", lost.join(", ")));
     }
