@@ -26,7 +26,7 @@ use rl_layer::cross_check::{CrossCheck, Judgement};
 use rl_layer::network_monitor::{MonitorOptions, NetworkMonitor};
 use rl_layer::service::{LoopProgress, Notifier};
 use rl_layer::vote_reader::ServoRule;
-use rl_layer::wire::ServoControl;
+use rl_layer::wire::{RawAnswer, ServoControl};
 use rustdds::mio::{Events, Poll, PollOpt, Ready, Token};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -184,13 +184,14 @@ fn track(
             if shape.value.color == config.tracker.color {
                 let input = shape.source_timestamp.map_or(0, |t| t.to_ticks());
                 let ball = (shape.value.x, shape.value.y);
-                let (input, ball) = wrong_input(rl, input, ball);
-                tracker.answer_frame(input, ball, &mut alignment, &mut outputs.cross_check);
+                let frame = wrong_input(rl, input, ball);
+                let gain = pan_gain_percent(rl);
+                tracker.answer_frame(frame, gain, &mut alignment, &mut outputs.cross_check);
                 fresh = true;
             }
         }
         if fresh || last_written.elapsed() >= republish {
-            let frame = (tracker.frame, tracker.frame_digest);
+            let frame = (tracker.frame, tracker.frame_digest, tracker.raw);
             outputs.write(rl, frame, tracker.command(), tracker.compare());
             last_written = Instant::now();
         }
@@ -249,7 +250,7 @@ impl Outputs {
     }
 
     /// Writes `command`, the answer to camera frame `frame` (its values' digest
-    /// `frame_digest`), on both topics (each only while
+    /// `frame_digest`, its raw answer `raw`), on both topics (each only while
     /// this controller may command; on the voted one each new frame's answer, and the same
     /// again only every half deadline) unless the cross-check says leave; failures are
     /// counted and logged sparingly. A lockstep pair's controller first compares the output
@@ -257,7 +258,7 @@ impl Outputs {
     fn write(
         &mut self,
         rl: &Redundancy,
-        (frame, frame_digest): (u64, u64),
+        (frame, frame_digest, raw): (u64, u64, RawAnswer),
         command: crate::tracker::ServoCommand,
         compare: Option<(&Lockstep, crate::tracker::ServoCommand)>,
     ) {
@@ -277,14 +278,15 @@ impl Outputs {
         if !write_first && self.leaves_on_mismatch(rl, frame, sample, compare) {
             return;
         }
-        if let Judgement::Leave(reason) = self.cross_check.answer(frame, frame_digest, sample) {
+        let judgement = self.cross_check.answer(frame, frame_digest, raw, sample);
+        if let Judgement::Leave(reason) = judgement {
             self.left = true;
             rl.report_odd_one_out(reason);
             return;
         }
         let exclusive = self.commands.write(sample);
         let voted = match self.voted.as_mut() {
-            Some(voted) => voted.write_when_due(frame, frame_digest, sample),
+            Some(voted) => voted.write_when_due(frame, frame_digest, raw, sample),
             None => Ok(false),
         };
         for written in [exclusive, voted] {
@@ -390,7 +392,8 @@ impl WrongOutput {
             self.drift_since = drift_rate.map(|rate| (rate, Instant::now()));
         }
         match fault {
-            OutputFault::None => sample,
+            // A wrong gain is the law's, applied as it steps (Tracker::answer_frame).
+            OutputFault::None | OutputFault::Gain(_) => sample,
             OutputFault::Offset(offset) => {
                 let pan = (i32::from(sample.pan) + offset).clamp(0, 1000);
                 ServoControl {
@@ -451,6 +454,22 @@ fn wrong_input(rl: &Redundancy, input: u64, ball: (i32, i32)) -> (u64, (i32, i32
         InputFault::Offset(offset) => (input, (ball.0.saturating_add(offset), ball.1)),
         InputFault::Foreign => (input.wrapping_add(1), (ball.0.saturating_add(40), ball.1)),
     }
+}
+
+/// The pan gain the fault-injection control asks the law to step with, in percent of its own
+/// (`wrong-commands gain <percent>`: a wrong law; 100: right).
+#[cfg(feature = "fault-injection")]
+fn pan_gain_percent(rl: &Redundancy) -> i64 {
+    match rl.injected_output_fault() {
+        rl_layer::runtime::OutputFault::Gain(percent) => i64::from(percent),
+        _ => 100,
+    }
+}
+
+/// Without the fault-injection control: the law's own gain.
+#[cfg(not(feature = "fault-injection"))]
+fn pan_gain_percent(_: &Redundancy) -> i64 {
+    100
 }
 
 /// Without the fault-injection control: the frame as it came.

@@ -36,6 +36,11 @@ pub trait ControlLaw: Send {
     fn align(&mut self, pan: u16, tilt: u16);
     /// The current command without a new sample.
     fn command(&self) -> ServoCommand;
+    /// The law's own step at the last sample, pan and tilt, before the clamp and whatever
+    /// position it was aligned to: the velocity, a function of that sample's errors and the
+    /// previous sample's alone (none before a second sample). Controllers compare it exactly
+    /// (their raw answers, rl_layer::wire::RawAnswer).
+    fn step(&self) -> Option<(i64, i64)>;
 }
 
 /// The implementation `tracker.law` names, centred, with `frequency_hz` in every command.
@@ -93,6 +98,8 @@ struct AxisLoop {
     position: i32,
     /// `None` until the first sample.
     previous_error: Option<i64>,
+    /// The velocity of the last step, before the clamp (`None` until a second sample).
+    velocity: Option<i64>,
 }
 
 impl AxisLoop {
@@ -101,6 +108,7 @@ impl AxisLoop {
             gains,
             position: POSITION_CENTRE,
             previous_error: None,
+            velocity: None,
         }
     }
 
@@ -111,6 +119,7 @@ impl AxisLoop {
             let sum = error * i64::from(self.gains.proportional)
                 + (error - previous_error) * i64::from(self.gains.derivative);
             let velocity = sum >> GAIN_SHIFT;
+            self.velocity = Some(velocity);
             let position = (i64::from(self.position) + velocity)
                 .clamp(i64::from(POSITION_MIN), i64::from(POSITION_MAX));
             // Clamped to 0..=1000 just above, so it fits.
@@ -188,6 +197,11 @@ impl PanTiltController {
         }
     }
 
+    /// The velocity of the last step per axis, before the clamp ([`ControlLaw::step`]).
+    pub fn step(&self) -> Option<(i64, i64)> {
+        self.pan.velocity.zip(self.tilt.velocity)
+    }
+
     /// Back to the centre with no previous sample, as at start.
     pub fn reset(&mut self) {
         *self = PanTiltController::new(self.frequency_hz);
@@ -209,6 +223,10 @@ impl ControlLaw for PanTiltController {
 
     fn command(&self) -> ServoCommand {
         PanTiltController::command(self)
+    }
+
+    fn step(&self) -> Option<(i64, i64)> {
+        PanTiltController::step(self)
     }
 }
 

@@ -1,8 +1,9 @@
 //! The output-voting model (`model::outputs`, docs/protocol.md "Output voting"): its check
 //! holds with at most one wrong controller; a broken voting rule and a lagging cross-check are
-//! caught with counterexamples; two wrong controllers that disagree make the voting receiver
-//! hold; two that agree out-vote the correct one (finding O1); and the consecutive
-//! count misses an intermittently wrong Primary (finding O2).
+//! caught with counterexamples, and a cross-check blind to inputs or to raw answers misses a
+//! masked wrong input (finding O3) or a masked wrong law (O4); two wrong controllers that
+//! disagree make the voting receiver hold; two that agree out-vote the correct one (finding
+//! O1); and the consecutive count misses an intermittently wrong Primary (finding O2).
 
 use model::outputs::check::{explore, Explored, Outcome, OutputPath};
 use model::outputs::{
@@ -68,7 +69,7 @@ fn pinned_state_count_and_our_search_agrees_with_stateright() {
     assert_eq!(ours, PINNED_DEFAULT_STATES);
 }
 
-const PINNED_DEFAULT_STATES: usize = 3028;
+const PINNED_DEFAULT_STATES: usize = 3268;
 
 #[test]
 fn the_bound_is_n_for_every_limit() {
@@ -137,6 +138,70 @@ fn comparing_outputs_only_never_finds_a_masked_wrong_input() {
         .iter()
         .find(|c| c.fault == Some(Fault::WrongInput))
         .expect("a controller reading a wrong input");
+    assert!(
+        wrong.role.is_some(),
+        "it is still in its role: {}",
+        path.render()
+    );
+    assert!(!wrong.ever_sent_wrong, "its output was right throughout");
+    assert!(
+        end.voting.dissent.iter().all(|alarm| !alarm),
+        "and no receiver can name it"
+    );
+}
+
+const LAW_WITHIN_N: &str = "a masked wrong law is found within N inputs";
+const LAW_ALARMED: &str = "a controller that leaves for its law is alarmed by name";
+const LAW_LEAVES: &str = "a controller with a wrong law leaves";
+
+#[test]
+fn comparing_raw_answers_finds_a_masked_wrong_law_and_names_it() {
+    let explored = explored(OutputConfig::default());
+    let outcome = |name: &str| {
+        explored
+            .verdicts()
+            .into_iter()
+            .find(|v| v.name == name)
+            .unwrap_or_else(|| panic!("no property {name:?}"))
+            .outcome
+    };
+    assert_eq!(outcome(LAW_WITHIN_N), Outcome::Holds);
+    assert_eq!(outcome(LAW_ALARMED), Outcome::Holds);
+    assert_eq!(outcome(LAW_LEAVES), Outcome::Witnessed);
+    let path = explored
+        .discovery(LAW_LEAVES)
+        .expect("the witness is reached");
+    let end = last(&path);
+    let leaver = end
+        .controllers
+        .iter()
+        .find(|c| c.phase == Phase::Failed)
+        .expect("a controller that left");
+    assert_eq!(leaver.fault, Some(Fault::WrongLaw), "{}", path.render());
+    // Named for its law, not its input, and never for its output.
+    assert!(leaver.law_alarm && !leaver.input_alarm);
+    assert!(!leaver.ever_sent_wrong);
+    assert!(end.voting.dissent.iter().all(|alarm| !alarm));
+}
+
+#[test]
+fn comparing_aligned_outputs_only_never_finds_a_masked_wrong_law() {
+    let explored = explored(mutated(OutputMutation::NoRawCompare));
+    let mut failed = explored.failed();
+    failed.sort();
+    assert_eq!(
+        failed,
+        vec![LAW_LEAVES, LAW_WITHIN_N],
+        "only the law bound breaks, and its witness is never reached"
+    );
+    let path = counterexample(&explored, LAW_WITHIN_N);
+    assert_eq!(path.steps.len(), 9, "{}", path.render());
+    let end = last(&path);
+    let wrong = end
+        .controllers
+        .iter()
+        .find(|c| c.fault == Some(Fault::WrongLaw))
+        .expect("a controller computing with a wrong law");
     assert!(
         wrong.role.is_some(),
         "it is still in its role: {}",
@@ -244,7 +309,7 @@ fn the_command_line_checks_and_prints_the_finding() {
     let (code, out) = run_check(&[]);
     assert_eq!(code, Some(0), "{out}");
     assert!(
-        out.contains("result: all 23 properties as expected"),
+        out.contains("result: all 26 properties as expected"),
         "{out}"
     );
     let (code, out) = run_check(&["--wrong", "2"]);

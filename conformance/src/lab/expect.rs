@@ -335,13 +335,15 @@ pub fn for_scenario(name: &str, faults: &[Fault]) -> Result<Expected, UnknownSce
         // A wrong Primary leaves as a crashed one does: one change, to the Secondary
         // (`super::wrong_output::verdict` holds it to exactly that, and to the wrong commands
         // the readers may take).
-        // A drifting Primary, and one reading another camera, leave as a wrong one does.
+        // A drifting Primary, one reading another camera and one with a wrong law leave as a
+        // wrong one does.
         "wrong-primary"
         | "wrong-primary-vote-camera"
         | "frozen-primary"
         | "random-primary"
         | "drift-primary"
-        | "wrong-input-primary" => Ok(for_faults(faults)),
+        | "wrong-input-primary"
+        | "wrong-law-primary" => Ok(for_faults(faults)),
         // A wrong Secondary leaves as a crashed Secondary: the readers follow the Primary, so
         // nothing moves at them.
         "wrong-secondary" => Ok(from_each(vec![UNFELT; faults.len()])),

@@ -112,6 +112,9 @@ pub enum WrongAnswer {
     Drift(i32),
     /// Another camera's frames: inputs the group never has, the ball 40 px away.
     ForeignInput,
+    /// Its law's pan steps at this percent of the right law's (a wrong gain): aligned to the
+    /// group at every frame, its output stays within the tolerance; its raw answers differ.
+    Gain(i32),
 }
 
 impl WrongAnswer {
@@ -123,6 +126,7 @@ impl WrongAnswer {
             WrongAnswer::Random => "wrong-commands random".into(),
             WrongAnswer::Drift(n) => format!("wrong-commands drift {n}"),
             WrongAnswer::ForeignInput => "wrong-input foreign".into(),
+            WrongAnswer::Gain(percent) => format!("wrong-commands gain {percent}"),
         }
     }
 
@@ -153,6 +157,7 @@ impl fmt::Display for WrongAnswer {
             WrongAnswer::Random => f.write_str("random"),
             WrongAnswer::Drift(n) => write!(f, "pan drifting {n:+}/s"),
             WrongAnswer::ForeignInput => f.write_str("another camera's input"),
+            WrongAnswer::Gain(percent) => write!(f, "its law's pan gain at {percent}%"),
         }
     }
 }

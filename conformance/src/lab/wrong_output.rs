@@ -97,6 +97,10 @@ pub enum Kind {
     /// The Primary reading another camera: its answers are to inputs the group never has,
     /// so no voter compares them; its input congruence takes it out, alarmed by name.
     WrongInputPrimary,
+    /// The Primary's law wrong by a gain (its pan steps at [`LAW_GAIN_PERCENT`]): aligned to
+    /// the group at every frame, its output agrees within the tolerance, so no voter names
+    /// it; its raw answers take it out, alarmed by name.
+    WrongLawPrimary,
 }
 
 impl Kind {
@@ -109,6 +113,7 @@ impl Kind {
                 | Kind::RandomPrimary
                 | Kind::DriftPrimary
                 | Kind::WrongInputPrimary
+                | Kind::WrongLawPrimary
         )
     }
 
@@ -116,7 +121,24 @@ impl Kind {
     pub fn in_input(self) -> bool {
         self == Kind::WrongInputPrimary
     }
+
+    /// What the controller must say it was odd on and the alarm it must raise about itself,
+    /// when the alignment masks the fault in its output (no voter can name it): its input,
+    /// or its law.
+    pub fn masked(self) -> Option<(&'static str, &'static str)> {
+        match self {
+            Kind::WrongInputPrimary => Some(("input", "input_disagrees")),
+            Kind::WrongLawPrimary => Some(("law", "law_disagrees")),
+            _ => None,
+        }
+    }
 }
+
+/// The pan gain of `wrong-law-primary`'s law, in percent of the right one: half again, so
+/// that any step of 2 or more differs (integer steps, rounded toward zero), while a step's
+/// error stays within the tolerance of 25 for steps below 50 (a ball tracked at the camera's
+/// usual 13 px moves the gimbal a few units a frame).
+pub const LAW_GAIN_PERCENT: i32 = 150;
 
 /// A controller's odd answers before it leaves on input: [`FOREIGN_LIMIT`] inputs the group
 /// never had, in a row (rl_layer::cross_check), where an output fault leaves at N.
@@ -147,6 +169,11 @@ pub const OFFSET: i32 = 300;
 /// nothing, and a pair's two implementations read the same input, so its compare passes a
 /// wrong one (A2 of docs/findings.md: a fault both share); only three inputs can outvote one.
 pub fn not_run_under(scenario: OutputScenario, architecture: Architecture) -> Option<&'static str> {
+    if scenario.kind == Kind::WrongLawPrimary && architecture != Architecture::Voting {
+        return Some(
+            "a wrong law masked by the alignment is caught by comparing raw answers across three controllers: the duplex compares nothing, and a pair member compares its two implementations' outputs, not raw answers",
+        );
+    }
     if scenario.kind.in_input() && architecture != Architecture::Voting {
         return Some(
             "a wrong input is caught only by comparing inputs across three controllers: the duplex compares nothing, and a pair's two implementations read the same input (A2)",
@@ -202,6 +229,8 @@ pub struct OutAndBack {
     pub odd_on: Option<String>,
     /// Its `input_disagrees` alarm about itself (input congruence).
     pub input_alarm_after_ms: Option<f64>,
+    /// Its `law_disagrees` alarm about itself (raw answers).
+    pub law_alarm_after_ms: Option<f64>,
 }
 
 /// The voting reader's figures.
@@ -428,6 +457,11 @@ fn out_and_back(recorded: &Recorded, injection: &Injection) -> OutAndBack {
             .outputs
             .input_alarm_of(&injection.life)
             .map(after),
+        law_alarm_after_ms: recorded
+            .observed
+            .outputs
+            .law_alarm_of(&injection.life)
+            .map(after),
     }
 }
 
@@ -513,7 +547,7 @@ pub fn summary(report: &OutputReport) -> String {
             continue;
         }
         text.push_str(&format!(
-            "  {}: odd one out on {} {} after the fault ({} odd inputs after it, {} before, {} late), input alarm {}, {exited_and_back}; dissent raised {}, cleared {}\n",
+            "  {}: odd one out on {} {} after the fault ({} odd inputs after it, {} before, {} late), input alarm {}, law alarm {}, {exited_and_back}; dissent raised {}, cleared {}\n",
             o.life,
             o.odd_on.as_deref().unwrap_or("?"),
             ms(o.decided_after_ms),
@@ -521,6 +555,7 @@ pub fn summary(report: &OutputReport) -> String {
             o.odd_before_fault.map_or("?".into(), |n| n.to_string()),
             o.late.map_or("?".into(), |n| n.to_string()),
             ms(o.input_alarm_after_ms),
+            ms(o.law_alarm_after_ms),
             ms(o.dissent_raised_after_ms),
             ms(o.dissent_cleared_after_ms),
         ));

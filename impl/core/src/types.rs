@@ -286,6 +286,11 @@ pub enum AlarmReason {
     /// received. The controller raises it about itself before it leaves (the application's
     /// cross-check; the core never sees inputs).
     InputDisagrees,
+    /// Its raw answer (its law's own step, before alignment) disagreed with the raw answers
+    /// two agreeing peers gave to the same input, while its output agreed: a wrong law that
+    /// alignment masks. The controller raises it about itself before it leaves (the
+    /// application's cross-check; the core never sees answers).
+    LawDisagrees,
     /// It stood still, or was starved, past a command deadline (a stop, a frozen machine, a
     /// starved CPU, its own commands lapsed as the actuator's owner) and started again as a
     /// new incarnation. The new life raises it about itself and clears it once it has run for

@@ -109,6 +109,7 @@ fn pure(inputs: u64) {
                 from,
                 input,
                 input_digest: 0,
+                raw: rl_layer::wire::RawAnswer::NONE,
                 value: servo(pan + u16::from(from)),
             };
             let offered = Instant::now();

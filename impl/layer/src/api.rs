@@ -45,7 +45,7 @@ use crate::trust::CommandTrust;
 pub use crate::vote_feed::VoteFeed;
 use crate::vote_reader::{VoteRule, VoteSettings};
 pub use crate::wire::Plain;
-use crate::wire::{ServoControl, Voted, VotedSample, VOTED_SERVO_CONTROL_TYPE_NAME};
+use crate::wire::{RawAnswer, ServoControl, Voted, VotedSample, VOTED_SERVO_CONTROL_TYPE_NAME};
 use std::sync::atomic::Ordering;
 use std::sync::mpsc::Receiver;
 use std::sync::Arc;
@@ -512,11 +512,18 @@ impl<T: Clone + 'static> VotedWriter<T> {
     /// Writes `value` as this controller's answer to `input` (the application's tag of the
     /// input it computed from: the tracker's is the camera sample's source timestamp), with
     /// `input_digest`, the digest of the input's values as it received them
-    /// ([`crate::wire::input_digest`]; 0: none), if this controller holds a role now (and is
+    /// ([`crate::wire::input_digest`]; 0: none) and `raw`, its raw answer before alignment
+    /// ([`RawAnswer`]; [`RawAnswer::NONE`]: none), if this controller holds a role now (and is
     /// not FAILED); returns whether it was written. Write at least once per command deadline
     /// (again with the same input while no new input comes), so a receiver keeps counting
     /// this controller.
-    pub fn write(&mut self, input: u64, input_digest: u64, value: T) -> Result<bool, DdsError> {
+    pub fn write(
+        &mut self,
+        input: u64,
+        input_digest: u64,
+        raw: RawAnswer,
+        value: T,
+    ) -> Result<bool, DdsError> {
         // Taken before the status, as RoleWriter::write_if_allowed does.
         let restarts_seen = self.shared.loop_clock.restarts();
         let (id, role_held) = {
@@ -533,6 +540,7 @@ impl<T: Clone + 'static> VotedWriter<T> {
             from: id,
             input,
             input_digest,
+            raw,
             value,
         };
         self.writer.write(&answer)?;
@@ -550,6 +558,7 @@ impl<T: Clone + 'static> VotedWriter<T> {
         &mut self,
         input: u64,
         input_digest: u64,
+        raw: RawAnswer,
         value: T,
     ) -> Result<bool, DdsError> {
         let due = self
@@ -558,7 +567,7 @@ impl<T: Clone + 'static> VotedWriter<T> {
         if !due {
             return Ok(false);
         }
-        self.write(input, input_digest, value)
+        self.write(input, input_digest, raw, value)
     }
 
     /// The name of the topic it writes.

@@ -52,12 +52,28 @@
 //!   three of its own answers after it, as one kept while the peers' answers were not coming
 //!   (a cut) is no evidence when they come again for newer inputs.
 //!
+//! Raw answers (the output model's rule 4 on the law), judged after the output, in step: its
+//! answer agreed with the peers' within the tolerance, yet its law may be wrong by less than
+//! the tolerance at every input, masked because each input starts from the group's position
+//! (a wrong gain, a wrong build). Each answer carries its raw answer ([`RawAnswer`]: the law's
+//! own step, and the input before it that the step's memory came from), the same bit for bit
+//! at every correct controller that answered the same two inputs:
+//!
+//! - **Another raw answer**: two peers answered the input with the same input digest and the
+//!   same raw answer from the same input before as its own, and its raw answer differs: odd
+//!   on its law, counted per life toward the same N ([`OddOn::Law`]). Exactly, not within a
+//!   tolerance: the step is a function of the two inputs alone, so any difference is its
+//!   computation's. Only with two peers' raw answers in when it is judged, as the model
+//!   judges only a full comparison; a peer that answered from another input before (a frame
+//!   it skipped) is not compared.
+//!
 //! Where it differs from the model: a controller that omits its answers judges nothing (its
 //! own answer is what it compares), so an omission is the receiver's to catch (a silent
 //! controller goes stale at the voting reader; the exclusive reader's deadline moves on).
 
 use crate::core::types::ControllerId;
 use crate::vote_reader::VoteRule;
+use crate::wire::RawAnswer;
 use std::collections::BTreeMap;
 
 /// The default N: odd-one-out inputs in one life before a controller leaves. The model's
@@ -100,6 +116,9 @@ pub enum OddOn {
     /// Its input, at one of the odd inputs at least: another value of an input two agreeing
     /// peers answered alike, or inputs neither of them received (input congruence).
     Input,
+    /// Its law, at one of the odd inputs at least: its output agreed, its raw answer differed
+    /// from two agreeing peers' raw answers to the same input from the same input before.
+    Law,
 }
 
 /// Why a controller leaves: the inputs at which it was the odd one out of three.
@@ -124,11 +143,16 @@ pub struct OddOneOut {
 impl std::fmt::Display for OddOneOut {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let peers: Vec<String> = self.peers.iter().map(|id| format!("C{id}")).collect();
-        if self.on == OddOn::Input {
+        let odd_on = match self.on {
+            OddOn::Output => None,
+            OddOn::Input => Some(("input", "input")),
+            OddOn::Law => Some(("its law", "raw answers")),
+        };
+        if let Some((on, what)) = odd_on {
             return write!(
                 f,
-                "the odd one out of three on input at {} inputs of this life ({}): its input \
-                 disagrees with both of {}, which agree",
+                "the odd one out of three on {on} at {} inputs of this life ({}): its {what} \
+                 disagree with both of {}, which agree",
                 self.inputs.len(),
                 self.inputs
                     .iter()
@@ -176,6 +200,8 @@ struct OwnAnswer<T> {
     input: u64,
     /// The digest of the input's values (0: none).
     digest: u64,
+    /// Its raw answer.
+    raw: RawAnswer,
     value: T,
     /// Computed from the group's position at the input answered before.
     in_step: bool,
@@ -189,9 +215,8 @@ pub struct CrossCheck<T, R> {
     own: ControllerId,
     rule: R,
     odd_limit: u32,
-    /// Peers' answers by input, the newest [`INPUTS_KEPT`] inputs: each with its input's
-    /// digest.
-    peers: BTreeMap<u64, BTreeMap<ControllerId, (u64, T)>>,
+    /// Peers' answers by input, the newest [`INPUTS_KEPT`] inputs.
+    peers: BTreeMap<u64, BTreeMap<ControllerId, PeerAnswer<T>>>,
     /// Its own answers not judged yet, oldest first: the input it answers now (judged at the
     /// next input) and earlier ones whose peers' answers are not all in.
     pending: Vec<OwnAnswer<T>>,
@@ -207,6 +232,9 @@ pub struct CrossCheck<T, R> {
     /// This life's inputs whose value disagreed with two agreeing peers' (odd on input; also
     /// in `odd_inputs`, which counts both grounds toward N).
     odd_on_input: Vec<u64>,
+    /// This life's inputs whose raw answer disagreed with two agreeing peers' (odd on its
+    /// law; also in `odd_inputs`).
+    odd_on_law: Vec<u64>,
     /// The foreign inputs since its last input shared with a peer.
     foreign: Vec<u64>,
     /// Decided to leave, and why: nothing more is answered in this life.
@@ -228,22 +256,28 @@ impl<T: Clone, R: VoteRule<T>> CrossCheck<T, R> {
             group_formed: false,
             odd_inputs: Vec::new(),
             odd_on_input: Vec::new(),
+            odd_on_law: Vec::new(),
             foreign: Vec::new(),
             left: None,
         }
     }
 
-    /// A peer's answer `value` to `input`, whose values had the digest `digest` (0: none), as
-    /// it arrived (trusted: its participant speaks for `from`). Its own answers, read back, are
-    /// ignored: it compares what it computed.
-    pub fn peer_answer(&mut self, from: ControllerId, input: u64, digest: u64, value: T) {
+    /// A peer's answer `value` to `input`, whose values had the digest `digest` (0: none),
+    /// with its raw answer `raw`, as it arrived (trusted: its participant speaks for `from`).
+    /// Its own answers, read back, are ignored: it compares what it computed.
+    pub fn peer_answer(
+        &mut self,
+        from: ControllerId,
+        input: u64,
+        digest: u64,
+        raw: RawAnswer,
+        value: T,
+    ) {
         if from == self.own {
             return;
         }
-        self.peers
-            .entry(input)
-            .or_default()
-            .insert(from, (digest, value));
+        let answer = PeerAnswer { digest, raw, value };
+        self.peers.entry(input).or_default().insert(from, answer);
         while self.peers.len() > INPUTS_KEPT {
             self.peers.pop_first();
         }
@@ -264,11 +298,12 @@ impl<T: Clone, R: VoteRule<T>> CrossCheck<T, R> {
         self.aligned_to = self.aligned_to.max(Some(input));
     }
 
-    /// Its answer `value` to `input`, whose values had the digest `digest` (0: none), before
-    /// it goes out: judges the inputs it answered before (rule 5 and input congruence; late
-    /// ones as soon as the peers' answers are in) and says whether to publish. Answering the
-    /// same input again (a re-publication) only replaces the answer kept for it.
-    pub fn answer(&mut self, input: u64, digest: u64, value: T) -> Judgement {
+    /// Its answer `value` to `input`, whose values had the digest `digest` (0: none), with its
+    /// raw answer `raw`, before it goes out: judges the inputs it answered before (rule 5,
+    /// input congruence and raw answers; late ones as soon as the peers' answers are in) and
+    /// says whether to publish. Answering the same input again (a re-publication) only
+    /// replaces the answer kept for it.
+    pub fn answer(&mut self, input: u64, digest: u64, raw: RawAnswer, value: T) -> Judgement {
         if let Some(left) = &self.left {
             return Judgement::Leave(left.clone());
         }
@@ -299,6 +334,7 @@ impl<T: Clone, R: VoteRule<T>> CrossCheck<T, R> {
         self.pending.push(OwnAnswer {
             input,
             digest,
+            raw,
             value,
             in_step,
             answered_after: 0,
@@ -319,11 +355,7 @@ impl<T: Clone, R: VoteRule<T>> CrossCheck<T, R> {
         match input {
             InputComparison::Odd(peers) => {
                 self.odd_on_input.push(answer.input);
-                self.odd_inputs.push(answer.input);
-                self.odd_inputs.sort_unstable();
-                let limit = self.odd_limit as usize;
-                return (limit > 0 && self.odd_inputs.len() >= limit)
-                    .then(|| self.odd_on(OddOn::Input, self.odd_inputs.clone(), peers));
+                return self.count_odd(answer.input, OddOn::Input, peers);
             }
             InputComparison::Foreign(peers) => {
                 if !on_time {
@@ -352,25 +384,59 @@ impl<T: Clone, R: VoteRule<T>> CrossCheck<T, R> {
             }
             Comparison::NotOdd => {
                 self.late.retain(|late| *late > answer.input);
-                None
+                let peers = self.compare_raw(&answer)?;
+                self.odd_on_law.push(answer.input);
+                self.count_odd(answer.input, OddOn::Law, peers)
             }
             Comparison::Odd(peers) => {
                 if !on_time {
                     self.note_late(answer.input);
                 }
-                self.odd_inputs.push(answer.input);
-                self.odd_inputs.sort_unstable();
-                let limit = self.odd_limit as usize;
-                // Odd on input at any of them, it says so (the model's input alarm).
-                let on = if self.odd_on_input.is_empty() {
-                    OddOn::Output
-                } else {
-                    OddOn::Input
-                };
-                (limit > 0 && self.odd_inputs.len() >= limit)
-                    .then(|| self.odd_on(on, self.odd_inputs.clone(), peers))
+                self.count_odd(answer.input, OddOn::Output, peers)
             }
         }
+    }
+
+    /// Counts `input` odd (`on` it), against `peers`: the verdict if it is the N-th of the
+    /// life. Odd on input or on its law at any of them, it says so (the model's alarms about
+    /// itself), input first.
+    fn count_odd(&mut self, input: u64, on: OddOn, peers: Vec<ControllerId>) -> Option<OddOneOut> {
+        self.odd_inputs.push(input);
+        self.odd_inputs.sort_unstable();
+        let limit = self.odd_limit as usize;
+        let on = if !self.odd_on_input.is_empty() {
+            OddOn::Input
+        } else if !self.odd_on_law.is_empty() {
+            OddOn::Law
+        } else {
+            on
+        };
+        (limit > 0 && self.odd_inputs.len() >= limit)
+            .then(|| self.odd_on(on, self.odd_inputs.clone(), peers))
+    }
+
+    /// The two peers whose raw answers to `answer`'s input agree with each other and not with
+    /// its own, from the same input before and the same input values (see the module's rules
+    /// on raw answers); none when it gives no raw answer or fewer than two peers' compare.
+    fn compare_raw(&self, answer: &OwnAnswer<T>) -> Option<Vec<ControllerId>> {
+        if !answer.raw.is_some() {
+            return None;
+        }
+        let comparable: Vec<(ControllerId, u64)> = self
+            .peers
+            .get(&answer.input)?
+            .iter()
+            .filter(|(_, peer)| {
+                peer.digest == answer.digest
+                    && peer.raw.is_some()
+                    && peer.raw.after == answer.raw.after
+            })
+            .map(|(from, peer)| (*from, peer.raw.digest))
+            .collect();
+        if comparable.iter().any(|(_, d)| *d == answer.raw.digest) {
+            return None;
+        }
+        agreeing_pair(&comparable)
     }
 
     /// The verdict: odd `on` at `inputs`, against `peers`.
@@ -390,7 +456,7 @@ impl<T: Clone, R: VoteRule<T>> CrossCheck<T, R> {
         if let Some(answers) = self.peers.get(&input) {
             let digests: Vec<(ControllerId, u64)> = answers
                 .iter()
-                .map(|(from, (peer_digest, _))| (*from, *peer_digest))
+                .map(|(from, peer)| (*from, peer.digest))
                 .filter(|(_, peer_digest)| *peer_digest != 0)
                 .collect();
             if digest == 0 || digests.iter().any(|(_, d)| *d == digest) {
@@ -412,7 +478,7 @@ impl<T: Clone, R: VoteRule<T>> CrossCheck<T, R> {
         let agreeing_later = self.peers.range(newer).rev().find_map(|(_, answers)| {
             let digests: Vec<(ControllerId, u64)> = answers
                 .iter()
-                .map(|(from, (d, _))| (*from, *d))
+                .map(|(from, peer)| (*from, peer.digest))
                 .filter(|(_, d)| *d != 0)
                 .collect();
             agreeing_pair(&digests)
@@ -439,6 +505,7 @@ impl<T: Clone, R: VoteRule<T>> CrossCheck<T, R> {
         self.group_formed = false;
         self.odd_inputs.clear();
         self.odd_on_input.clear();
+        self.odd_on_law.clear();
         self.foreign.clear();
         self.left = None;
     }
@@ -457,7 +524,7 @@ impl<T: Clone, R: VoteRule<T>> CrossCheck<T, R> {
             .map(|peers| {
                 peers
                     .iter()
-                    .map(|(from, (_, value))| (from, value))
+                    .map(|(from, peer)| (from, &peer.value))
                     .collect()
             })
             .unwrap_or_default();
@@ -477,7 +544,16 @@ impl<T: Clone, R: VoteRule<T>> CrossCheck<T, R> {
     }
 }
 
-/// Two peers whose input digests (non-zero) are equal, if any.
+/// A peer's answer to one input, as it arrived.
+#[derive(Clone, Debug)]
+struct PeerAnswer<T> {
+    /// The digest of its input's values (0: none).
+    digest: u64,
+    raw: RawAnswer,
+    value: T,
+}
+
+/// Two peers whose digests (non-zero) are equal, if any.
 fn agreeing_pair(digests: &[(ControllerId, u64)]) -> Option<Vec<ControllerId>> {
     digests.iter().enumerate().find_map(|(i, (first, digest))| {
         let second = digests[i + 1..].iter().find(|(_, d)| d == digest)?;
@@ -511,5 +587,7 @@ enum Comparison {
 
 #[cfg(test)]
 mod input_tests;
+#[cfg(test)]
+mod law_tests;
 #[cfg(test)]
 mod tests;

@@ -13,7 +13,7 @@ use rl_layer::core::types::ControllerId;
 use rl_layer::cross_check::CrossCheck;
 use rl_layer::owner_feed::OwnerFeed;
 use rl_layer::vote_reader::{ServoRule, VoteEvent, VoteSettings};
-use rl_layer::wire::{input_digest, ServoControl, VOTED_SERVO_CONTROL_TYPE_NAME};
+use rl_layer::wire::{input_digest, RawAnswer, ServoControl, VOTED_SERVO_CONTROL_TYPE_NAME};
 
 /// The digest of a camera frame's values as the law reads them: the ball's x, then y, each
 /// as 4 little-endian bytes.
@@ -22,6 +22,23 @@ pub(super) fn frame_digest(ball: (i32, i32)) -> u64 {
     bytes[..4].copy_from_slice(&ball.0.to_le_bytes());
     bytes[4..].copy_from_slice(&ball.1.to_le_bytes());
     input_digest(&bytes)
+}
+
+/// The raw answer to a frame: the law's step (pan, then tilt, each as 8 little-endian bytes)
+/// from the frame answered before, `after`.
+pub(super) fn raw_answer(after: u64, step: Option<(i64, i64)>) -> RawAnswer {
+    match step {
+        Some((pan, tilt)) if after != 0 => {
+            let mut bytes = [0u8; 16];
+            bytes[..8].copy_from_slice(&pan.to_le_bytes());
+            bytes[8..].copy_from_slice(&tilt.to_le_bytes());
+            RawAnswer {
+                after,
+                digest: input_digest(&bytes),
+            }
+        }
+        _ => RawAnswer::NONE,
+    }
 }
 
 /// The tracker's control law (and a lockstep pair's second implementation beside it), the
@@ -35,6 +52,9 @@ pub(super) struct Tracker {
     /// The digest of that frame's values as the law read them (the ball's x and y; 0: no
     /// frame yet), compared with the peers' on the voted topic (input congruence).
     pub(super) frame_digest: u64,
+    /// Its raw answer to that frame: the law's step from the frame before, compared exactly
+    /// with the peers' (rl_layer::cross_check).
+    pub(super) raw: RawAnswer,
     /// Its answer to that frame: a re-publication repeats it. The tracker's state, aligned to
     /// the group since, is for the next frame; a re-publication computed from it would be a
     /// second, different answer to the same frame (two wrong values per frame from a wrong
@@ -53,6 +73,7 @@ impl Tracker {
                 .then(|| Lockstep::beside(law, frequency_hz)),
             frame: 0,
             frame_digest: 0,
+            raw: RawAnswer::NONE,
             answer: None,
             second_answer: None,
         }
@@ -66,19 +87,31 @@ impl Tracker {
     }
 
     /// Answers camera frame `input`, the ball at `ball` (x, y), from the group's position
-    /// before it ([`Alignment::before_frame`]).
+    /// before it ([`Alignment::before_frame`]), its pan step at `pan_gain_percent` of the law's
+    /// (100; otherwise the fault-injection control's wrong gain, a wrong law).
     pub(super) fn answer_frame(
         &mut self,
-        input: u64,
-        ball: (i32, i32),
+        (input, ball): (u64, (i32, i32)),
+        pan_gain_percent: i64,
         alignment: &mut Alignment,
         cross_check: &mut CrossCheck<ServoControl, ServoRule>,
     ) {
         let skipped =
             alignment.before_frame(input, self.frame, self.pan_tilt.as_mut(), cross_check);
         self.align_second(skipped);
-        self.answer = Some(self.pan_tilt.update(ball.0, ball.1));
+        let from = self.pan_tilt.command();
+        let mut answer = self.pan_tilt.update(ball.0, ball.1);
+        let mut step = self.pan_tilt.step();
+        if let Some((pan, tilt)) = step.filter(|_| pan_gain_percent != 100) {
+            let pan = pan.saturating_mul(pan_gain_percent) / 100;
+            let moved = i64::from(from.pan).saturating_add(pan).clamp(0, 1000);
+            answer.pan = u16::try_from(moved).unwrap_or(answer.pan);
+            self.pan_tilt.align(answer.pan, answer.tilt);
+            step = Some((pan, tilt));
+        }
+        self.answer = Some(answer);
         self.second_answer = self.lockstep.as_mut().map(|l| l.update(ball.0, ball.1));
+        self.raw = raw_answer(self.frame, step);
         self.frame = input;
         self.frame_digest = frame_digest(ball);
     }
@@ -195,6 +228,7 @@ impl Alignment {
                     answer.from,
                     answer.input,
                     answer.input_digest,
+                    answer.raw,
                     answer.value,
                 );
                 answers
@@ -259,5 +293,34 @@ impl Alignment {
             }
             _ => None,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_raw_answer_is_the_step_and_the_frame_before_and_none_without_either() {
+        assert_eq!(
+            raw_answer(0, Some((2, 3))),
+            RawAnswer::NONE,
+            "no frame before"
+        );
+        assert_eq!(raw_answer(7, None), RawAnswer::NONE, "no step yet");
+        let raw = raw_answer(7, Some((2, 3)));
+        assert!(raw.is_some());
+        assert_eq!(raw.after, 7);
+        assert_eq!(
+            raw,
+            raw_answer(7, Some((2, 3))),
+            "the same step, the same digest"
+        );
+        assert_ne!(
+            raw.digest,
+            raw_answer(7, Some((3, 2))).digest,
+            "pan and tilt apart"
+        );
+        assert_ne!(raw.digest, raw_answer(7, Some((2, 4))).digest);
     }
 }

@@ -56,8 +56,38 @@ proptest! {
             let expected = apply(&mut integer, step);
             let got = apply(&mut float, step);
             prop_assert_eq!(got, expected, "step {} ({:?})", i, step);
+            prop_assert_eq!(float.step(), integer.step(), "raw step {} ({:?})", i, step);
         }
     }
+
+    /// The raw answer (rl_layer::wire::RawAnswer) is the law's step: two controllers aligned
+    /// to different positions give the same one for the same circles, so it is compared
+    /// exactly, while a wrong gain gives another.
+    #[test]
+    fn the_step_depends_on_the_circles_alone_not_on_the_position(
+        circles in prop::collection::vec((coordinate(), coordinate()), 2..50),
+        (pan, tilt) in (0..=1000u16, 0..=1000u16),
+    ) {
+        let mut here = PanTiltController::new(60);
+        let mut there = PanTiltController::new(60);
+        there.align(pan, tilt);
+        for (i, (x, y)) in circles.into_iter().enumerate() {
+            here.update(x, y);
+            there.update(x, y);
+            prop_assert_eq!(here.step(), there.step());
+            prop_assert_eq!(here.step().is_some(), i > 0);
+        }
+    }
+}
+
+#[test]
+fn the_first_circle_has_no_step() {
+    let mut law = PanTiltController::new(60);
+    assert_eq!(law.step(), None);
+    law.update(101, 136);
+    assert_eq!(law.step(), None, "the first only records the errors");
+    law.update(101, 136);
+    assert_eq!(law.step(), Some((2, 3)));
 }
 
 #[test]

@@ -19,6 +19,8 @@ struct Axis {
     derivative: f64,
     position: f64,
     previous_error: Option<f64>,
+    /// The last step's velocity, before the clamp.
+    velocity: Option<f64>,
 }
 
 /// The gimbal's servos move between these positions and start in the middle.
@@ -35,6 +37,7 @@ impl Axis {
             derivative,
             position: MIDDLE,
             previous_error: None,
+            velocity: None,
         }
     }
 
@@ -42,9 +45,15 @@ impl Axis {
         if let Some(previous) = self.previous_error {
             let push = error * self.proportional + (error - previous) * self.derivative;
             let velocity = (push / GAIN_UNIT).floor();
+            self.velocity = Some(velocity);
             self.position = (self.position + velocity).clamp(LOWEST, HIGHEST);
         }
         self.previous_error = Some(error);
+    }
+
+    /// The last velocity as the integer it is (a whole number far below 2^53).
+    fn last_velocity(&self) -> Option<i64> {
+        self.velocity.map(|velocity| velocity as i64)
     }
 
     fn servo(&self) -> u16 {
@@ -99,5 +108,9 @@ impl ControlLaw for FloatPanTilt {
             tilt: self.tilt.servo(),
             frequency: self.frequency_hz,
         }
+    }
+
+    fn step(&self) -> Option<(i64, i64)> {
+        self.pan.last_velocity().zip(self.tilt.last_velocity())
     }
 }

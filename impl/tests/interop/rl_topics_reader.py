@@ -21,8 +21,8 @@ Contract
         {"topic": "vote", "from_id": 1, "incarnation": 7, "vote": [[1, 7], [2, 9], [3, 4]]}
         {"topic": "alarm", "reporter_id": 1, "reporter_incarnation": 7, "about_id": 3,
          "about_incarnation": null, "reason": 1, "raised": true}
-        {"topic": "voted", "from_id": 1, "input": 0, "input_digest": 0, "pan": 500, "tilt": 500,
-         "frequency": 60}
+        {"topic": "voted", "from_id": 1, "input": 0, "input_digest": 0, "raw_after": 0,
+         "raw_digest": 0, "pan": 500, "tilt": 500, "frequency": 60}
     An assignment is null when its `valid` flag is false. Prints nothing else on stdout.
     Before joining DDS it checks that the types below are PATH's (default: docs/rl.idl of this
     repository), member for member: same names, order, IDL types and keys.
@@ -120,6 +120,8 @@ class VotedServoControl(IdlStruct, typename="rl::VotedServoControl"):
     key("from_id")
     input: uint64
     input_digest: uint64
+    raw_after: uint64
+    raw_digest: uint64
     value: ServoControl
 
 
@@ -238,6 +240,8 @@ def voted_line(s):
         "from_id": s.from_id,
         "input": s.input,
         "input_digest": s.input_digest,
+        "raw_after": s.raw_after,
+        "raw_digest": s.raw_digest,
         "pan": s.value.pan,
         "tilt": s.value.tilt,
         "frequency": s.value.frequency,

@@ -3,8 +3,8 @@
 //! bound K follows), and the deliberately broken rules the mutation tests use.
 //!
 //! Everything else about the scope is fixed: three controllers, each with a role, and the
-//! five ways an answer can go wrong (`super::state::Fault`: four of the output, one of the
-//! input).
+//! six ways an answer can go wrong (`super::state::Fault`: four of the output, one of the
+//! input, one of the law).
 
 use serde::{Deserialize, Serialize};
 
@@ -66,6 +66,9 @@ pub enum OutputMutation {
     /// The cross-check compares outputs only, not inputs: a controller whose input is wrong
     /// and whose output is right is never the odd one out.
     NoInputCongruence,
+    /// The cross-check does not compare raw answers: a controller whose law is wrong and whose
+    /// aligned output is right is never the odd one out.
+    NoRawCompare,
 }
 
 /// The output model's configuration.
@@ -187,6 +190,7 @@ impl OutputConfig {
                 OutputMutation::AcceptSingleSource => "accept-single-source",
                 OutputMutation::CompareAfterNextCommand => "compare-after-next-command",
                 OutputMutation::NoInputCongruence => "no-input-congruence",
+                OutputMutation::NoRawCompare => "no-raw-compare",
             };
             flags.push_str(&format!(" --output-mutation {name}"));
         }

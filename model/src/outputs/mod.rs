@@ -9,7 +9,8 @@
 //!   sources agree on it, raises a `dissent` alarm about a source that disagrees with the
 //!   agreeing pair, and holds (accepts nothing, hold alarm) when no two agree;
 //! - the paper's **exclusive-ownership receiver** takes the strongest writer's commands;
-//! - each controller **cross-checks** its command for an input against the two others'; the
+//! - each controller **cross-checks** its command for an input against the two others', and
+//!   the input digest and the raw answer (its law's step before alignment) each carries; the
 //!   odd one out of three for N inputs of one life reports a local fault and leaves (FAILED),
 //!   then restarts in the lowest free role, correct again or not.
 //!

@@ -75,6 +75,12 @@ pub fn catalogue() -> Vec<OutputPropertyInfo> {
         p("a controller that leaves for its input is alarmed by name", Always,
           "a controller that left with a wrong input has its input alarm about itself up until it restarts",
           wrong_input_alarmed),
+        p("a masked wrong law is found within N inputs", Always,
+          "while at most one is wrong, a controller that answered N inputs with a wrong law in one life (its output right, aligned) answers no further input in it",
+          wrong_law_found_within_n),
+        p("a controller that leaves for its law is alarmed by name", Always,
+          "a controller that left with a wrong law has its law alarm about itself up until it restarts",
+          wrong_law_alarmed),
         p("an exclusive receiver takes at most K wrong or missing commands", Always,
           "while at most one is wrong, an exclusive-ownership receiver takes at most K wrong or missing commands from one controller's life",
           exclusive_bounded),
@@ -93,6 +99,9 @@ pub fn catalogue() -> Vec<OutputPropertyInfo> {
         p("a controller with a wrong input leaves", Sometimes,
           "a controller whose wrong input its aligned output masks is the odd one out on input and leaves, alarmed",
           left_with_wrong_input),
+        p("a controller with a wrong law leaves", Sometimes,
+          "a controller whose wrong law its aligned output masks is the odd one out on its raw answers and leaves, alarmed",
+          left_with_wrong_law),
         p("a wrong Primary leaves and the exclusive receiver follows the next", Sometimes,
           "the Primary leaves with a local fault and the exclusive receiver's owner is another controller",
           wrong_primary_replaced),
@@ -209,6 +218,30 @@ fn left_with_wrong_input(_: &OutputModel, state: &OutputState) -> bool {
         .controllers
         .iter()
         .any(|c| c.phase == Phase::Failed && c.fault == Some(Fault::WrongInput) && c.input_alarm)
+}
+
+fn wrong_law_found_within_n(model: &OutputModel, state: &OutputState) -> bool {
+    let limit = model.config.odd_limit;
+    state.two_wrong_at_once
+        || state
+            .controllers
+            .iter()
+            .all(|c| c.command != Command::Pending || c.wrong_law_in_life < limit)
+}
+
+fn wrong_law_alarmed(_: &OutputModel, state: &OutputState) -> bool {
+    state.two_wrong_at_once
+        || state
+            .controllers
+            .iter()
+            .all(|c| !(c.phase == Phase::Failed && c.fault == Some(Fault::WrongLaw)) || c.law_alarm)
+}
+
+fn left_with_wrong_law(_: &OutputModel, state: &OutputState) -> bool {
+    state
+        .controllers
+        .iter()
+        .any(|c| c.phase == Phase::Failed && c.fault == Some(Fault::WrongLaw) && c.law_alarm)
 }
 
 fn exclusive_bounded(model: &OutputModel, state: &OutputState) -> bool {

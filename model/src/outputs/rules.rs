@@ -155,6 +155,7 @@ fn forget_bounded_counts(state: &mut OutputState) {
         c.exclusive_wrong = 0;
         c.exclusive_missed = 0;
         c.wrong_input_in_life = 0;
+        c.wrong_law_in_life = 0;
     }
 }
 
@@ -166,6 +167,7 @@ fn fault_choices(config: &OutputConfig, state: &OutputState, id: Id) -> Vec<Faul
         Fault::Omitted,
         Fault::Erratic,
         Fault::WrongInput,
+        Fault::WrongLaw,
     ];
     for value in Value::ALL {
         let frozen_by_another = state
@@ -192,8 +194,9 @@ pub fn command_choices(config: &OutputConfig, state: &OutputState, id: Id) -> Ve
         .filter(|value| *value != state.right && !excluded.contains(value))
         .map(Command::Sent);
     match c.fault {
-        // Aligned to the group's position, a wrong input yields the right command.
-        None | Some(Fault::WrongInput) => vec![Command::Sent(state.right)],
+        // Aligned to the group's position, a wrong input or a wrong law (wrong by less than
+        // the tolerance) yields the right command.
+        None | Some(Fault::WrongInput | Fault::WrongLaw) => vec![Command::Sent(state.right)],
         Some(Fault::WrongValue) => wrong.collect(),
         Some(Fault::Frozen(value)) => vec![Command::Sent(value)],
         Some(Fault::Omitted) => vec![Command::Missing],
@@ -263,6 +266,9 @@ fn publish(config: &OutputConfig, state: &mut OutputState, id: Id, command: Comm
     if c.fault == Some(Fault::WrongInput) && command.value().is_some() {
         c.wrong_input_in_life = count_up(c.wrong_input_in_life, cap);
     }
+    if c.fault == Some(Fault::WrongLaw) && command.value().is_some() {
+        c.wrong_law_in_life = count_up(c.wrong_law_in_life, cap);
+    }
     if owns_exclusive {
         match command {
             Command::Sent(value) if value != right => {
@@ -320,7 +326,8 @@ fn close_input(config: &OutputConfig, state: &mut OutputState) {
     let inputs_wrong = state
         .controllers
         .map(|c| c.fault == Some(Fault::WrongInput));
-    cross_check(config, state, &judged, &inputs_wrong);
+    let laws_wrong = state.controllers.map(|c| c.fault == Some(Fault::WrongLaw));
+    cross_check(config, state, &judged, &inputs_wrong, &laws_wrong);
     for (c, command) in state.controllers.iter_mut().zip(closing) {
         c.previous = if lagging && c.has_role() {
             command
@@ -376,35 +383,66 @@ pub fn odd_on_input(
     judged: &[Command; CONTROLLERS],
     inputs_wrong: &[bool; CONTROLLERS],
 ) -> Option<Id> {
+    the_one_that_differs(judged, inputs_wrong)
+}
+
+/// The controller whose raw answer (its law's own step before alignment) differs from two
+/// others' that agree: each command carries its raw answer, correct laws that answered the
+/// same inputs give the same raw answer exactly, and a wrong law's differs from every other
+/// (two wrong laws differ). Meant for answers to the same input only (see `cross_check`).
+pub fn odd_on_law(judged: &[Command; CONTROLLERS], laws_wrong: &[bool; CONTROLLERS]) -> Option<Id> {
+    the_one_that_differs(judged, laws_wrong)
+}
+
+/// Of three sent commands, the one whose carried digest differs (`differs`) when the two
+/// others' are alike: exactly one differing. Only a full comparison of three sent commands
+/// judges anyone.
+fn the_one_that_differs(
+    judged: &[Command; CONTROLLERS],
+    differs: &[bool; CONTROLLERS],
+) -> Option<Id> {
     if judged.iter().any(|command| command.value().is_none()) {
         return None;
     }
-    let wrong: Vec<usize> = (0..CONTROLLERS).filter(|&i| inputs_wrong[i]).collect();
-    match wrong[..] {
+    let odd: Vec<usize> = (0..CONTROLLERS).filter(|&i| differs[i]).collect();
+    match odd[..] {
         [odd] => Id::try_from(odd + 1).ok(),
         _ => None,
     }
 }
 
-/// Each controller with a role compares its own command, and the input it answered, with the
-/// two others': the odd one out on either counts the input, and leaves once it has counted N
-/// (`OutputConfig::odd_limit`), raising its input alarm about itself if it was odd on input.
+/// Each controller with a role compares its own command, the input it answered and its raw
+/// answer with the two others': the odd one out on any counts the input, and leaves once it
+/// has counted N (`OutputConfig::odd_limit`), raising its input or law alarm about itself if it
+/// was odd on input or on law.
 fn cross_check(
     config: &OutputConfig,
     state: &mut OutputState,
     judged: &[Command; CONTROLLERS],
     inputs_wrong: &[bool; CONTROLLERS],
+    laws_wrong: &[bool; CONTROLLERS],
 ) {
     let odd = odd_one_out(judged);
     let odd_input = match config.mutation {
         Some(OutputMutation::NoInputCongruence) => None,
         _ => odd_on_input(judged, inputs_wrong),
     };
+    // Raw answers are compared only between answers to the same input: a controller that read
+    // another input is not judged on law (its raw answer comes from that input), and of the two
+    // left nobody can tell which law is wrong.
+    let odd_law = match config.mutation {
+        Some(OutputMutation::NoRawCompare) => None,
+        _ if inputs_wrong.contains(&true) => None,
+        _ => odd_on_law(judged, laws_wrong),
+    };
     for c in state.controllers.iter_mut().filter(|c| c.has_role()) {
         if odd_input == Some(c.id) {
             c.odd_on_input = true;
         }
-        if odd == Some(c.id) || odd_input == Some(c.id) {
+        if odd_law == Some(c.id) {
+            c.odd_on_law = true;
+        }
+        if [odd, odd_input, odd_law].contains(&Some(c.id)) {
             c.odd_count = count_up(c.odd_count, config.odd_limit);
         } else if config.cross_check == CrossCheck::Consecutive {
             c.odd_count = 0;
@@ -419,6 +457,7 @@ fn cross_check(
     for id in &leavers {
         let c = state.controller_mut(*id);
         c.input_alarm = c.odd_on_input;
+        c.law_alarm = c.odd_on_law;
         leave(state, *id);
     }
     if !leavers.is_empty() {

@@ -50,6 +50,11 @@ pub enum Fault {
     /// output, aligned to the group's position, is the right command: masked at every
     /// receiver, and found only by comparing inputs (input congruence).
     WrongInput,
+    /// Its law computes wrongly (a wrong gain, a wrong build) by less than the tolerance, from
+    /// the right input: aligned to the group's position its output is the right command
+    /// (masked at every receiver), and only its raw answer, the law's own step before
+    /// alignment, differs from the correct controllers' (found by comparing raw answers).
+    WrongLaw,
 }
 
 impl fmt::Display for Fault {
@@ -60,6 +65,7 @@ impl fmt::Display for Fault {
             Fault::Omitted => write!(f, "omits its commands"),
             Fault::Erratic => write!(f, "erratic"),
             Fault::WrongInput => write!(f, "reads a wrong input"),
+            Fault::WrongLaw => write!(f, "computes with a wrong law"),
         }
     }
 }
@@ -122,6 +128,14 @@ pub struct Controller {
     /// Its `input_disagrees` alarm about itself is up: raised as it leaves odd on input,
     /// gone with the life.
     pub input_alarm: bool,
+    /// Ghost: inputs it answered with a wrong law in this life (saturating at N + 1).
+    pub wrong_law_in_life: u8,
+    /// It was the odd one out on law in this life (its raw answer differed from two agreeing
+    /// peers' to the same input).
+    pub odd_on_law: bool,
+    /// Its `law_disagrees` alarm about itself is up: raised as it leaves odd on law, gone
+    /// with the life.
+    pub law_alarm: bool,
 }
 
 impl Controller {
@@ -144,6 +158,9 @@ impl Controller {
             wrong_input_in_life: 0,
             odd_on_input: false,
             input_alarm: false,
+            wrong_law_in_life: 0,
+            odd_on_law: false,
+            law_alarm: false,
         }
     }
 

@@ -98,6 +98,8 @@ pub struct Readings {
     /// The `input_disagrees` alarms controller lives raised about themselves (input
     /// congruence): the life and when (its event's time).
     pub input_alarms: Vec<(String, f64)>,
+    /// The `law_disagrees` alarms controller lives raised about themselves (raw answers).
+    pub law_alarms: Vec<(String, f64)>,
     /// Each helper's clock origin on the lab clock: the smallest read time minus its own time
     /// (its lines carry milliseconds since it started).
     voter_origin_ms: Option<f64>,
@@ -232,14 +234,16 @@ impl Readings {
             .find(|l| l.label() == life)
             .map_or(0.0, |l| l.round_clock_correction_ms(t_ms) as f64);
         let about_itself = value["about"].as_u64() == value["id"].as_u64();
-        if value["event"] == "alarm"
-            && value["reason"] == "input_disagrees"
-            && value["raised"] == true
-            && about_itself
-            && !self.input_alarms.iter().any(|(l, _)| l == life)
-        {
-            let at_ms = clock.of_wall_ms(t_ms as f64 - correction_ms);
-            self.input_alarms.push((life.to_string(), at_ms));
+        if value["event"] == "alarm" && value["raised"] == true && about_itself {
+            let alarms = match value["reason"].as_str() {
+                Some("input_disagrees") => Some(&mut self.input_alarms),
+                Some("law_disagrees") => Some(&mut self.law_alarms),
+                _ => None,
+            };
+            if let Some(alarms) = alarms.filter(|a| !a.iter().any(|(l, _)| l == life)) {
+                let at_ms = clock.of_wall_ms(t_ms as f64 - correction_ms);
+                alarms.push((life.to_string(), at_ms));
+            }
         }
         if value["event"] != "odd_one_out" {
             return;
@@ -306,6 +310,11 @@ impl Readings {
     /// When life `life` raised its `input_disagrees` alarm about itself, if it did.
     pub fn input_alarm_of(&self, life: &str) -> Option<f64> {
         self.input_alarms.iter().find(|a| a.0 == life).map(|a| a.1)
+    }
+
+    /// When life `life` raised its `law_disagrees` alarm about itself, if it did.
+    pub fn law_alarm_of(&self, life: &str) -> Option<f64> {
+        self.law_alarms.iter().find(|a| a.0 == life).map(|a| a.1)
     }
 
     /// When life `life` decided it was the odd one out, if it did.

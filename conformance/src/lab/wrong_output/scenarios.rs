@@ -1,7 +1,7 @@
 //! The wrong-output scenarios by name (`lab list`), each with the fault it asks for 2 s into
 //! judging and what its judges hold it to ([`super::Kind`]).
 
-use super::{Kind, OutputScenario, DRIFT_PER_S, OFFSET};
+use super::{Kind, OutputScenario, DRIFT_PER_S, LAW_GAIN_PERCENT, OFFSET};
 use crate::lab::faults::{Fault, Target, WrongAnswer};
 use crate::lab::scenario::{Scenario, Step};
 use crate::lab::session::Camera;
@@ -75,6 +75,12 @@ pub fn scenarios() -> Vec<Scenario> {
             "the Primary reading another camera, 3 s: no voter compares its answers; it leaves on input within 5 frames, alarmed by name",
             exclusive(Kind::WrongInputPrimary),
             vec![wrong(p, WrongAnswer::ForeignInput, 3.0)],
+        ),
+        scenario(
+            "wrong-law-primary",
+            "the Primary's law at 150% of its pan gain, 3 s: its output agrees within the tolerance, no voter names it; it leaves on its raw answers at N = 2, alarmed by name",
+            exclusive(Kind::WrongLawPrimary),
+            vec![wrong(p, WrongAnswer::Gain(LAW_GAIN_PERCENT), 3.0)],
         ),
         scenario(
             "random-primary",

@@ -224,6 +224,7 @@ pub(super) fn report(kind: Kind) -> OutputReport {
             dissent_cleared_after_ms: Some(2700.0),
             odd_on: Some("output".into()),
             input_alarm_after_ms: None,
+            law_alarm_after_ms: None,
         }],
         tracking: tracking::Tracking::default(),
         failures: Vec::new(),
@@ -520,6 +521,11 @@ fn the_readers_lines_are_read_on_the_lab_clock() {
         readings.input_alarm_of("C2"),
         Some(clock.of_wall_ms(6000.0))
     );
+    // A law alarm likewise, apart from the input alarm.
+    assert_eq!(readings.law_alarm_of("C2"), None);
+    let law = line(12.0, &alarm(2, "law_disagrees", true));
+    readings.ingest_controller("C2", &law, false, &clock, &[]);
+    assert_eq!(readings.law_alarm_of("C2"), Some(clock.of_wall_ms(6000.0)));
 }
 
 #[test]
@@ -568,12 +574,13 @@ fn the_wrong_output_scenarios_are_named_with_their_faults_and_not_in_ci() {
             "frozen-primary",
             "drift-primary",
             "wrong-input-primary",
+            "wrong-law-primary",
             "random-primary",
             "two-wrong"
         ]
     );
     assert!(all.iter().all(|s| !s.in_ci && s.output.is_some()));
-    let two = &all[7].steps;
+    let two = &all[8].steps;
     assert_eq!(two.len(), 2);
     assert_eq!(
         (two[0].at_ms, two[0].lasts_ms),
@@ -586,4 +593,5 @@ fn the_wrong_output_scenarios_are_named_with_their_faults_and_not_in_ci() {
     assert_eq!(WrongAnswer::Frozen.line(), "wrong-commands frozen");
     assert_eq!(WrongAnswer::Drift(20).line(), "wrong-commands drift 20");
     assert_eq!(WrongAnswer::ForeignInput.line(), "wrong-input foreign");
+    assert_eq!(WrongAnswer::Gain(150).line(), "wrong-commands gain 150");
 }

@@ -34,6 +34,15 @@
 //!   fault (and one more per late answer), raises an `input_disagrees` alarm about itself
 //!   first, and leaves as a wrong Primary does; at each exclusive reader one owner change, at
 //!   most `FOREIGN_LIMIT` distinct wrong commands over as many periods.
+//! - **A Primary with a wrong law** (`wrong-law-primary`: its pan gain at
+//!   [`super::LAW_GAIN_PERCENT`]): aligned to the group's position at every frame, its output
+//!   agrees within the tolerance, so the voting reader names nobody; its raw answers (the
+//!   law's step, compared exactly, rl_layer::cross_check) take it out at N odd ones: its
+//!   decision on its law, a `law_disagrees` alarm about itself no later than the decision,
+//!   and as a wrong Primary at each exclusive reader (one owner change; its commands, within
+//!   the tolerance, are not wrong ones). Its step differs only where it is 2 or more (the
+//!   gain rounds a step of 1 to 1), so the decision is bound to the frames at which the ball
+//!   moves, not in time; the fault's 3 s must hold it.
 //! - **A drifting Primary** (`drift-primary`): as a frozen one, wrong only once past the
 //!   tolerance, so its decision is not bound in time; the rest is.
 //! - **A wrong Secondary**: the exclusive readers follow the Primary throughout and take no
@@ -189,8 +198,18 @@ fn leaves(out: &OutAndBack, timed: bool, kind: Kind) -> Vec<String> {
         )),
         Some(_) => {}
     }
-    if kind.in_input() {
-        failed.extend(named_on_input(out, bound));
+    if let Some((on, alarm)) = kind.masked() {
+        let raised = if kind.in_input() {
+            out.input_alarm_after_ms
+        } else {
+            out.law_alarm_after_ms
+        };
+        failed.extend(named_by_itself(
+            out,
+            (on, alarm),
+            raised,
+            timed.then_some(bound),
+        ));
     }
     if !out.exit.as_deref().is_some_and(|e| e.ends_with(" 75")) {
         failed.push(format!(
@@ -208,7 +227,8 @@ fn leaves(out: &OutAndBack, timed: bool, kind: Kind) -> Vec<String> {
     // than it counts to when an earlier glitch of the same life was counted (per life, O2).
     // Answers to inputs the group never had are compared with nothing: the reader cannot name.
     let heard = out.odd_after_fault.unwrap_or(ODD_LIMIT);
-    let named = heard >= VOTER_DISSENT_AFTER as usize && !kind.in_input();
+    // Nor can it name a controller whose output agrees (a wrong law, masked).
+    let named = heard >= VOTER_DISSENT_AFTER as usize && kind.masked().is_none();
     match (out.dissent_raised_after_ms, out.decided_after_ms) {
         (None, _) if named => failed.push(format!(
             "the voting reader never raised a dissent alarm about {life}'s controller (it answered {heard} inputs wrongly; the reader raises at {VOTER_DISSENT_AFTER})"
@@ -228,26 +248,35 @@ fn leaves(out: &OutAndBack, timed: bool, kind: Kind) -> Vec<String> {
     failed
 }
 
-/// A life wrong on input said so: its decision was on input, and its `input_disagrees` alarm
-/// about itself came within `bound` of the fault, no later than the decision.
-fn named_on_input(out: &OutAndBack, bound: f64) -> Vec<String> {
+/// A life whose fault the alignment masks said so: its decision was `on` its input or its
+/// law, and its alarm about itself (`input_disagrees`, `law_disagrees`), `raised` so many ms
+/// after the fault, came within `bound` of the fault (when timed), no later than the decision.
+fn named_by_itself(
+    out: &OutAndBack,
+    (on, alarm): (&str, &str),
+    raised: Option<f64>,
+    bound: Option<f64>,
+) -> Vec<String> {
     let life = &out.life;
     let mut failed = Vec::new();
-    if out.decided_after_ms.is_some() && out.odd_on.as_deref() != Some("input") {
+    if out.decided_after_ms.is_some() && out.odd_on.as_deref() != Some(on) {
         failed.push(format!(
-            "{life} left as the odd one out on {} (expected on input: its output was never compared)",
+            "{life} left as the odd one out on {} (expected on {on}: its output agreed or was never compared)",
             out.odd_on.as_deref().unwrap_or("an unnamed ground")
         ));
     }
-    match (out.input_alarm_after_ms, out.decided_after_ms) {
+    let within = bound.map_or("before it left".to_string(), |b| {
+        format!("within {b:.0} ms of the fault")
+    });
+    match (raised, out.decided_after_ms) {
         (None, _) => failed.push(format!(
-            "{life} raised no input_disagrees alarm about itself (expected within {bound:.0} ms of the fault)"
+            "{life} raised no {alarm} alarm about itself (expected {within})"
         )),
-        (Some(alarm), _) if alarm > bound => failed.push(format!(
-            "{life} raised its input_disagrees alarm {alarm:.0} ms after the fault (expected within {bound:.0} ms)"
+        (Some(at), _) if bound.is_some_and(|b| at > b) => failed.push(format!(
+            "{life} raised its {alarm} alarm {at:.0} ms after the fault (expected {within})"
         )),
-        (Some(alarm), Some(decided)) if alarm > decided + GAP_SLACK_MS => failed.push(format!(
-            "{life} raised its input_disagrees alarm {alarm:.0} ms after the fault, after its decision at {decided:.0} ms (expected with it)"
+        (Some(at), Some(decided)) if at > decided + GAP_SLACK_MS => failed.push(format!(
+            "{life} raised its {alarm} alarm {at:.0} ms after the fault, after its decision at {decided:.0} ms (expected with it)"
         )),
         _ => {}
     }

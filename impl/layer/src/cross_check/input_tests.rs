@@ -23,24 +23,27 @@ fn right(input: u64) -> u64 {
 fn in_step_c1() -> CrossCheck<ServoControl, ServoRule> {
     let mut check = CrossCheck::new(1, ServoRule::default(), ODD_LIMIT_DEFAULT);
     check.all_agreed();
-    check.answer(0, right(0), servo(500));
-    check.peer_answer(2, 0, right(0), servo(500));
-    check.peer_answer(3, 0, right(0), servo(500));
+    check.answer(0, right(0), RawAnswer::NONE, servo(500));
+    check.peer_answer(2, 0, right(0), RawAnswer::NONE, servo(500));
+    check.peer_answer(3, 0, right(0), RawAnswer::NONE, servo(500));
     check.aligned(0);
     check
 }
 
 /// Peers 2 and 3 answer `input` alike, from the right input.
 fn peers_answer(check: &mut CrossCheck<ServoControl, ServoRule>, input: u64) {
-    check.peer_answer(2, input, right(input), servo(500));
-    check.peer_answer(3, input, right(input), servo(500));
+    check.peer_answer(2, input, right(input), RawAnswer::NONE, servo(500));
+    check.peer_answer(3, input, right(input), RawAnswer::NONE, servo(500));
 }
 
 #[test]
 fn another_value_of_the_same_input_leaves_at_the_second_though_the_output_agrees() {
     let mut check = in_step_c1();
     for input in 1..=2 {
-        assert_eq!(check.answer(input, 7, servo(500)), Judgement::Answer);
+        assert_eq!(
+            check.answer(input, 7, RawAnswer::NONE, servo(500)),
+            Judgement::Answer
+        );
         peers_answer(&mut check, input);
         check.aligned(input);
     }
@@ -49,7 +52,7 @@ fn another_value_of_the_same_input_leaves_at_the_second_though_the_output_agrees
         &[1],
         "odd on input, its output agreeing"
     );
-    let Judgement::Leave(reason) = check.answer(3, 7, servo(500)) else {
+    let Judgement::Leave(reason) = check.answer(3, 7, RawAnswer::NONE, servo(500)) else {
         panic!("odd on input at 1 and 2: it leaves before answering 3");
     };
     assert_eq!(reason.on, OddOn::Input);
@@ -63,11 +66,11 @@ fn a_controller_that_agrees_with_one_peer_on_input_is_not_odd() {
     let mut check = in_step_c1();
     for input in 1..=6 {
         assert_eq!(
-            check.answer(input, right(input), servo(500)),
+            check.answer(input, right(input), RawAnswer::NONE, servo(500)),
             Judgement::Answer
         );
-        check.peer_answer(2, input, right(input), servo(500));
-        check.peer_answer(3, input, 7, servo(500));
+        check.peer_answer(2, input, right(input), RawAnswer::NONE, servo(500));
+        check.peer_answer(3, input, 7, RawAnswer::NONE, servo(500));
         check.aligned(input);
     }
 }
@@ -79,7 +82,7 @@ fn inputs_the_group_never_had_leave_at_the_fifth_in_a_row_even_out_of_step() {
     let mut left = None;
     for k in 0..10u64 {
         peers_answer(&mut check, 2 * k);
-        if let Judgement::Leave(reason) = check.answer(2 * k + 1, 9, servo(500)) {
+        if let Judgement::Leave(reason) = check.answer(2 * k + 1, 9, RawAnswer::NONE, servo(500)) {
             left = Some((k, reason));
             break;
         }
@@ -99,7 +102,10 @@ fn a_foreign_input_is_forgotten_at_the_next_shared_one() {
         // Every fifth input it answers is the group's (the others both peers skipped).
         let input = if k % 4 == 3 { 2 * k } else { 2 * k + 1 };
         let digest = if input % 2 == 0 { right(input) } else { 9 };
-        assert_eq!(check.answer(input, digest, servo(500)), Judgement::Answer);
+        assert_eq!(
+            check.answer(input, digest, RawAnswer::NONE, servo(500)),
+            Judgement::Answer
+        );
     }
 }
 
@@ -109,13 +115,19 @@ fn an_input_is_not_foreign_before_the_peers_answered_newer_ones_agreeing() {
     peers_answer(&mut check, 0);
     // Its inputs run ahead of the peers': not one peer has passed them.
     for input in 1..=8 {
-        assert_eq!(check.answer(input, 9, servo(500)), Judgement::Answer);
+        assert_eq!(
+            check.answer(input, 9, RawAnswer::NONE, servo(500)),
+            Judgement::Answer
+        );
     }
     // The peers pass them, but disagree with each other on every input: nobody is odd.
     for input in 9..=20 {
-        check.peer_answer(2, input, right(input), servo(500));
-        check.peer_answer(3, input, 7, servo(500));
-        assert_eq!(check.answer(input + 100, 9, servo(500)), Judgement::Answer);
+        check.peer_answer(2, input, right(input), RawAnswer::NONE, servo(500));
+        check.peer_answer(3, input, 7, RawAnswer::NONE, servo(500));
+        assert_eq!(
+            check.answer(input + 100, 9, RawAnswer::NONE, servo(500)),
+            Judgement::Answer
+        );
     }
 }
 
@@ -125,7 +137,7 @@ fn answers_kept_through_a_cut_are_not_foreign_when_the_peers_come_back() {
     // Cut off: it answers frames 1..=6 and hears no peer's answer to them.
     for input in 1..=6 {
         assert_eq!(
-            check.answer(input, right(input), servo(500)),
+            check.answer(input, right(input), RawAnswer::NONE, servo(500)),
             Judgement::Answer
         );
     }
@@ -135,7 +147,7 @@ fn answers_kept_through_a_cut_are_not_foreign_when_the_peers_come_back() {
             peers_answer(&mut check, input);
         }
         assert_eq!(
-            check.answer(input, right(input), servo(500)),
+            check.answer(input, right(input), RawAnswer::NONE, servo(500)),
             Judgement::Answer,
             "input {input}"
         );
@@ -147,7 +159,7 @@ fn a_healed_cut_and_a_lost_answer_after_it_are_not_five_foreign_inputs() {
     let mut check = in_step_c1();
     for input in 1..=10 {
         assert_eq!(
-            check.answer(input, right(input), servo(500)),
+            check.answer(input, right(input), RawAnswer::NONE, servo(500)),
             Judgement::Answer
         );
     }
@@ -155,20 +167,32 @@ fn a_healed_cut_and_a_lost_answer_after_it_are_not_five_foreign_inputs() {
     // lost, the one to 13 arrives. Its 4 answers kept through the cut would look foreign, and
     // 12 too: five in a row, were the kept ones evidence.
     peers_answer(&mut check, 11);
-    assert_eq!(check.answer(12, right(12), servo(500)), Judgement::Answer);
+    assert_eq!(
+        check.answer(12, right(12), RawAnswer::NONE, servo(500)),
+        Judgement::Answer
+    );
     peers_answer(&mut check, 13);
-    assert_eq!(check.answer(13, right(13), servo(500)), Judgement::Answer);
+    assert_eq!(
+        check.answer(13, right(13), RawAnswer::NONE, servo(500)),
+        Judgement::Answer
+    );
     peers_answer(&mut check, 14);
-    assert_eq!(check.answer(14, right(14), servo(500)), Judgement::Answer);
+    assert_eq!(
+        check.answer(14, right(14), RawAnswer::NONE, servo(500)),
+        Judgement::Answer
+    );
 }
 
 #[test]
 fn without_digests_nothing_is_judged_on_input() {
     let mut check = CrossCheck::new(1, ServoRule::default(), ODD_LIMIT_DEFAULT);
     for k in 0..20u64 {
-        check.peer_answer(2, 2 * k, 0, servo(500));
-        check.peer_answer(3, 2 * k, 0, servo(500));
-        assert_eq!(check.answer(2 * k + 1, 0, servo(500)), Judgement::Answer);
+        check.peer_answer(2, 2 * k, 0, RawAnswer::NONE, servo(500));
+        check.peer_answer(3, 2 * k, 0, RawAnswer::NONE, servo(500));
+        assert_eq!(
+            check.answer(2 * k + 1, 0, RawAnswer::NONE, servo(500)),
+            Judgement::Answer
+        );
     }
 }
 
@@ -176,13 +200,19 @@ fn without_digests_nothing_is_judged_on_input() {
 fn an_odd_output_and_an_odd_input_of_one_life_are_its_n_and_it_says_input() {
     let mut check = in_step_c1();
     // Input 1: its output odd, its input right. Input 2: its input odd, its output right.
-    assert_eq!(check.answer(1, right(1), servo(900)), Judgement::Answer);
+    assert_eq!(
+        check.answer(1, right(1), RawAnswer::NONE, servo(900)),
+        Judgement::Answer
+    );
     peers_answer(&mut check, 1);
     check.aligned(1);
-    assert_eq!(check.answer(2, 7, servo(500)), Judgement::Answer);
+    assert_eq!(
+        check.answer(2, 7, RawAnswer::NONE, servo(500)),
+        Judgement::Answer
+    );
     peers_answer(&mut check, 2);
     check.aligned(2);
-    let Judgement::Leave(reason) = check.answer(3, right(3), servo(500)) else {
+    let Judgement::Leave(reason) = check.answer(3, right(3), RawAnswer::NONE, servo(500)) else {
         panic!("two odd inputs in one life, one of each: it leaves");
     };
     assert_eq!(reason.inputs, vec![1, 2]);

@@ -44,9 +44,9 @@ fn round_unaligned(
     pan2: u16,
     pan3: u16,
 ) -> Judgement {
-    let judgement = check.answer(input, 0, servo(own));
-    check.peer_answer(2, input, 0, servo(pan2));
-    check.peer_answer(3, input, 0, servo(pan3));
+    let judgement = check.answer(input, 0, RawAnswer::NONE, servo(own));
+    check.peer_answer(2, input, 0, RawAnswer::NONE, servo(pan2));
+    check.peer_answer(3, input, 0, RawAnswer::NONE, servo(pan3));
     judgement
 }
 
@@ -57,7 +57,7 @@ fn a_wrong_controller_leaves_before_answering_after_its_second_odd_input() {
     assert_eq!(round(&mut check, 2, 810, 510, 512), Judgement::Answer);
     assert_eq!(check.odd_inputs(), &[1]);
     // Input 2 is judged when input 3 is answered, and that answer does not go out.
-    let judgement = check.answer(3, 0, servo(820));
+    let judgement = check.answer(3, 0, RawAnswer::NONE, servo(820));
     let expected = OddOneOut {
         on: OddOn::Output,
         inputs: vec![1, 2],
@@ -67,7 +67,10 @@ fn a_wrong_controller_leaves_before_answering_after_its_second_odd_input() {
     };
     assert_eq!(judgement, Judgement::Leave(expected.clone()));
     // Nothing more in this life.
-    assert_eq!(check.answer(4, 0, servo(500)), Judgement::Leave(expected));
+    assert_eq!(
+        check.answer(4, 0, RawAnswer::NONE, servo(500)),
+        Judgement::Leave(expected)
+    );
 }
 
 #[test]
@@ -78,7 +81,7 @@ fn odd_inputs_count_in_a_life_in_a_row_or_not() {
     assert_eq!(round(&mut check, 3, 800, 500, 500), Judgement::Answer);
     assert_eq!(check.odd_inputs(), &[1], "input 3 is judged at input 4");
     assert!(matches!(
-        check.answer(4, 0, servo(500)),
+        check.answer(4, 0, RawAnswer::NONE, servo(500)),
         Judgement::Leave(_)
     ));
     assert_eq!(check.odd_inputs(), &[1, 3]);
@@ -109,8 +112,11 @@ fn agreeing_with_one_peer_is_not_odd() {
 fn an_input_only_one_peer_answered_judges_nobody() {
     let mut check = in_step_c1();
     for input in 1..10 {
-        assert_eq!(check.answer(input, 0, servo(900)), Judgement::Answer);
-        check.peer_answer(2, input, 0, servo(500));
+        assert_eq!(
+            check.answer(input, 0, RawAnswer::NONE, servo(900)),
+            Judgement::Answer
+        );
+        check.peer_answer(2, input, 0, RawAnswer::NONE, servo(500));
         check.aligned(input);
     }
     assert!(check.odd_inputs().is_empty());
@@ -139,7 +145,7 @@ fn an_answer_not_computed_from_the_groups_position_is_not_judged() {
     assert_eq!(check.odd_inputs(), &[5], "input 6 was not in step");
     // Aligned at 6 and 7: its answer to 7 is judged when it answers 8.
     assert!(matches!(
-        check.answer(8, 0, servo(900)),
+        check.answer(8, 0, RawAnswer::NONE, servo(900)),
         Judgement::Leave(_)
     ));
     assert_eq!(check.odd_inputs(), &[5, 7]);
@@ -148,12 +154,21 @@ fn an_answer_not_computed_from_the_groups_position_is_not_judged() {
 #[test]
 fn a_repeated_answer_replaces_the_one_judged() {
     let mut check = in_step_c1();
-    assert_eq!(check.answer(1, 0, servo(900)), Judgement::Answer);
+    assert_eq!(
+        check.answer(1, 0, RawAnswer::NONE, servo(900)),
+        Judgement::Answer
+    );
     // Re-published with the value corrected before the next input: the last one is judged.
-    assert_eq!(check.answer(1, 0, servo(500)), Judgement::Answer);
-    check.peer_answer(2, 1, 0, servo(500));
-    check.peer_answer(3, 1, 0, servo(500));
-    assert_eq!(check.answer(2, 0, servo(500)), Judgement::Answer);
+    assert_eq!(
+        check.answer(1, 0, RawAnswer::NONE, servo(500)),
+        Judgement::Answer
+    );
+    check.peer_answer(2, 1, 0, RawAnswer::NONE, servo(500));
+    check.peer_answer(3, 1, 0, RawAnswer::NONE, servo(500));
+    assert_eq!(
+        check.answer(2, 0, RawAnswer::NONE, servo(500)),
+        Judgement::Answer
+    );
     assert!(check.odd_inputs().is_empty());
 }
 
@@ -175,7 +190,7 @@ fn a_new_life_counts_from_zero_once_in_step_again() {
     round(&mut check, 5, 900, 500, 500);
     assert_eq!(round(&mut check, 6, 900, 500, 500), Judgement::Answer);
     assert!(matches!(
-        check.answer(7, 0, servo(900)),
+        check.answer(7, 0, RawAnswer::NONE, servo(900)),
         Judgement::Leave(_)
     ));
 }
@@ -195,9 +210,12 @@ fn with_no_limit_it_counts_and_never_leaves() {
 fn its_own_answers_read_back_are_not_a_peer() {
     let mut check = in_step_c1();
     for input in 1..10 {
-        assert_eq!(check.answer(input, 0, servo(900)), Judgement::Answer);
-        check.peer_answer(1, input, 0, servo(900));
-        check.peer_answer(2, input, 0, servo(500));
+        assert_eq!(
+            check.answer(input, 0, RawAnswer::NONE, servo(900)),
+            Judgement::Answer
+        );
+        check.peer_answer(1, input, 0, RawAnswer::NONE, servo(900));
+        check.peer_answer(2, input, 0, RawAnswer::NONE, servo(500));
         check.aligned(input);
     }
     assert!(
@@ -209,15 +227,21 @@ fn its_own_answers_read_back_are_not_a_peer() {
 #[test]
 fn peers_answers_to_old_inputs_are_forgotten() {
     let mut check = in_step_c1();
-    assert_eq!(check.answer(1, 0, servo(900)), Judgement::Answer);
-    check.peer_answer(2, 1, 0, servo(500));
-    check.peer_answer(3, 1, 0, servo(500));
+    assert_eq!(
+        check.answer(1, 0, RawAnswer::NONE, servo(900)),
+        Judgement::Answer
+    );
+    check.peer_answer(2, 1, 0, RawAnswer::NONE, servo(500));
+    check.peer_answer(3, 1, 0, RawAnswer::NONE, servo(500));
     check.aligned(1);
     // Peers far ahead push input 1's answers out before it is judged.
     for input in 100..100 + INPUTS_KEPT as u64 {
-        check.peer_answer(2, input, 0, servo(500));
+        check.peer_answer(2, input, 0, RawAnswer::NONE, servo(500));
     }
-    assert_eq!(check.answer(2, 0, servo(900)), Judgement::Answer);
+    assert_eq!(
+        check.answer(2, 0, RawAnswer::NONE, servo(900)),
+        Judgement::Answer
+    );
     assert!(check.odd_inputs().is_empty());
 }
 
@@ -240,20 +264,29 @@ fn the_reason_names_the_inputs_and_the_agreeing_peers() {
 #[test]
 fn an_input_whose_peers_answer_late_is_judged_later_and_counted_late() {
     let mut check = in_step_c1();
-    assert_eq!(check.answer(1, 0, servo(900)), Judgement::Answer);
+    assert_eq!(
+        check.answer(1, 0, RawAnswer::NONE, servo(900)),
+        Judgement::Answer
+    );
     // The peers' answers to 1, and so the group's position at 1, come after its answer to 2
     // (a loaded host): 2 was not computed from the group's position.
-    assert_eq!(check.answer(2, 0, servo(900)), Judgement::Answer);
+    assert_eq!(
+        check.answer(2, 0, RawAnswer::NONE, servo(900)),
+        Judgement::Answer
+    );
     for input in 1..=2 {
-        check.peer_answer(2, input, 0, servo(500));
-        check.peer_answer(3, input, 0, servo(500));
+        check.peer_answer(2, input, 0, RawAnswer::NONE, servo(500));
+        check.peer_answer(3, input, 0, RawAnswer::NONE, servo(500));
         check.aligned(input);
     }
     // At 3, input 1 is judged late (odd) and 2 never (not in step): two late answers, and 0.
-    assert_eq!(check.answer(3, 0, servo(900)), Judgement::Answer);
+    assert_eq!(
+        check.answer(3, 0, RawAnswer::NONE, servo(900)),
+        Judgement::Answer
+    );
     assert_eq!(check.odd_inputs(), &[1]);
-    check.peer_answer(2, 3, 0, servo(500));
-    check.peer_answer(3, 3, 0, servo(500));
+    check.peer_answer(2, 3, 0, RawAnswer::NONE, servo(500));
+    check.peer_answer(3, 3, 0, RawAnswer::NONE, servo(500));
     check.aligned(3);
     let expected = OddOneOut {
         on: OddOn::Output,
@@ -263,20 +296,29 @@ fn an_input_whose_peers_answer_late_is_judged_later_and_counted_late() {
         late: 3,
     };
     // Three wrong answers went out (1, 2, 3): N = 2 and one more per late answer bound it.
-    assert_eq!(check.answer(4, 0, servo(900)), Judgement::Leave(expected));
+    assert_eq!(
+        check.answer(4, 0, RawAnswer::NONE, servo(900)),
+        Judgement::Leave(expected)
+    );
 }
 
 #[test]
 fn a_second_peer_late_by_one_input_still_counts_the_input_odd() {
     let mut check = in_step_c1();
-    assert_eq!(check.answer(1, 0, servo(900)), Judgement::Answer);
-    check.peer_answer(2, 1, 0, servo(500));
+    assert_eq!(
+        check.answer(1, 0, RawAnswer::NONE, servo(900)),
+        Judgement::Answer
+    );
+    check.peer_answer(2, 1, 0, RawAnswer::NONE, servo(500));
     check.aligned(1);
-    assert_eq!(check.answer(2, 0, servo(900)), Judgement::Answer);
+    assert_eq!(
+        check.answer(2, 0, RawAnswer::NONE, servo(900)),
+        Judgement::Answer
+    );
     assert!(check.odd_inputs().is_empty(), "one peer: not judged yet");
-    check.peer_answer(3, 1, 0, servo(505));
-    check.peer_answer(2, 2, 0, servo(500));
-    check.peer_answer(3, 2, 0, servo(500));
+    check.peer_answer(3, 1, 0, RawAnswer::NONE, servo(505));
+    check.peer_answer(2, 2, 0, RawAnswer::NONE, servo(500));
+    check.peer_answer(3, 2, 0, RawAnswer::NONE, servo(500));
     check.aligned(2);
     let expected = OddOneOut {
         on: OddOn::Output,
@@ -285,7 +327,10 @@ fn a_second_peer_late_by_one_input_still_counts_the_input_odd() {
         peers: vec![2, 3],
         late: 2,
     };
-    assert_eq!(check.answer(3, 0, servo(900)), Judgement::Leave(expected));
+    assert_eq!(
+        check.answer(3, 0, RawAnswer::NONE, servo(900)),
+        Judgement::Leave(expected)
+    );
 }
 
 #[test]
@@ -300,7 +345,7 @@ fn an_agreement_forgets_the_late_answers_before_it() {
     round(&mut check, 5, 500, 500, 500);
     round(&mut check, 6, 900, 500, 500);
     round(&mut check, 7, 900, 500, 500);
-    let Judgement::Leave(reason) = check.answer(8, 0, servo(900)) else {
+    let Judgement::Leave(reason) = check.answer(8, 0, RawAnswer::NONE, servo(900)) else {
         panic!("C1 stays at its second odd input");
     };
     assert_eq!((reason.inputs, reason.late), (vec![6, 7], 0));
@@ -325,8 +370,8 @@ fn an_answer_after_an_input_it_never_answered_is_not_judged() {
     let mut check = in_step_c1();
     round(&mut check, 1, 500, 500, 500);
     // Input 2 was lost to it: the group answered it, and it took the group's position there.
-    check.peer_answer(2, 2, 0, servo(500));
-    check.peer_answer(3, 2, 0, servo(500));
+    check.peer_answer(2, 2, 0, RawAnswer::NONE, servo(500));
+    check.peer_answer(3, 2, 0, RawAnswer::NONE, servo(500));
     check.aligned(2);
     // Its answer to 3 comes from a law that last saw input 1: not the group's to compare.
     round(&mut check, 3, 900, 500, 500);

@@ -75,6 +75,10 @@ pub enum OutputFault {
     /// <n>`): an error growing slowly through the comparison's tolerance, as a drifting
     /// integrator or a sensor bias would.
     Drift(i32),
+    /// The law's pan steps at this percent of its own (`wrong-commands gain <percent>`): a
+    /// wrong law, which alignment to the group's position masks while each step's error is
+    /// within the tolerance; only the raw answers show it (crate::cross_check).
+    Gain(i32),
 }
 
 impl OutputFault {
@@ -86,6 +90,7 @@ impl OutputFault {
             ("random", None) => OutputFault::Random,
             ("offset", Some(n)) => OutputFault::Offset(n.parse().ok()?),
             ("drift", Some(n)) => OutputFault::Drift(n.parse().ok()?),
+            ("gain", Some(n)) => OutputFault::Gain(n.parse().ok()?),
             _ => return None,
         };
         words.next().is_none().then_some(fault)
@@ -353,6 +358,7 @@ mod tests {
         assert_eq!(parse("random"), Some(OutputFault::Random));
         assert_eq!(parse("offset -300"), Some(OutputFault::Offset(-300)));
         assert_eq!(parse("drift 20"), Some(OutputFault::Drift(20)));
+        assert_eq!(parse("gain 130"), Some(OutputFault::Gain(130)));
         for bad in [
             "",
             "offset",

@@ -116,10 +116,12 @@ impl Voting {
         if let Some(reason) = reason {
             let id = self.core.config().id;
             warn!("C{id} leaves: {reason}");
-            if reason.on == OddOn::Input {
-                // Its input, not only its output, is wrong: named so before it leaves, as
-                // the FAILED its peers alarm says only that it failed.
-                self.alarm(id, AlarmReason::InputDisagrees, true);
+            // Its input or its law, not its output, is wrong: named so before it leaves,
+            // as the FAILED its peers alarm says only that it failed.
+            match reason.on {
+                OddOn::Input => self.alarm(id, AlarmReason::InputDisagrees, true),
+                OddOn::Law => self.alarm(id, AlarmReason::LawDisagrees, true),
+                OddOn::Output => {}
             }
             self.event(Event::OddOneOut {
                 on: reason.on,

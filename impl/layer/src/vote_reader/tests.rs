@@ -19,6 +19,7 @@ fn answer(from: ControllerId, input: u64, pan: u16, tilt: u16) -> Voted<ServoCon
         from,
         input,
         input_digest: 0,
+        raw: crate::wire::RawAnswer::NONE,
         value: servo(pan, tilt),
     }
 }

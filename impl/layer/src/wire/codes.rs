@@ -36,6 +36,9 @@ pub const REASON_INPUT_DISAGREES: u8 = 4;
 /// Alarm reason code: the controller stood still or was starved and started again (raised by
 /// its new life about itself).
 pub const REASON_STALLED: u8 = 5;
+/// Alarm reason code: the controller's raw answers disagreed with two agreeing peers' while
+/// its output agreed (a wrong law; raised by the controller about itself as it leaves).
+pub const REASON_LAW_DISAGREES: u8 = 6;
 
 /// Strength 0 on the wire: the controller does not command.
 pub const STRENGTH_NONE: u8 = 0;
@@ -88,6 +91,7 @@ pub fn reason_code(reason: AlarmReason) -> u8 {
         AlarmReason::Impostor => REASON_IMPOSTOR,
         AlarmReason::InputDisagrees => REASON_INPUT_DISAGREES,
         AlarmReason::Stalled => REASON_STALLED,
+        AlarmReason::LawDisagrees => REASON_LAW_DISAGREES,
     }
 }
 
@@ -98,6 +102,7 @@ pub(super) fn reason_from_code(field: &'static str, code: u8) -> Result<AlarmRea
         REASON_IMPOSTOR => Ok(AlarmReason::Impostor),
         REASON_INPUT_DISAGREES => Ok(AlarmReason::InputDisagrees),
         REASON_STALLED => Ok(AlarmReason::Stalled),
+        REASON_LAW_DISAGREES => Ok(AlarmReason::LawDisagrees),
         other => Err(WireError::new(
             field,
             format!("unknown alarm reason code {other}"),

@@ -44,8 +44,9 @@ pub use self::camera::{
 };
 pub use self::codes::{
     phase_code, reason_code, role_code, PHASE_FAILED, PHASE_INITIALIZING, PHASE_STEADY,
-    PHASE_VOTING, REASON_FAILED, REASON_IMPOSTOR, REASON_INPUT_DISAGREES, REASON_LOST,
-    REASON_STALLED, ROLE_NONE, ROLE_PRIMARY, ROLE_SECONDARY, ROLE_TERTIARY, STRENGTH_NONE,
+    PHASE_VOTING, REASON_FAILED, REASON_IMPOSTOR, REASON_INPUT_DISAGREES, REASON_LAW_DISAGREES,
+    REASON_LOST, REASON_STALLED, ROLE_NONE, ROLE_PRIMARY, ROLE_SECONDARY, ROLE_TERTIARY,
+    STRENGTH_NONE,
 };
 pub use self::heartbeat::{sender_clock_ms, HeartbeatSample, HEARTBEAT_TYPE_NAME};
 pub use self::network::{
@@ -56,7 +57,7 @@ pub use self::network::{
 pub use self::plain::Plain;
 pub use self::vote::{VoteSample, VOTE_TYPE_NAME};
 pub use self::voted::{
-    input_digest, Voted, VotedSample, VotedServoControl, VOTED_SERVO_CONTROL_TYPE_NAME,
+    input_digest, RawAnswer, Voted, VotedSample, VotedServoControl, VOTED_SERVO_CONTROL_TYPE_NAME,
 };
 
 use serde::{Deserialize, Serialize};

@@ -29,8 +29,42 @@ pub struct Voted<T> {
     /// an input that differs is found even where the output it led to agrees (input
     /// congruence, crate::cross_check).
     pub input_digest: u64,
+    /// Its raw answer to the input, before alignment ([`RawAnswer`]; [`RawAnswer::NONE`]: the
+    /// application gives none): compared exactly with the peers' raw answers to the same
+    /// input from the same input before, so a wrong law that alignment corrects at every
+    /// input is still found (crate::cross_check).
+    pub raw: RawAnswer,
     /// The application's value (a servo command).
     pub value: T,
+}
+
+/// What the application's law computed from an input before its state was aligned to the
+/// group's (bumpless transfer), as a digest, and the input before it whose memory the law
+/// used. Controllers aligned to the group all start an input from the group's position, so
+/// their outputs agree within the tolerance however their laws differ by less than it; the
+/// law's own step (the tracker: its PD velocity, which depends only on this input and the one
+/// before) is the same bit for bit at every correct controller that answered the same two
+/// inputs, and a wrong law's is not.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct RawAnswer {
+    /// The input answered before, whose memory the raw answer used (0: none).
+    pub after: u64,
+    /// The digest of the raw answer's values ([`input_digest`] of the bytes the application
+    /// names; 0: none).
+    pub digest: u64,
+}
+
+impl RawAnswer {
+    /// No raw answer: nothing to compare.
+    pub const NONE: RawAnswer = RawAnswer {
+        after: 0,
+        digest: 0,
+    };
+
+    /// Whether there is one to compare: a digest, from an input before.
+    pub fn is_some(&self) -> bool {
+        self.after != 0 && self.digest != 0
+    }
 }
 
 /// The digest of an input's values, `bytes` as the application's law reads them (FNV-1a, 64
@@ -56,6 +90,10 @@ pub struct VotedSample<T> {
     pub input: u64,
     /// The digest of that input's values ([`Voted::input_digest`]).
     pub input_digest: u64,
+    /// The input before it, from which the raw answer was computed ([`RawAnswer::after`]).
+    pub raw_after: u64,
+    /// The digest of its raw answer ([`RawAnswer::digest`]).
+    pub raw_digest: u64,
     /// The application's value, taken as it is: the rule that votes on it decides what
     /// agrees (crate::vote_reader::VoteRule).
     pub value: T,
@@ -82,6 +120,10 @@ impl<T: Clone> WireSample for VotedSample<T> {
             from: controller_id("voted.from_id", self.from_id)?,
             input: self.input,
             input_digest: self.input_digest,
+            raw: RawAnswer {
+                after: self.raw_after,
+                digest: self.raw_digest,
+            },
             value: self.value,
         })
     }
@@ -91,6 +133,8 @@ impl<T: Clone> WireSample for VotedSample<T> {
             from_id: voted.from,
             input: voted.input,
             input_digest: voted.input_digest,
+            raw_after: voted.raw.after,
+            raw_digest: voted.raw.digest,
             value: voted.value.clone(),
         }
     }

@@ -10,8 +10,9 @@ use crate::core::types::{
 use crate::core::Heartbeat;
 use crate::wire::{
     AlarmSample, Certainty, ControllerAlarm, HeartbeatSample, HolderSlot, NetworkAlarm,
-    NetworkAlarmSample, NetworkHeartbeatSample, ServoControl, ShapeFillKind, ShapeTypeExtended,
-    VoteSample, Voted, VotedServoControl, WireAssignment, WireSample, CAUSE_MAX_BYTES,
+    NetworkAlarmSample, NetworkHeartbeatSample, RawAnswer, ServoControl, ShapeFillKind,
+    ShapeTypeExtended, VoteSample, Voted, VotedServoControl, WireAssignment, WireSample,
+    CAUSE_MAX_BYTES,
 };
 use proptest::collection::vec;
 use proptest::prelude::*;
@@ -283,26 +284,43 @@ pub fn servo_control() -> impl Strategy<Value = ServoControl> {
 
 /// Any valid voted servo command: a controller id, any input tag, any command.
 pub fn voted_servo_control() -> impl Strategy<Value = Voted<ServoControl>> {
-    (controller_id(), any::<u64>(), any::<u64>(), servo_control()).prop_map(
-        |(from, input, input_digest, value)| Voted {
-            from,
-            input,
-            input_digest,
-            value,
-        },
+    (
+        controller_id(),
+        any::<u64>(),
+        any::<u64>(),
+        any::<[u64; 2]>(),
+        servo_control(),
     )
+        .prop_map(
+            |(from, input, input_digest, [after, digest], value)| Voted {
+                from,
+                input,
+                input_digest,
+                raw: RawAnswer { after, digest },
+                value,
+            },
+        )
 }
 
 /// Voted servo command samples with any field values (id 0 among them).
 pub fn voted_servo_control_sample() -> BoxedStrategy<VotedServoControl> {
-    let any_fields = (code(), any::<u64>(), any::<u64>(), servo_control()).prop_map(
-        |(from_id, input, input_digest, value)| VotedServoControl {
-            from_id,
-            input,
-            input_digest,
-            value,
-        },
-    );
+    let any_fields = (
+        code(),
+        any::<u64>(),
+        any::<u64>(),
+        any::<[u64; 2]>(),
+        servo_control(),
+    )
+        .prop_map(
+            |(from_id, input, input_digest, [raw_after, raw_digest], value)| VotedServoControl {
+                from_id,
+                input,
+                input_digest,
+                raw_after,
+                raw_digest,
+                value,
+            },
+        );
     sample_of(voted_servo_control(), any_fields)
 }
 
