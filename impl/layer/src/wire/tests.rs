@@ -342,6 +342,12 @@ fn alarm_round_trips_and_rejects_bad_fields() {
     };
     assert_eq!(AlarmSample::encode(&stalled).reason, 5);
     assert_eq!(AlarmSample::encode(&stalled).decode(), Ok(stalled));
+    let law = ControllerAlarm {
+        reason: AlarmReason::LawDisagrees,
+        ..input
+    };
+    assert_eq!(AlarmSample::encode(&law).reason, 6);
+    assert_eq!(AlarmSample::encode(&law).decode(), Ok(law));
     assert_eq!(round_trip::<AlarmSample>(&input).unwrap(), input);
 
     let good = AlarmSample::encode(&alarm);
@@ -361,7 +367,7 @@ fn alarm_round_trips_and_rejects_bad_fields() {
             "alarm.about_id",
         ),
         (AlarmSample { reason: 0, ..good }, "alarm.reason"),
-        (AlarmSample { reason: 6, ..good }, "alarm.reason"),
+        (AlarmSample { reason: 7, ..good }, "alarm.reason"),
         (
             AlarmSample {
                 about_incarnation_valid: false,

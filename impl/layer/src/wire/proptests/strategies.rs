@@ -188,6 +188,7 @@ pub fn controller_alarm() -> impl Strategy<Value = ControllerAlarm> {
             AlarmReason::Impostor,
             AlarmReason::InputDisagrees,
             AlarmReason::Stalled,
+            AlarmReason::LawDisagrees,
         ]),
         any::<bool>(),
     )
