@@ -145,14 +145,14 @@ impl std::fmt::Display for OddOneOut {
         let peers: Vec<String> = self.peers.iter().map(|id| format!("C{id}")).collect();
         let odd_on = match self.on {
             OddOn::Output => None,
-            OddOn::Input => Some(("input", "input")),
-            OddOn::Law => Some(("its law", "raw answers")),
+            OddOn::Input => Some(("input", "input disagrees")),
+            OddOn::Law => Some(("its law", "raw answers disagree")),
         };
         if let Some((on, what)) = odd_on {
             return write!(
                 f,
                 "the odd one out of three on {on} at {} inputs of this life ({}): its {what} \
-                 disagree with both of {}, which agree",
+                 with both of {}, which agree",
                 self.inputs.len(),
                 self.inputs
                     .iter()

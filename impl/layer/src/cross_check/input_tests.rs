@@ -58,7 +58,12 @@ fn another_value_of_the_same_input_leaves_at_the_second_though_the_output_agrees
     assert_eq!(reason.on, OddOn::Input);
     assert_eq!(reason.inputs, vec![1, 2]);
     assert_eq!(reason.peers, vec![2, 3]);
-    assert!(reason.to_string().contains("on input"), "{reason}");
+    let text = reason.to_string();
+    assert!(text.contains("on input at 2 inputs"), "{text}");
+    assert!(
+        text.contains("its input disagrees with both of C2 and C3"),
+        "{text}"
+    );
 }
 
 #[test]

@@ -78,7 +78,12 @@ fn a_wrong_law_masked_by_the_alignment_leaves_at_its_second_odd_raw_answer() {
     assert_eq!(reason.on, OddOn::Law);
     assert_eq!(reason.inputs, vec![2, 3]);
     assert_eq!(reason.peers, vec![2, 3]);
-    assert!(reason.to_string().contains("on its law"), "{reason}");
+    let text = reason.to_string();
+    assert!(text.contains("on its law at 2 inputs"), "{text}");
+    assert!(
+        text.contains("its raw answers disagree with both of C2 and C3"),
+        "{text}"
+    );
 }
 
 #[test]
